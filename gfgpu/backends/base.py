@@ -1,0 +1,77 @@
+"""The contract every backend implements.
+
+A backend owns a kind of array (numpy, ``warp.array``, ``pyopencl.array.Array``) on one
+device and runs the single recursion primitive of :mod:`gfgpu.recursion` on it, plus a
+gather used to lay oblique lines out as rows.  Everything else is host composition
+(:mod:`gfgpu.filters`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class BackendUnavailable(RuntimeError):
+    """The requested backend or device cannot be used here (the message says why)."""
+
+
+class Backend:
+    #: registry name: "numpy", "warp" or "opencl"
+    name = "base"
+
+    #: human-readable device description, e.g. "cpu", "cuda:0 (NVIDIA H100)", "pthread-AMD EPYC"
+    device = ""
+
+    #: whether float64 arrays can be processed
+    supports_float64 = True
+
+    # ---- arrays -------------------------------------------------------------------
+    def owns(self, array) -> bool:
+        """True if ``array`` is this backend's array type on this backend's device."""
+        raise NotImplementedError
+
+    def asarray(self, host: np.ndarray):
+        """Copy a C-contiguous numpy array to the device (same dtype, same shape)."""
+        raise NotImplementedError
+
+    def to_host(self, array) -> np.ndarray:
+        """Copy a device array back to a numpy array."""
+        raise NotImplementedError
+
+    def empty(self, shape, dtype):
+        """Uninitialised C-contiguous device array."""
+        raise NotImplementedError
+
+    def reshape(self, array, shape):
+        """View of a C-contiguous device array with a new shape (no copy)."""
+        raise NotImplementedError
+
+    def all_finite(self, array) -> bool:
+        """True if no element is NaN or infinite."""
+        raise NotImplementedError
+
+    def synchronize(self):
+        """Block until queued work has finished (used by benchmarks)."""
+
+    # ---- the primitive --------------------------------------------------------------
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+        """Run one pass of :func:`gfgpu.recursion.run_reference` on every line.
+
+        ``src`` and ``dst`` are C-contiguous device arrays of shape ``(B, N, M)`` and the
+        same dtype; ``axis`` is 1 (lines along N: ``B*M`` lines, lanes contiguous) or 2 (lines
+        along M: ``B*N`` contiguous lines).  ``plan`` is a :class:`gfgpu.recursion.PassPlan`
+        with ``plan.n`` equal to the line length.  ``dst`` may be ``src`` unless
+        ``accumulate`` is true.
+        """
+        raise NotImplementedError
+
+    def gather(self, src, index, cval, out):
+        """``out.flat[i] = src.flat[index[i]]`` or ``cval`` where ``index[i] < 0``.
+
+        ``index`` is a host int32/int64 numpy array of ``out.size`` elements (backends may
+        cache its upload by identity).
+        """
+        raise NotImplementedError
+
+    def __repr__(self):
+        return f"<gfgpu backend {self.name!r} on {self.device}>"

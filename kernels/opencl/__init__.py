@@ -1,0 +1,1 @@
+"""OpenCL C sources, read with importlib.resources and specialised with -D defines."""
