@@ -1,1 +1,19 @@
-"""placeholder"""
+"""gfgpu: image operators from the Green's functions of image-matching equations.
+
+Exact O(N) recursive filters (shift, differentiation, projection, the chapter's G_u, H_u,
+G_U^(1), G_U^(2)) on NVIDIA Warp (CPU/CUDA), OpenCL (PoCL/any GPU) or numpy, behind one API.
+Importing gfgpu creates no device context and compiles nothing.
+"""
+
+from . import greens
+from .backends import BACKENDS, devices, get_backend, use_backend
+from .filters import derivative, gradient, green_filter, projection, shift
+from .greens import AffineGreen, AffineGreenApprox, HomogeneousGreen, UniformGreen
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "greens", "BACKENDS", "devices", "get_backend", "use_backend",
+    "green_filter", "shift", "derivative", "projection", "gradient",
+    "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
+]

@@ -91,7 +91,7 @@ def g_uniform(x, u):
     Examples
     --------
     >>> float(g_uniform(1.0, 1.0))  # doctest: +ELLIPSIS
-    0.6192...
+    0.6191...
     """
     u = _positive("u", u)
     x = np.asarray(x, dtype=np.float64)
@@ -208,6 +208,16 @@ def edge_projection(x, u, a=EDGE_A, eta=EDGE_ETA):
     v1, v2 = eta * u, u
     return (big_a / (4 * u)) * (v1 * np.exp(-t / v1) * (np.sin(t / v1) + np.cos(t / v1))
                                 + big_k * v2 * np.exp(-t / v2) * (np.sin(t / v2) + np.cos(t / v2)))
+
+
+def _check_fixed_point(name, x_U, n, reverse):
+    """The affine kernels' domain (x_U, inf) must contain the whole line (and its extension)."""
+    if reverse and not x_U > n - 1:
+        raise ValueError(f"{name} applied anticausally on a line of {n} samples needs x_U > {n - 1} "
+                         f"(the fixed point beyond the line's end, outside the domain); got x_U = {x_U}")
+    if not reverse and not x_U < 0:
+        raise ValueError(f"{name} applied causally needs x_U < 0 (the fixed point before the line's "
+                         f"first sample, outside the domain); got x_U = {x_U}")
 
 
 # --------------------------------------------------------------------------------------
@@ -376,10 +386,7 @@ class AffineGreen(GreenKernel):
         return lam, c * lam / s
 
     def validate_line(self, n, reverse):
-        if not self.x_U < 0:
-            side = "x_U > n - 1 = %d for anticausal use" % (n - 1) if reverse else "x_U < 0"
-            raise ValueError(f"G_U^(1) needs the fixed point outside the line on the source side "
-                             f"({side}); got x_U = {self.x_U if not reverse else n - 1 - self.x_U}")
+        _check_fixed_point("G_U^(1)", self.x_U, n, reverse)
 
     def mirrored(self, n):
         return AffineGreen(self.u1, (n - 1) - self.x_U)
@@ -418,10 +425,7 @@ class AffineGreenApprox(GreenKernel):
         return lam, -1j * 2 * self.w0 * lam
 
     def validate_line(self, n, reverse):
-        if not self.x_U < 0:
-            side = "x_U > n - 1 = %d for anticausal use" % (n - 1) if reverse else "x_U < 0"
-            raise ValueError(f"G_U^(2) diverges when x_U lies inside the line's domain; need {side}, "
-                             f"got x_U = {self.x_U if not reverse else n - 1 - self.x_U}")
+        _check_fixed_point("G_U^(2)", self.x_U, n, reverse)
 
     def mirrored(self, n):
         return AffineGreenApprox(self.sigma, (n - 1) - self.x_U)
@@ -511,14 +515,19 @@ def derivative_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
     return tuple(passes)
 
 
-def projection_passes(u, a=EDGE_A, eta=EDGE_ETA):
+def projection_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
     """Causal (with the m = 0 tap) and anticausal passes of the discrete projection P.
 
     Taps ``P[m] ∝ eta u q_{eta u}(|m|) + K u q_u(|m|)``, ``q_v(m) = e^{-m/v}(sin + cos)(m/v)``
-    (point-sampled continuous P), normalised to unit sum.
+    (point-sampled continuous P = ∫D), normalised to unit sum; ``single_scale``: ∫D_u, i.e.
+    ``q_u`` alone.
     """
-    u, a, eta, _, big_k = _edge_weights(u, a, eta)
-    scales = ((eta * u, eta * u), (u, big_k * u))
+    if single_scale:
+        u = _positive("u", u)
+        scales = ((u, u),)
+    else:
+        u, a, eta, _, big_k = _edge_weights(u, a, eta)
+        scales = ((eta * u, eta * u), (u, big_k * u))
     total = 0.0
     for v, w in scales:
         lam = np.exp(complex(-1.0, 1.0) / v)

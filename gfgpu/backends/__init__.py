@@ -1,1 +1,192 @@
-"""Backends."""
+"""Backend registry and the one device-resolution rule (DESIGN §4).
+
+Resolution, first match wins:
+
+1. an explicit ``backend=`` / ``device=`` argument;
+2. the input array's own kind: a ``warp.array`` or a ``pyopencl.array.Array`` stays where it is;
+3. the innermost ``with gfgpu.use_backend(...)`` block;
+4. the ``GFGPU_BACKEND`` environment variable (``name`` or ``name:device``, e.g. ``warp:cuda:1``);
+5. automatic: a CUDA GPU through Warp, then an OpenCL GPU, then OpenCL on the CPU, then Warp on
+   the CPU, then numpy.  Devices are never ranked by reported memory.
+
+Nothing here creates a context or compiles a kernel until a backend is first used.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import contextvars
+import os
+from dataclasses import dataclass
+from functools import lru_cache
+
+from .base import Backend, BackendUnavailable
+
+__all__ = ["Backend", "BackendUnavailable", "BACKENDS", "get_backend", "resolve_backend",
+           "use_backend", "devices", "DeviceInfo"]
+
+BACKENDS = ("numpy", "warp", "opencl")
+
+_current = contextvars.ContextVar("gfgpu_backend", default=None)
+
+
+def _check_name(name):
+    if name not in BACKENDS:
+        raise ValueError(f"backend must be one of {', '.join(BACKENDS)}; got {name!r}")
+    return name
+
+
+def _device_key(device):
+    # devices may be given as strings, ints or library objects; the cache key must be hashable
+    try:
+        hash(device)
+        return device
+    except TypeError:
+        return id(device)
+
+
+@lru_cache(maxsize=None)
+def _make(name, device_key, device):
+    if name == "numpy":
+        if device not in (None, "host", "cpu"):
+            raise BackendUnavailable(f"the numpy backend runs on the host only; got device={device!r}")
+        from .numpy_backend import NumpyBackend
+        return NumpyBackend()
+    if name == "warp":
+        from .warp_backend import WarpBackend
+        return WarpBackend(device)
+    from .opencl_backend import OpenCLBackend
+    return OpenCLBackend(device)
+
+
+def get_backend(name, device=None) -> Backend:
+    """The (cached) backend ``name`` on ``device``; raises BackendUnavailable with the reason."""
+    _check_name(name)
+    if isinstance(device, str) and device.isdigit():
+        device = int(device)
+    try:
+        return _make(name, _device_key(device), device)
+    except BackendUnavailable:
+        raise
+    except ImportError as exc:
+        raise BackendUnavailable(f"backend {name!r} is unavailable: {exc}") from exc
+
+
+def _parse_spec(spec):
+    if isinstance(spec, Backend):
+        return spec
+    name, _, device = str(spec).partition(":")
+    return get_backend(name.strip(), device or None)
+
+
+@lru_cache(maxsize=1)
+def _automatic():
+    reasons = []
+    for name, want in (("warp", "cuda"), ("opencl", "gpu"), ("opencl", "cpu"), ("warp", "cpu")):
+        try:
+            if name == "warp":
+                from .warp_backend import warp_devices
+                devs = [d for d in warp_devices() if d.startswith(want)]
+                if devs:
+                    return get_backend("warp", devs[0])
+            else:
+                from .opencl_backend import opencl_devices
+                devs = [i for i, _, kind in opencl_devices() if kind == want]
+                if devs:
+                    return get_backend("opencl", devs[0])
+        except Exception as exc:  # a broken driver must not stop the fallback chain
+            reasons.append(f"{name}/{want}: {exc}")
+    return get_backend("numpy")
+
+
+def array_backend(array):
+    """The backend that owns ``array`` (warp or pyopencl array), or None for host arrays."""
+    mod = type(array).__module__
+    if mod.startswith("warp"):
+        return get_backend("warp", str(array.device))
+    if mod.startswith("pyopencl"):
+        from .opencl_backend import backend_for_queue
+        return backend_for_queue(array.queue)
+    return None
+
+
+def resolve_backend(backend=None, device=None, array=None) -> Backend:
+    """Apply the resolution rule above; see the module docstring."""
+    if isinstance(backend, Backend):
+        return backend
+    if backend is not None:
+        return get_backend(_check_name(backend), device)
+    if device is not None:
+        raise ValueError("device= needs backend= as well (e.g. backend='warp', device='cuda:0')")
+    if array is not None:
+        owner = array_backend(array)
+        if owner is not None:
+            return owner
+    ctx = _current.get()
+    if ctx is not None:
+        return ctx
+    env = os.environ.get("GFGPU_BACKEND")
+    if env:
+        return _parse_spec(env)
+    return _automatic()
+
+
+@contextlib.contextmanager
+def use_backend(backend, device=None):
+    """Run the enclosed gfgpu calls on ``backend`` (a name, ``"name:device"``, or a Backend).
+
+    Examples
+    --------
+    >>> import gfgpu, numpy as np
+    >>> with gfgpu.use_backend("numpy"):
+    ...     out = gfgpu.shift(np.eye(8), (0.0, 1.5))
+    """
+    be = _parse_spec(backend) if device is None else get_backend(_check_name(backend), device)
+    token = _current.set(be)
+    try:
+        yield be
+    finally:
+        _current.reset(token)
+
+
+@dataclass(frozen=True)
+class DeviceInfo:
+    backend: str
+    device: str
+    kind: str
+    usable: bool
+    note: str = ""
+
+    def __str__(self):
+        state = "usable" if self.usable else f"unavailable: {self.note}"
+        return f"{self.backend:7s} {self.device:40s} {self.kind:5s} {state}"
+
+
+def devices():
+    """Every backend/device gfgpu can see, usable or not (with the reason)."""
+    out = [DeviceInfo("numpy", "host", "cpu", True, "float64 reference, vectorised over lines")]
+    try:
+        from .warp_backend import unavailable_reason, warp_devices
+        why = unavailable_reason()
+        if why:
+            out.append(DeviceInfo("warp", "-", "-", False, why))
+        else:
+            for d in warp_devices():
+                out.append(DeviceInfo("warp", d, "gpu" if d.startswith("cuda") else "cpu", True))
+            if not any(d.startswith("cuda") for d in warp_devices()):
+                out.append(DeviceInfo("warp", "cuda", "gpu", False, "no CUDA driver/GPU found by Warp"))
+    except Exception as exc:
+        out.append(DeviceInfo("warp", "-", "-", False, str(exc)))
+    try:
+        from .opencl_backend import opencl_devices
+        from .opencl_backend import unavailable_reason as ocl_reason
+        why = ocl_reason()
+        if why:
+            out.append(DeviceInfo("opencl", "-", "-", False, why))
+        else:
+            for idx, dev, kind in opencl_devices():
+                out.append(DeviceInfo("opencl", f"{idx}: {dev.name.strip()} ({dev.platform.name.strip()})",
+                                      kind, True))
+    except Exception as exc:
+        out.append(DeviceInfo("opencl", "-", "-", False, str(exc)))
+    return out

@@ -1,0 +1,404 @@
+"""The OpenCL backend: ``pyopencl.array.Array`` data on any OpenCL device (PoCL on the CPU, GPUs).
+
+PyOpenCL is imported lazily: importing this module neither imports PyOpenCL nor creates a
+context.  The one device source, ``gfgpu/kernels/opencl/recurse.cl``, is built on first use,
+specialised by ``-D`` defines (real type, sections, constant coefficients, lanes, layout),
+and cached per (context, defines).  PyOpenCL caches the binaries on disk by source and
+options (``PYOPENCL_CACHE_DIR``) and PoCL keeps its own cache (``POCL_CACHE_DIR``), so only
+the first process on a machine pays the compile time.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from functools import lru_cache
+
+import numpy as np
+
+from .base import Backend, BackendUnavailable
+
+_REALS = (np.dtype(np.float32), np.dtype(np.float64))
+_PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
+_INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
+_GPU_GROUP = 64            # work-group size on non-CPU devices (a multiple of warp/wavefront)
+_CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
+
+_programs = {}             # (context, defines) -> built pyopencl.Program
+_kernels = {}              # (context, defines, name) -> pyopencl.Kernel (one object per kernel)
+_queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
+
+
+def _import_cl():
+    try:
+        import pyopencl as cl
+        import pyopencl.array  # noqa: F401  (registers cl.array)
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise BackendUnavailable(f"pyopencl not installed ({exc})") from exc
+    return cl
+
+
+def _kind(device):
+    import pyopencl as cl
+    if device.type & cl.device_type.GPU:
+        return "gpu"
+    if device.type & cl.device_type.CPU:
+        return "cpu"
+    return "accelerator"
+
+
+def opencl_devices():
+    """Every OpenCL device of every platform, in one flat list.
+
+    Returns
+    -------
+    list of (int, pyopencl.Device, str)
+        ``(index, device, kind)`` with ``kind`` one of ``"gpu"``, ``"cpu"``,
+        ``"accelerator"``; ``index`` is what :class:`OpenCLBackend` accepts.  Empty when
+        PyOpenCL or an OpenCL platform is missing.
+    """
+    try:
+        cl = _import_cl()
+        platforms = cl.get_platforms()
+    except Exception:  # no ICD loader, no platform: nothing to list (unavailable_reason says why)
+        return []
+    devs = []
+    for platform in platforms:
+        try:
+            devs.extend(platform.get_devices())
+        except Exception:  # a platform without devices raises DEVICE_NOT_FOUND
+            continue
+    return [(i, d, _kind(d)) for i, d in enumerate(devs)]
+
+
+def unavailable_reason():
+    """Why the OpenCL backend cannot be used here, or None if it can.
+
+    Returns
+    -------
+    str or None
+        For example ``"pyopencl not installed"`` or ``"no OpenCL platform found: install
+        pocl-binary-distribution"``.
+    """
+    try:
+        cl = _import_cl()
+    except BackendUnavailable as exc:
+        return str(exc)
+    try:
+        platforms = cl.get_platforms()
+    except Exception:
+        platforms = []
+    if not platforms:
+        return "no OpenCL platform found: install pocl-binary-distribution (CPU) or a GPU driver's ICD"
+    if not opencl_devices():
+        return "no OpenCL device found on platforms " + ", ".join(p.name.strip() for p in platforms)
+    return None
+
+
+@lru_cache(maxsize=1)
+def _source():
+    from importlib.resources import files
+    return files("gfgpu.kernels.opencl").joinpath("recurse.cl").read_text()
+
+
+def _program(context, defines):
+    """The program built with ``defines`` (a sorted tuple of (name, value)), cached."""
+    key = (context, defines)
+    prog = _programs.get(key)
+    if prog is None:
+        import pyopencl as cl
+        options = [f"-D{k}={v}" for k, v in defines]
+        # no fast-math: accuracy relies on IEEE arithmetic; PyOpenCL's binary cache is keyed by
+        # source + options + device, so later processes skip the compiler
+        prog = cl.Program(context, _source()).build(options=options)
+        _programs[key] = prog
+    return prog
+
+
+def backend_for_queue(queue):
+    """The (cached) :class:`OpenCLBackend` that runs on ``queue``, for arrays found there.
+
+    Parameters
+    ----------
+    queue : pyopencl.CommandQueue
+
+    Returns
+    -------
+    OpenCLBackend
+    """
+    be = _queue_backends.get(queue)
+    if be is None:
+        be = _queue_backends[queue] = OpenCLBackend(queue)
+    return be
+
+
+class OpenCLBackend(Backend):
+    """Run the recursion primitive with OpenCL kernels on ``pyopencl.array.Array`` data.
+
+    Parameters
+    ----------
+    device : int, str, pyopencl.Device, pyopencl.Context or pyopencl.CommandQueue, optional
+        An index into :func:`opencl_devices`, a substring of a device name
+        (case-insensitive), a device, or a context/queue whose arrays should be processed
+        in place.  Default: the first GPU, else the first device.
+
+    Raises
+    ------
+    BackendUnavailable
+        If PyOpenCL or an OpenCL platform is missing, or ``device`` matches no device.
+
+    Notes
+    -----
+    One source, ``kernels/opencl/recurse.cl``, specialised by defines.  On a CPU a work-item
+    runs ``64 / itemsize`` lines (16 float32, 8 float64) in the lanes of a vector, so each
+    step moves one cache line: columns load adjacent samples directly, rows load a square
+    tile and transpose it in registers.  Work-groups are one work-item so that PoCL spreads
+    lines over all cores.  On a GPU a work-item runs one line, work-groups hold 64.
+    float64 needs a device with fp64 (``supports_float64``); otherwise a ``TypeError``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gfgpu.backends.opencl_backend import OpenCLBackend
+    >>> be = OpenCLBackend()
+    >>> a = be.asarray(np.ones((1, 4, 5), np.float32))
+    >>> be.to_host(a).shape
+    (1, 4, 5)
+    """
+
+    name = "opencl"
+
+    def __init__(self, device=None):
+        cl = _import_cl()
+        self._cl = cl
+        self._array = cl.array
+        if isinstance(device, cl.CommandQueue):
+            self.queue = device
+            self.context = device.context
+            self._device = device.device
+        else:
+            if isinstance(device, cl.Context):
+                self.context = device
+                self._device = device.devices[0]
+            else:
+                self._device = self._find_device(device)
+                self.context = cl.Context([self._device])
+            self.queue = cl.CommandQueue(self.context, self._device)
+        dev = self._device
+        self.device = f"{dev.name.strip()} ({dev.platform.name.strip()})"
+        self.kind = _kind(dev)
+        try:
+            fp64 = bool(dev.double_fp_config)
+        except Exception:  # devices without fp64 may reject the query
+            fp64 = False
+        self.supports_float64 = fp64 or "cl_khr_fp64" in dev.extensions
+        self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
+        self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index)
+        self._finite = {}              # dtype -> ReductionKernel counting non-finite values
+
+    def _find_device(self, device):
+        devs = opencl_devices()
+        if not devs:
+            raise BackendUnavailable(unavailable_reason() or "no OpenCL device found")
+        listing = "; ".join(f"{i}: {d.name.strip()} ({k})" for i, d, k in devs)
+        if device is None:
+            gpus = [d for _, d, k in devs if k == "gpu"]
+            return gpus[0] if gpus else devs[0][1]
+        if isinstance(device, self._cl.Device):
+            return device
+        if isinstance(device, (int, np.integer)):
+            if not 0 <= device < len(devs):
+                raise BackendUnavailable(f"OpenCL device index {device} out of range (devices: {listing})")
+            return devs[device][1]
+        if isinstance(device, str):
+            if device.strip().isdigit():
+                return self._find_device(int(device))
+            want = device.strip().lower()
+            for _, d, k in devs:
+                if want in d.name.lower() or want == k:
+                    return d
+            raise BackendUnavailable(f"no OpenCL device matches {device!r} (devices: {listing})")
+        raise TypeError(f"device must be an index, a name, a pyopencl Device, Context or "
+                        f"CommandQueue; got {type(device).__name__}")
+
+    # ---- arrays -------------------------------------------------------------------
+    def _check_dtype(self, dtype):
+        dtype = np.dtype(dtype)
+        if dtype == np.float64 and not self.supports_float64:
+            raise TypeError(f"float64 is not supported by OpenCL device {self.device} (no cl_khr_fp64); "
+                            f"convert the input to float32 or choose another device")
+        return dtype
+
+    def owns(self, array):
+        return isinstance(array, self._array.Array) and array.context == self.context
+
+    def asarray(self, host):
+        host = np.ascontiguousarray(host)
+        self._check_dtype(host.dtype)
+        return self._array.to_device(self.queue, host)
+
+    def to_host(self, array):
+        return array.get(queue=self.queue)
+
+    def empty(self, shape, dtype):
+        return self._array.empty(self.queue, tuple(shape), self._check_dtype(dtype))
+
+    def reshape(self, array, shape):
+        return array.reshape(tuple(shape))
+
+    def all_finite(self, array):
+        dtype = np.dtype(array.dtype)
+        if dtype not in _REALS:
+            return True   # integer arrays hold no NaN or infinity
+        if array.size == 0:
+            return True
+        knl = self._finite.get(dtype)
+        if knl is None:
+            from pyopencl.reduction import ReductionKernel
+            from pyopencl.tools import dtype_to_ctype
+            knl = self._finite[dtype] = ReductionKernel(
+                self.context, np.int64, neutral="0", reduce_expr="a+b",
+                map_expr="isfinite(x[i]) ? 0 : 1", arguments=f"const {dtype_to_ctype(dtype)} *x")
+        flat = array.reshape(-1) if array.flags.c_contiguous else array.copy().reshape(-1)
+        return int(knl(flat, queue=self.queue).get()) == 0
+
+    def synchronize(self):
+        self.queue.finish()
+
+    # ---- kernels --------------------------------------------------------------------
+    def _lanes(self, dtype):
+        # CPU: one cache line per step; GPU: one line per work-item (coalesced columns)
+        return _CACHE_LINE // dtype.itemsize if self.kind == "cpu" else 1
+
+    def _group(self):
+        return 1 if self.kind == "cpu" else min(_GPU_GROUP, self._device.max_work_group_size)
+
+    def _kernel(self, name, dtype, **defines):
+        real = "double" if dtype == np.float64 else "float"
+        defines = tuple(sorted(dict(REAL=real, **defines).items()))
+        key = (self.context, defines, name)
+        knl = _kernels.get(key)
+        if knl is None:
+            # each attribute access would create a new kernel object: keep one
+            knl = _kernels[key] = getattr(_program(self.context, defines), name)
+        return knl
+
+    def _plan_buffers(self, plan, dtype):
+        """Upload ``plan.packed(dtype)`` once; plans are immutable, so id(plan) is a key."""
+        key = (id(plan), dtype)
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plan:
+            self._plans.move_to_end(key)
+            return hit[1]
+        mf = self._cl.mem_flags
+        buffers = []
+        for a in plan.packed(dtype):
+            if a.size == 0:
+                a = np.zeros(2, dtype)   # L = 0 (constant mode): OpenCL has no empty buffers
+            buffers.append(self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a))
+        self._plans[key] = (plan, tuple(buffers))   # keeping the plan keeps its id unique
+        if len(self._plans) > _PLAN_CACHE_SIZE:
+            self._plans.popitem(last=False)
+        return self._plans[key][1]
+
+    def _launch(self, knl, gsize, lsize, arrays_in, arrays_out, args):
+        wait = [e for a in arrays_in + arrays_out for e in a.events]
+        evt = knl(self.queue, gsize, lsize, *args, wait_for=wait or None)
+        for a in arrays_out:
+            a.add_event(evt)
+        return evt
+
+    # ---- the primitive --------------------------------------------------------------
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+        if axis not in (1, 2):
+            raise ValueError(f"axis must be 1 or 2, got {axis}")
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a):
+                raise TypeError(f"{arg} must be a pyopencl.array.Array in the context of {self.device}, "
+                                f"got {type(a).__name__}")
+            if a.ndim != 3 or not a.flags.c_contiguous:
+                raise ValueError(f"{arg} must be a C-contiguous 3-D array, got shape {a.shape}")
+        if src.shape != dst.shape or src.dtype != dst.dtype:
+            raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
+        dtype = np.dtype(src.dtype)
+        if dtype not in _REALS:
+            raise TypeError(f"src must be float32 or float64, got {dtype}")
+        self._check_dtype(dtype)
+        if plan.n != src.shape[axis]:
+            raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {src.shape[axis]}")
+        same = src.base_data == dst.base_data and src.offset == dst.offset
+        if accumulate and same:
+            raise ValueError("dst may not be src when accumulating")
+        b, n, m = src.shape
+        if src.size == 0:
+            return dst
+        lanes = self._lanes(dtype)
+        group = self._group()
+        knl = self._kernel("recurse", dtype, SECTIONS=plan.sections, CONSTANT_COEF=int(plan.constant),
+                           LANES=lanes, ROWS=int(axis == 2))
+        lam, kap, omega, omega_c = self._plan_buffers(plan, dtype)
+        if axis == 2:
+            items = -(-(b * n) // lanes)
+            gsize, lsize = (-(-items // group) * group,), (group,)
+        else:
+            items = -(-m // lanes)
+            gsize, lsize = (-(-items // group) * group, b), (group, 1)
+        real = dtype.type
+        item = dtype.itemsize
+        args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                lam, kap, omega, omega_c, np.int32(plan.omega.shape[1]), np.int32(plan.n),
+                real(cval), real(plan.tap), np.int32(plan.reverse), np.int32(bool(accumulate)),
+                np.int32(b), np.int32(n), np.int32(m))
+        self._launch(knl, gsize, lsize, [src], [dst], args)
+        return dst
+
+    def _index_array(self, index, size):
+        """Upload a gather index once per identity, as int32 (the kernel's index type)."""
+        key = id(index)
+        hit = self._indices.get(key)
+        if hit is not None and hit[0] is index:
+            self._indices.move_to_end(key)
+            dev, top = hit[1], hit[2]
+        else:
+            idx = np.asarray(index).reshape(-1)
+            if idx.dtype.kind not in "iu":
+                raise TypeError(f"index must be an integer array, got {idx.dtype}")
+            top = int(idx.max()) if idx.size else -1
+            if top >= 2**31:
+                raise ValueError(f"index holds {top}: the OpenCL gather takes int32 indices "
+                                 f"(sources of at most 2**31 elements)")
+            idx = np.ascontiguousarray(np.maximum(idx, -1) if idx.dtype.kind == "i" else idx, np.int32)
+            dev = self._array.to_device(self.queue, idx) if idx.size else None
+            self._indices[key] = (index, dev, top, idx.size)
+            if len(self._indices) > _INDEX_CACHE_SIZE:
+                self._indices.popitem(last=False)
+            hit = self._indices[key]
+        if top >= size:
+            raise ValueError(f"index holds {top}, beyond the source's {size} elements")
+        return hit[1], hit[3]
+
+    def gather(self, src, index, cval, out):
+        for arg, a in (("src", src), ("out", out)):
+            if not self.owns(a):
+                raise TypeError(f"{arg} must be a pyopencl.array.Array in the context of {self.device}, "
+                                f"got {type(a).__name__}")
+            if not a.flags.c_contiguous:
+                raise ValueError(f"{arg} must be C-contiguous")
+        if src.dtype != out.dtype:
+            raise ValueError(f"src and out must have one dtype, got {src.dtype} and {out.dtype}")
+        dtype = self._check_dtype(src.dtype)
+        if dtype not in _REALS:
+            raise TypeError(f"src must be float32 or float64, got {dtype}")
+        dev_index, count = self._index_array(index, src.size)
+        if count != out.size:
+            raise ValueError(f"index has {count} elements, out has {out.size}")
+        if out.size == 0:
+            return out
+        knl = self._kernel("gather", dtype)
+        item = dtype.itemsize
+        group = 64 if self.kind == "cpu" else self._group()   # PoCL vectorises across a group
+        gsize = (-(-out.size // group) * group,)
+        args = (src.base_data, np.int64(src.offset // item), dev_index.data, out.base_data,
+                np.int64(out.offset // item), dtype.type(cval), np.int64(out.size))
+        self._launch(knl, gsize, (group,), [src, dev_index], [out], args)
+        return out
+
