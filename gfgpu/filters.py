@@ -74,7 +74,7 @@ class _Job:
                             f"array or choose another device (no silent downcast)")
         self.output = output
         out_dtype = self.dtype
-        if output is not None and not hasattr(output, "shape"):
+        if output is not None and isinstance(output, (type, np.dtype, str)):
             out_dtype = np.dtype(output)
             if out_dtype not in (np.float32, np.float64):
                 raise TypeError(f"output dtype must be float32 or float64, got {out_dtype}")

@@ -1,0 +1,125 @@
+"""Type-in/type-out, dtype policy, bad inputs, backend selection and packaging."""
+import importlib.resources
+import os
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+import gfgpu
+from gfgpu import greens
+
+G = greens.UniformGreen(2.0)
+
+
+@pytest.mark.parametrize("dtype,expected", [(np.float32, np.float32), (np.float64, np.float64),
+                                            (np.uint8, np.float32), (np.int16, np.float32),
+                                            (np.bool_, np.float32), (np.float16, np.float32)])
+def test_dtype_policy(backend, dtype, expected):
+    img = (np.arange(60).reshape(6, 10) % 7).astype(dtype)
+    for out in (gfgpu.green_filter(img, G, backend=backend), gfgpu.shift(img, (0.5, 1.5), backend=backend),
+                gfgpu.derivative(img, 1.0, backend=backend), *gfgpu.gradient(img, 1.0, backend=backend)):
+        assert isinstance(out, np.ndarray) and out.dtype == expected and out.shape == img.shape
+
+
+def test_input_is_never_modified_and_output_argument(backend, rng):
+    img = rng.standard_normal((8, 12))
+    before = img.copy()
+    out = np.empty_like(img)
+    res = gfgpu.shift(img, (1.0, -2.0), output=out, backend=backend)
+    assert res is out
+    np.testing.assert_array_equal(img, before)
+    np.testing.assert_allclose(out, gfgpu.shift(img, (1.0, -2.0), backend=backend))
+    res = gfgpu.green_filter(img.astype(np.float32), G, output=np.float64, backend=backend)
+    assert res.dtype == np.float64
+    zero = gfgpu.shift(img, 0.0, backend=backend)
+    np.testing.assert_array_equal(zero, img)
+    assert zero is not img
+
+
+def test_device_arrays_stay_on_their_device(backend, rng):
+    if backend.name == "numpy":
+        pytest.skip("host arrays")
+    img = rng.standard_normal((8, 12)).astype(np.float32)
+    dev = backend.asarray(img)
+    out = gfgpu.shift(dev, (0.5, 1.5))          # resolved from the array itself
+    assert backend.owns(out) and not isinstance(out, np.ndarray)
+    np.testing.assert_allclose(backend.to_host(out), gfgpu.shift(img, (0.5, 1.5), backend="numpy"),
+                               rtol=2e-5, atol=2e-6)
+    np.testing.assert_array_equal(backend.to_host(dev), img)
+
+
+@pytest.mark.parametrize("call,exc,match", [
+    (lambda be: gfgpu.green_filter(np.ones((4, 4)), greens.UniformGreen(1), mode="bogus", backend=be),
+     ValueError, "mode must be one of"),
+    (lambda be: gfgpu.green_filter(np.array([1.0, np.nan]), G, backend=be), ValueError, "NaN or infinite"),
+    (lambda be: gfgpu.shift(np.array([[1.0, np.inf]]), 1.0, backend=be), ValueError, "NaN or infinite"),
+    (lambda be: gfgpu.green_filter(np.float64(3.0), G, backend=be), ValueError, "at least 1 dimension"),
+    (lambda be: gfgpu.green_filter(np.ones((0, 4)), G, backend=be), ValueError, "input is empty"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4), complex), G, backend=be), TypeError, "real numeric dtype"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4)), G, axis=2, backend=be), ValueError, "axis=2 is out of range"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4)), "G_u", backend=be), TypeError, "kernel must be"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4)), greens.AffineGreenApprox(3.0, 1.0), backend=be),
+     ValueError, "x_U < 0"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4)), greens.AffineGreen(0.5, 2.0), anticausal=True, backend=be),
+     ValueError, "x_U > 3"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4)), G, cval=np.nan, backend=be), ValueError, "cval must be finite"),
+    (lambda be: gfgpu.green_filter(np.ones((3, 4)), G, angle="x", backend=be), TypeError, "angle must be"),
+    (lambda be: gfgpu.shift(np.ones((3, 4)), (1.0, 2.0, 3.0), backend=be), ValueError, "one value per axis"),
+    (lambda be: gfgpu.shift(np.ones((3, 4)), (1.0, np.nan), backend=be), ValueError, "shift must be finite"),
+    (lambda be: gfgpu.derivative(np.ones((3, 4)), 0.0, backend=be), ValueError, "u must be > 0"),
+    (lambda be: gfgpu.derivative(np.ones((3, 4)), -1.0, backend=be), ValueError, "u must be > 0"),
+    (lambda be: gfgpu.shift(np.ones((3, 4)), 1.0, output=np.ones((3, 4), np.float32), backend=be),
+     TypeError, "downcast"),
+    (lambda be: gfgpu.shift(np.ones((3, 4)), 1.0, output=np.ones((4, 4)), backend=be), ValueError, "shape"),
+])
+def test_bad_inputs_raise_clear_errors(backend, call, exc, match):
+    with pytest.raises(exc, match=match):
+        call(backend)
+
+
+def test_backend_selection_rule(monkeypatch):
+    with pytest.raises(ValueError, match="backend must be one of"):
+        gfgpu.shift(np.ones((3, 4)), 1.0, backend="cuda")
+    with gfgpu.use_backend("numpy") as be:
+        assert be.name == "numpy"
+        from gfgpu.backends import resolve_backend
+        assert resolve_backend().name == "numpy"
+        assert resolve_backend("numpy").name == "numpy"
+    monkeypatch.setenv("GFGPU_BACKEND", "numpy")
+    from gfgpu.backends import resolve_backend
+    assert resolve_backend().name == "numpy"
+    listing = gfgpu.devices()
+    assert listing[0].backend == "numpy" and listing[0].usable
+    assert {d.backend for d in listing} == {"numpy", "warp", "opencl"}
+    for d in listing:
+        assert d.usable or d.note      # an unusable device always says why
+
+
+def test_import_is_lazy():
+    code = ("import sys, gfgpu; gfgpu.greens.UniformGreen(1.0); "
+            "print(any(m in sys.modules for m in ('warp', 'pyopencl')))")
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert res.stdout.strip() == "False"
+
+
+def test_kernels_ship_with_the_package():
+    cl = importlib.resources.files("gfgpu.kernels.opencl").joinpath("recurse.cl")
+    assert cl.is_file() and "__kernel" in cl.read_text()
+    from gfgpu.kernels.warp import recurse  # noqa: F401
+
+
+@pytest.mark.skipif(os.environ.get("GFGPU_SKIP_WHEEL") == "1", reason="GFGPU_SKIP_WHEEL=1")
+def test_wheel_contains_the_kernels(tmp_path):
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    if not os.path.exists(os.path.join(root, "pyproject.toml")):
+        pytest.skip("not running from a source checkout")
+    subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp_path), root],
+                   check=True, capture_output=True)
+    wheel = next(tmp_path.glob("gfgpu-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    assert "gfgpu/kernels/opencl/recurse.cl" in names
+    assert "gfgpu/kernels/warp/recurse.py" in names
+    assert "gfgpu/data/camera.png" in names
