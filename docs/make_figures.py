@@ -37,9 +37,10 @@ def kernels_figure(path):
     # the discrete shift operators used by gfgpu.shift: unit gain, mean exactly u
     for i, s in enumerate((0.5, 1.0, 3.0)):
         lp = greens.shift_pass(s)
-        m = np.arange(0, 16)
+        m = np.arange(0, 400)   # long enough for the sums; the plot shows the first 16
         taps = np.concatenate([[lp.tap], lp.sections[0].taps(m[1:])])
-        axs[3].plot(m + 0.08 * i, taps, "o-", ms=3, label=f"u = {s}: Σ={taps.sum():.3f}, mean={(m * taps).sum():.3f}")
+        axs[3].plot(m[:16] + 0.08 * i, taps[:16], "o-", ms=3,
+                    label=f"u = {s}: Σw = {taps.sum():.6f}, Σmw = {(m * taps).sum():.6f}")
     axs[3].set_title("gfgpu.shift taps (discrete G_u)")
     axs[3].set_xlabel("m (pixels)")
     axs[3].legend(fontsize=7)
