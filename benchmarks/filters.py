@@ -1,0 +1,158 @@
+"""Throughput of gfgpu's line operators beside peers measured in the same run.
+
+Prints a Markdown table (Mpix/s, and the ratio to numpy.copyto of the same array, the
+memory-bound) for, on a SIZE x SIZE float32 image:
+
+* one causal G_u pass (u = 3, mode 'reflect') along rows and along columns: the raw
+  primitive on device-resident arrays (``backend.recurse``) and the public
+  ``green_filter`` call (which also checks the input is finite);
+* ``gfgpu.shift`` by (1.5, 2.5) (two passes) and ``gfgpu.gradient`` (u = 1, 8 passes);
+* peers: scipy.signal.lfilter with the same 2-pole recursion, scipy.ndimage.convolve1d with
+  G_u truncated at 10u, cv2.filter2D with the same truncated kernel (if OpenCV is installed),
+  numpy.copyto;
+
+and the cold compile time of each backend (a fresh process with empty kernel caches).
+
+Usage:  python benchmarks/filters.py [--size 4096] [--repeat 5] [--backends numpy,warp,opencl]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+import gfgpu
+from gfgpu import greens, recursion
+from gfgpu.backends import get_backend
+
+U = 3.0
+
+
+def best_time(fn, repeat, sync=lambda: None):
+    fn()
+    sync()
+    times = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        sync()
+        times.append(time.perf_counter() - t0)
+    return min(times)
+
+
+def cold_compile(name):
+    """Seconds for the first and the second tiny call in a fresh process with empty caches."""
+    code = (
+        "import time, numpy as np, gfgpu\n"
+        "img = np.ones((64, 64), np.float32)\n"
+        "t0 = time.perf_counter(); gfgpu.gradient(img, 1.0, backend=%r); t1 = time.perf_counter()\n"
+        "gfgpu.gradient(img, 1.0, backend=%r); t2 = time.perf_counter()\n"
+        "print(t1 - t0, t2 - t1)\n" % (name, name))
+    with tempfile.TemporaryDirectory() as tmp:
+        env = dict(os.environ, WARP_CACHE_PATH=os.path.join(tmp, "warp"),
+                   PYOPENCL_CACHE_DIR=os.path.join(tmp, "pyopencl"), POCL_CACHE_DIR=os.path.join(tmp, "pocl"),
+                   XDG_CACHE_HOME=tmp)
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env)
+    if res.returncode:
+        return None, None
+    first, second = (float(v) for v in res.stdout.split()[-2:])
+    return first, second
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, default=4096)
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--backends", default="numpy,warp,opencl")
+    ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile measurement")
+    args = ap.parse_args(argv)
+
+    n = args.size
+    mpix = n * n / 1e6
+    rng = np.random.default_rng(0)
+    img = rng.random((n, n), dtype=np.float32) * 255
+    rows = {}
+
+    def record(name, seconds, note=""):
+        rows[name] = (mpix / seconds, note)
+
+    # ---- memory bound and peers ----------------------------------------------------
+    dst = np.empty_like(img)
+    record("numpy.copyto (memory bound)", best_time(lambda: np.copyto(dst, img), args.repeat))
+    from scipy import ndimage, signal
+    r = np.exp(-1 / U)
+    b = [0.0, (2 / U) * r * np.sin(1 / U)]
+    a = [1.0, -2 * r * np.cos(1 / U), r * r]
+    record("scipy.signal.lfilter, rows", best_time(lambda: signal.lfilter(b, a, img, axis=1), args.repeat),
+           "same recursion, float32")
+    record("scipy.signal.lfilter, columns", best_time(lambda: signal.lfilter(b, a, img, axis=0), args.repeat))
+    taps = greens.g_uniform(np.arange(0, int(10 * U) + 1), U)
+    kernel = np.concatenate([np.zeros(len(taps) - 1), taps]).astype(np.float32)  # causal, centred
+    record("scipy.ndimage.convolve1d, rows", best_time(
+        lambda: ndimage.convolve1d(img, kernel, axis=1, mode="reflect"), args.repeat), f"{len(taps)} taps")
+    record("scipy.ndimage.convolve1d, columns", best_time(
+        lambda: ndimage.convolve1d(img, kernel, axis=0, mode="reflect"), args.repeat))
+    try:
+        import cv2
+        k2 = kernel[::-1].reshape(1, -1)  # filter2D correlates
+        record("cv2.filter2D, rows", best_time(lambda: cv2.filter2D(img, -1, k2), args.repeat),
+               f"{len(taps)} taps, {cv2.getNumThreads()} threads")
+        record("cv2.filter2D, columns", best_time(lambda: cv2.filter2D(img, -1, k2.T), args.repeat))
+    except ImportError:
+        pass
+    from skimage.filters import sobel
+    record("skimage.filters.sobel (gradient magnitude)", best_time(lambda: sobel(img), args.repeat))
+
+    # ---- gfgpu backends ---------------------------------------------------------------
+    cold = {}
+    lp = greens.UniformGreen(U).line_pass()
+    for name in args.backends.split(","):
+        try:
+            be = get_backend(name)
+        except Exception as exc:  # report and carry on with the others
+            print(f"# {name}: unavailable ({exc})", file=sys.stderr)
+            continue
+        dev = be.asarray(img)
+        out = be.empty(img.shape, np.float32)
+        src3, dst3 = be.reshape(dev, (1, n, n)), be.reshape(out, (1, n, n))
+        plan = recursion.plan_pass(lp, n, "reflect", np.float32)
+        sync = be.synchronize
+        tag = f"gfgpu {name} ({be.device})"
+        record(f"{tag}: G_u pass, rows (primitive)",
+               best_time(lambda: be.recurse(src3, dst3, 2, plan), args.repeat, sync))
+        record(f"{tag}: G_u pass, columns (primitive)",
+               best_time(lambda: be.recurse(src3, dst3, 1, plan), args.repeat, sync))
+        G = greens.UniformGreen(U)
+        record(f"{tag}: green_filter, rows", best_time(
+            lambda: gfgpu.green_filter(dev, G, axis=1, backend=be), args.repeat, sync), "device array in/out")
+        record(f"{tag}: green_filter, columns", best_time(
+            lambda: gfgpu.green_filter(dev, G, axis=0, backend=be), args.repeat, sync))
+        record(f"{tag}: shift (1.5, 2.5)", best_time(
+            lambda: gfgpu.shift(dev, (1.5, 2.5), backend=be), args.repeat, sync), "2 passes")
+        record(f"{tag}: gradient u=1", best_time(
+            lambda: gfgpu.gradient(dev, 1.0, backend=be), args.repeat, sync), "8 passes, 2 outputs")
+        if not args.no_cold:
+            cold[name] = cold_compile(name)
+
+    copy = rows["numpy.copyto (memory bound)"][0]
+    lfilter_rows = rows["scipy.signal.lfilter, rows"][0]
+    print(f"\n{n}x{n} float32, u = {U}, best of {args.repeat}; machine: {os.cpu_count()} cores\n")
+    print("| operation | Mpix/s | × copyto | × lfilter (rows) | note |")
+    print("|---|---:|---:|---:|---|")
+    for name, (rate, note) in rows.items():
+        print(f"| {name} | {rate:,.0f} | {rate / copy:.3f} | {rate / lfilter_rows:.2f} | {note} |")
+    if cold:
+        print("\n| backend | first call, empty caches (s) | next call (s) |")
+        print("|---|---:|---:|")
+        for name, (first, second) in cold.items():
+            print(f"| {name} | {first:.2f} | {second:.3f} |" if first is not None else f"| {name} | failed | |")
+
+
+if __name__ == "__main__":
+    main()
