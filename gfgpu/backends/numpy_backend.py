@@ -1,11 +1,75 @@
-"""The portable numpy backend: the executable specification, vectorised over lines."""
+"""The portable numpy backend: float64, vectorised over lines.
+
+Constant-coefficient passes (G_u, H_u, shift, D, P) use an exact *blocked* form of the
+recursion: within a block of ``T`` steps the response to the block's own samples is a fixed
+``T x T`` lower-triangular Toeplitz matrix and the response to the state entering the block is
+``lam^j``, so one block of all lines is two small matrix products (BLAS), and only the ``N/T``
+block carries run sequentially.  This is the same linear map as :func:`run_reference` (no
+truncation), rounded differently.  Per-position passes (the affine kernels) step through
+:func:`gfgpu.recursion.run_reference`.
+"""
 
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
 from ..recursion import run_reference
 from .base import Backend
+
+_BLOCK = 64
+
+
+@lru_cache(maxsize=64)
+def _block_matrices(plan, block):
+    """Matrices of one block for a constant-coefficient plan (float64).
+
+    ``out_in`` (T, T): output at step j from input at step i (Σ_s Re(kap λ^(j-1-i)) for i < j,
+    plus the tap on the diagonal); ``out_state`` (T, 2S): output from the entering state's real
+    and imaginary parts; ``carry_in`` (2S, T) and ``carry_state`` (2S, 2S): the state leaving
+    the block.
+    """
+    lam = plan.lam[:, 0]
+    kap = plan.kap[:, 0]
+    S = len(lam)
+    j = np.arange(block)
+    diff = j[:, None] - j[None, :] - 1
+    powers = np.power(lam[:, None, None], np.maximum(diff, 0)[None].astype(np.float64))
+    resp = np.where(diff[None] >= 0, kap[:, None, None] * powers, 0)            # (S, T, T) complex
+    out_in = resp.real.sum(axis=0) + plan.tap * np.eye(block)
+    lam_j = np.power(lam[:, None], j[None].astype(np.float64))                  # (S, T)
+    # Re(lam^j F) = Re(lam^j) Re F - Im(lam^j) Im F
+    out_state = np.concatenate([lam_j.real.T, -lam_j.imag.T], axis=1)          # (T, 2S)
+    tail = kap[:, None] * np.power(lam[:, None], (block - 1 - j)[None].astype(np.float64))  # (S, T)
+    carry_in = np.concatenate([tail.real, tail.imag], axis=0)                   # (2S, T)
+    lt = lam**block
+    carry_state = np.zeros((2 * S, 2 * S))
+    for s in range(S):
+        carry_state[s, s], carry_state[s, S + s] = lt[s].real, -lt[s].imag
+        carry_state[S + s, s], carry_state[S + s, S + s] = lt[s].imag, lt[s].real
+    return out_in, out_state, carry_in, carry_state
+
+
+def _blocked(lines, plan, cval):
+    """Blocked evaluation of a constant plan on ``lines`` (n, m) in traversal order; float64."""
+    n, m = lines.shape
+    S = plan.sections
+    L = plan.omega.shape[1]
+    state = plan.omega @ lines[:L] if L else np.zeros((S, m), np.complex128)
+    state = state + (plan.omega_c * cval)[:, None]
+    state = np.concatenate([state.real, state.imag], axis=0)                    # (2S, m)
+    out = np.empty((n, m), np.float64)
+    out_in, out_state, carry_in, carry_state = _block_matrices(plan, _BLOCK)
+    for k0 in range(0, n, _BLOCK):
+        x = lines[k0:k0 + _BLOCK]
+        t = x.shape[0]
+        if t == _BLOCK:
+            out[k0:k0 + t] = out_in @ x + out_state @ state
+            state = carry_in @ x + carry_state @ state
+        else:   # last, partial block: the leading t x t corner of the same matrices
+            out[k0:] = out_in[:t, :t] @ x + out_state[:t] @ state
+    return out
 
 
 class NumpyBackend(Backend):
@@ -31,23 +95,32 @@ class NumpyBackend(Backend):
     def all_finite(self, array):
         return bool(np.isfinite(array).all())
 
+    def _pass(self, lines, plan, cval):
+        """Result of one pass on ``lines`` (n, m), natural order, as float64."""
+        if not plan.constant:
+            return run_reference(lines.astype(np.float64), plan, cval)
+        src = lines[::-1] if plan.reverse else lines
+        res = _blocked(np.asarray(src, np.float64), plan, float(cval))
+        return res[::-1] if plan.reverse else res
+
     def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
         if axis not in (1, 2):
             raise ValueError(f"axis must be 1 or 2, got {axis}")
         b, n, m = src.shape
         if axis == 2:
-            # rows: step along the contiguous axis; transposing makes each step one
-            # contiguous vector over all lines
-            lines = np.ascontiguousarray(src.reshape(b * n, m).T)
-            res = run_reference(lines, plan, cval)
-            res = res.T.reshape(b, n, m)
+            # rows: transpose so that each step is one contiguous vector over all lines
+            res = self._pass(src.reshape(b * n, m).T, plan, cval).T.reshape(b, n, m)
             if accumulate:
                 dst += res
             else:
                 dst[...] = res
             return dst
         for i in range(b):
-            run_reference(src[i], plan, cval, out=dst[i], accumulate=accumulate)
+            res = self._pass(src[i], plan, cval)
+            if accumulate:
+                dst[i] += res
+            else:
+                dst[i] = res
         return dst
 
     def gather(self, src, index, cval, out):
