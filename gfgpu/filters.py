@@ -68,7 +68,7 @@ class _Job:
             raise ValueError(f"input is empty (shape {arr.shape})")
         self.shape = tuple(int(s) for s in arr.shape)
         self.ndim = len(self.shape)
-        self.dtype = _work_dtype(arr.dtype)
+        self.dtype = _work_dtype(arr.dtype if self.host_input else be.dtype_of(arr))
         if self.dtype == np.float64 and not be.supports_float64:
             raise TypeError(f"input is float64 but {be!r} has no float64 support; pass a float32 "
                             f"array or choose another device (no silent downcast)")
@@ -88,8 +88,8 @@ class _Job:
                 raise ValueError("input contains NaN or infinite values")
             self.data = be.asarray(host)
         else:
-            if arr.dtype != self.dtype:
-                raise TypeError(f"device input must be float32 or float64, got {arr.dtype}")
+            if _work_dtype(be.dtype_of(arr)) != self.dtype:
+                raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
             if not be.all_finite(arr):
                 raise ValueError("input contains NaN or infinite values")
             self.data = arr
@@ -99,7 +99,7 @@ class _Job:
     def _check_output(self, output):
         if tuple(output.shape) != self.shape:
             raise ValueError(f"output must have the input's shape {self.shape}, got {tuple(output.shape)}")
-        odt = np.dtype(output.dtype)
+        odt = np.dtype(output.dtype) if isinstance(output, np.ndarray) else self.backend.dtype_of(output)
         if odt not in (np.float32, np.float64):
             raise TypeError(f"output must be float32 or float64, got {odt}")
         if odt.itemsize < self.dtype.itemsize:
@@ -120,7 +120,7 @@ class _Job:
                 return self.output
             return host
         if self.output is not None:
-            if np.dtype(self.output.dtype) == self.dtype:
+            if self.backend.dtype_of(self.output) == self.dtype:
                 self._copy(result, self.output)
             else:
                 raise TypeError("device output must have the computation's dtype")
@@ -132,13 +132,12 @@ class _Job:
         self.backend.gather(self.backend.reshape(src, (-1,)), flat, 0.0, self.backend.reshape(dst, (-1,)))
 
 
-def _run_passes(be, src, dst, passes, mode, cval, axis=None, angle=None, plane=None):
+def _run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, plane=None):
     """Apply ``passes`` (summed: the first writes, the rest accumulate) along an axis or direction.
 
     ``src`` and ``dst`` are distinct device arrays of the same shape; ``src`` is not modified.
     """
     shape = tuple(src.shape)
-    dtype = np.dtype(src.dtype)
     if angle is None:
         view, line_axis = axis_view_shape(shape, axis)
         n = view[line_axis]
@@ -177,7 +176,7 @@ def _apply_sequence(job, steps, mode, cval):
     cur = job.data
     for i, (passes, axis, angle) in enumerate(steps):
         nxt = bufs[i % 2]
-        _run_passes(job.backend, cur, nxt, passes, mode, cval, axis=axis, angle=angle, plane=job.plane)
+        _run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle, plane=job.plane)
         cur = nxt
     return job.finish(cur)
 

@@ -42,6 +42,10 @@ class Backend:
         """Uninitialised C-contiguous device array."""
         raise NotImplementedError
 
+    def dtype_of(self, array) -> np.dtype:
+        """numpy dtype of a device array."""
+        return np.dtype(array.dtype)
+
     def reshape(self, array, shape):
         """View of a C-contiguous device array with a new shape (no copy)."""
         raise NotImplementedError
