@@ -7,6 +7,7 @@ Importing gfgpu creates no device context and compiles nothing.
 
 from . import greens
 from .backends import BACKENDS, devices, get_backend, use_backend
+from .edges import canny
 from .filters import derivative, gradient, green_filter, projection, shift
 from .greens import AffineGreen, AffineGreenApprox, HomogeneousGreen, UniformGreen
 
@@ -14,6 +15,6 @@ __version__ = "0.1.0"
 
 __all__ = [
     "greens", "BACKENDS", "devices", "get_backend", "use_backend",
-    "green_filter", "shift", "derivative", "projection", "gradient",
+    "green_filter", "shift", "derivative", "projection", "gradient", "canny",
     "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
 ]

@@ -77,5 +77,12 @@ class Backend:
         """
         raise NotImplementedError
 
+    def suppress_nonmaxima(self, gy, gx, out):
+        """Interpolated non-maximum suppression of the gradient ``(gy, gx)`` (2-D arrays).
+
+        See :func:`gfgpu.edges.suppress_nonmaxima_reference` for the exact rule.
+        """
+        raise NotImplementedError
+
     def __repr__(self):
         return f"<gfgpu backend {self.name!r} on {self.device}>"

@@ -123,6 +123,11 @@ class NumpyBackend(Backend):
                 dst[i] = res
         return dst
 
+    def suppress_nonmaxima(self, gy, gx, out):
+        from ..edges import suppress_nonmaxima_reference
+        out[...] = suppress_nonmaxima_reference(gy, gx)
+        return out
+
     def gather(self, src, index, cval, out):
         flat = src.reshape(-1)
         idx = np.asarray(index)

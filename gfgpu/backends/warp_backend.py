@@ -263,6 +263,14 @@ class WarpBackend(Backend):
             raise ValueError(f"index holds {top}, beyond the source's {size} elements")
         return dev
 
+    def suppress_nonmaxima(self, gy, gx, out):
+        from ..kernels.warp import edges
+        if not (gy.shape == gx.shape == out.shape) or len(out.shape) != 2:
+            raise ValueError(f"gy, gx and out must be 2-D arrays of one shape, got {gy.shape}, "
+                             f"{gx.shape}, {out.shape}")
+        self._wp.launch(edges.suppress_nonmaxima, dim=out.shape, inputs=[gy, gx, out], device=self._device)
+        return out
+
     def gather(self, src, index, cval, out):
         wp = self._wp
         if src.dtype != out.dtype:

@@ -1,0 +1,36 @@
+// Interpolated non-maximum suppression for the edge detector (-D REAL=float|double).
+// Executable specification: gfgpu.edges.suppress_nonmaxima_reference.
+#ifdef GFGPU_DOUBLE
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+inline REAL magnitude_at(__global const REAL *gy, __global const REAL *gx, int i, int j, int w)
+{
+    const REAL a = gy[i * w + j], b = gx[i * w + j];
+    return sqrt(a * a + b * b);
+}
+
+// out = |g| where |g| is a maximum along the gradient line (neighbours interpolated between
+// the two pixels straddling it), else 0; ties keep the +g side only; border pixels are 0.
+__kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *gx,
+                                 __global REAL *out, const int h, const int w)
+{
+    const int j = get_global_id(0), i = get_global_id(1);
+    if (i >= h || j >= w) return;
+    if (i == 0 || j == 0 || i == h - 1 || j == w - 1) { out[i * w + j] = (REAL)0; return; }
+    const REAL vy = gy[i * w + j], vx = gx[i * w + j];
+    const REAL m = sqrt(vy * vy + vx * vx);
+    if (m == (REAL)0) { out[i * w + j] = (REAL)0; return; }
+    const int s = (vy * vx < (REAL)0) ? -1 : 1;
+    REAL plus, minus;
+    if (fabs(vy) >= fabs(vx)) {
+        const REAL t = fabs(vx) / fabs(vy);
+        plus = ((REAL)1 - t) * magnitude_at(gy, gx, i + 1, j, w) + t * magnitude_at(gy, gx, i + 1, j + s, w);
+        minus = ((REAL)1 - t) * magnitude_at(gy, gx, i - 1, j, w) + t * magnitude_at(gy, gx, i - 1, j - s, w);
+    } else {
+        const REAL t = fabs(vy) / fabs(vx);
+        plus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j + 1, w) + t * magnitude_at(gy, gx, i + s, j + 1, w);
+        minus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j - 1, w) + t * magnitude_at(gy, gx, i - s, j - 1, w);
+    }
+    out[i * w + j] = (m >= plus && m > minus) ? m : (REAL)0;
+}

@@ -1,0 +1,60 @@
+"""Warp kernel of the edge detector: interpolated non-maximum suppression.
+
+Executable specification: :func:`gfgpu.edges.suppress_nonmaxima_reference`.
+"""
+
+from typing import Any
+
+import warp as wp
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.func
+def _magnitude(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), i: int, j: int):
+    return wp.sqrt(gy[i, j] * gy[i, j] + gx[i, j] * gx[i, j])
+
+
+@wp.kernel
+def suppress_nonmaxima(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), out: wp.array2d(dtype=Any)):
+    """``out = |g|`` where it is a maximum along the gradient (interpolated), else 0.
+
+    The two neighbours along ±g are interpolated linearly between the two pixels that
+    straddle the gradient line in the next row (|gy| >= |gx|) or column; ties keep the pixel
+    on the +g side only, so a symmetric two-pixel crest gives one edge.  Border pixels are 0.
+    """
+    i, j = wp.tid()
+    h = out.shape[0]
+    w = out.shape[1]
+    zero = type(out[i, j])(0.0)
+    if i == 0 or j == 0 or i == h - 1 or j == w - 1:
+        out[i, j] = zero
+        return
+    ay = wp.abs(gy[i, j])
+    ax = wp.abs(gx[i, j])
+    m = _magnitude(gy, gx, i, j)
+    if m == zero:
+        out[i, j] = zero
+        return
+    s = 1
+    if gy[i, j] * gx[i, j] < zero:
+        s = -1
+    plus = zero
+    minus = zero
+    if ay >= ax:
+        t = ax / ay
+        plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i + 1, j) + t * _magnitude(gy, gx, i + 1, j + s)
+        minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i - 1, j) + t * _magnitude(gy, gx, i - 1, j - s)
+    else:
+        t = ay / ax
+        plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j + 1) + t * _magnitude(gy, gx, i + s, j + 1)
+        minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j - 1) + t * _magnitude(gy, gx, i - s, j - 1)
+    if m >= plus and m > minus:
+        out[i, j] = m
+    else:
+        out[i, j] = zero
+
+
+for _real in (wp.float32, wp.float64):
+    wp.overload(suppress_nonmaxima, {"gy": wp.array2d(dtype=_real), "gx": wp.array2d(dtype=_real),
+                                     "out": wp.array2d(dtype=_real)})
