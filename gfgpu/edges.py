@@ -26,8 +26,9 @@ def suppress_nonmaxima_reference(gy, gx):
 
     Returns ``|g|`` where it is not smaller than the magnitudes interpolated at ``±g/|g|``
     (linear interpolation between the two pixels of the next row, if ``|gy| >= |gx|``, or
-    column, that straddle the gradient line), else 0.  A tie keeps the pixel on the ``+g``
-    side only.  Border pixels are 0.
+    column, that straddle the gradient line), else 0.  A tie with the ``-g`` (darker)
+    neighbour keeps this pixel and a tie with the ``+g`` neighbour does not, so a symmetric
+    two-pixel crest gives one edge pixel, on the brighter side.  Border pixels are 0.
     """
     gy = np.asarray(gy)
     gx = np.asarray(gx)
@@ -53,7 +54,7 @@ def suppress_nonmaxima_reference(gy, gx):
                   mag[np.clip(ii - s, 0, mag.shape[0] - 1), jj - 1])
     plus = (1 - t) * a1 + t * a2
     minus = (1 - t) * b1 + t * b2
-    out[c] = np.where((m > 0) & (m >= plus) & (m > minus), m, 0)
+    out[c] = np.where((m > 0) & (m > plus) & (m >= minus), m, 0)
     return out
 
 
@@ -142,9 +143,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
         if mask.shape != job.shape:
             raise ValueError(f"mask must have the image's shape {job.shape}, got {mask.shape}")
         mask = mask.astype(bool)
+    # data lives on the backend, so the gradient stays there for the suppression kernel
     gy, gx = gradient(data, u, mode=mode, cval=cval, a=a, eta=eta, single_scale=single_scale, backend=be)
-    if job.host_input:
-        gy, gx = be.asarray(gy), be.asarray(gx)
     suppressed = be.empty(job.shape, job.dtype)
     be.suppress_nonmaxima(gy, gx, suppressed)
     nms = be.to_host(suppressed)

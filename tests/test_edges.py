@@ -86,3 +86,12 @@ def test_canny_bad_inputs(kwargs, exc, match):
         gfgpu.canny(img, **{"u": 1.0, **kwargs}, backend="numpy")
     with pytest.raises(ValueError, match="2-D"):
         gfgpu.canny(np.ones((3, 4, 5)), 1.0, backend="numpy")
+
+
+def test_step_edge_is_marked_once_on_the_bright_side(backend):
+    img = np.zeros((40, 48))
+    img[:, 20:] = 1.0
+    edges = gfgpu.canny(img, 1.0, backend=backend)
+    cols = np.unique(np.nonzero(edges)[1])
+    assert cols.tolist() == [20]
+    assert edges[1:-1, 20].all()

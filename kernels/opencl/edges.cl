@@ -11,7 +11,8 @@ inline REAL magnitude_at(__global const REAL *gy, __global const REAL *gx, int i
 }
 
 // out = |g| where |g| is a maximum along the gradient line (neighbours interpolated between
-// the two pixels straddling it), else 0; ties keep the +g side only; border pixels are 0.
+// the two pixels straddling it), else 0; a tie with the -g neighbour keeps the pixel, a tie with
+// the +g neighbour does not (one pixel per symmetric crest, on the brighter side); border pixels 0.
 __kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *gx,
                                  __global REAL *out, const int h, const int w)
 {
@@ -32,5 +33,5 @@ __kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *g
         plus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j + 1, w) + t * magnitude_at(gy, gx, i + s, j + 1, w);
         minus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j - 1, w) + t * magnitude_at(gy, gx, i - s, j - 1, w);
     }
-    out[i * w + j] = (m >= plus && m > minus) ? m : (REAL)0;
+    out[i * w + j] = (m > plus && m >= minus) ? m : (REAL)0;
 }

@@ -20,8 +20,9 @@ def suppress_nonmaxima(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), out
     """``out = |g|`` where it is a maximum along the gradient (interpolated), else 0.
 
     The two neighbours along ±g are interpolated linearly between the two pixels that
-    straddle the gradient line in the next row (|gy| >= |gx|) or column; ties keep the pixel
-    on the +g side only, so a symmetric two-pixel crest gives one edge.  Border pixels are 0.
+    straddle the gradient line in the next row (|gy| >= |gx|) or column; a tie with the -g
+    neighbour keeps the pixel, a tie with the +g neighbour does not (one edge pixel per
+    symmetric crest, on the brighter side).  Border pixels are 0.
     """
     i, j = wp.tid()
     h = out.shape[0]
@@ -49,7 +50,7 @@ def suppress_nonmaxima(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), out
         t = ay / ax
         plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j + 1) + t * _magnitude(gy, gx, i + s, j + 1)
         minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j - 1) + t * _magnitude(gy, gx, i - s, j - 1)
-    if m >= plus and m > minus:
+    if m > plus and m >= minus:
         out[i, j] = m
     else:
         out[i, j] = zero
