@@ -20,6 +20,9 @@ __all__ = ["canny", "suppress_nonmaxima_reference"]
 #: magnitude, which is 8 x the slope, so these select the same edges.
 DEFAULT_LOW, DEFAULT_HIGH = 0.1 / 8, 0.2 / 8
 
+#: relative difference below which two magnitudes are a tie in non-maximum suppression
+TIE_RTOL = 1e-5
+
 
 def suppress_nonmaxima_reference(gy, gx):
     """Interpolated non-maximum suppression (numpy; the kernels' specification).
@@ -28,7 +31,9 @@ def suppress_nonmaxima_reference(gy, gx):
     (linear interpolation between the two pixels of the next row, if ``|gy| >= |gx|``, or
     column, that straddle the gradient line), else 0.  A tie with the ``-g`` (darker)
     neighbour keeps this pixel and a tie with the ``+g`` neighbour does not, so a symmetric
-    two-pixel crest gives one edge pixel, on the brighter side.  Border pixels are 0.
+    two-pixel crest gives one edge pixel, on the brighter side; magnitudes within a relative
+    ``TIE_RTOL`` (1e-5) count as tied, since a crest straddling two pixels is only equal up to
+    the gradient's rounding.  Border pixels are 0.
     """
     gy = np.asarray(gy)
     gx = np.asarray(gx)
@@ -54,7 +59,8 @@ def suppress_nonmaxima_reference(gy, gx):
                   mag[np.clip(ii - s, 0, mag.shape[0] - 1), jj - 1])
     plus = (1 - t) * a1 + t * a2
     minus = (1 - t) * b1 + t * b2
-    out[c] = np.where((m > 0) & (m > plus) & (m >= minus), m, 0)
+    tol = TIE_RTOL * m
+    out[c] = np.where((m > 0) & (m > plus + tol) & (m >= minus - tol), m, 0)
     return out
 
 

@@ -33,5 +33,6 @@ __kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *g
         plus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j + 1, w) + t * magnitude_at(gy, gx, i + s, j + 1, w);
         minus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j - 1, w) + t * magnitude_at(gy, gx, i - s, j - 1, w);
     }
-    out[i * w + j] = (m > plus && m >= minus) ? m : (REAL)0;
+    const REAL tol = (REAL)1e-5 * m;   // gfgpu.edges.TIE_RTOL: equal up to rounding is a tie
+    out[i * w + j] = (m > plus + tol && m >= minus - tol) ? m : (REAL)0;
 }

@@ -50,7 +50,8 @@ def suppress_nonmaxima(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), out
         t = ay / ax
         plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j + 1) + t * _magnitude(gy, gx, i + s, j + 1)
         minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j - 1) + t * _magnitude(gy, gx, i - s, j - 1)
-    if m > plus and m >= minus:
+    tol = type(m)(1.0e-5) * m   # gfgpu.edges.TIE_RTOL: equal up to rounding is a tie
+    if m > plus + tol and m >= minus - tol:
         out[i, j] = m
     else:
         out[i, j] = zero
