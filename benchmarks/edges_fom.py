@@ -274,7 +274,7 @@ def pick_backend(requested):
             gfgpu.canny(probe, 1.0, backend=name)
             be = gfgpu.backends.resolve_backend(name)
             return name, be, tried
-        except Exception as exc:  # noqa: BLE001 - report and fall back
+        except Exception as exc:
             tried.append(f"{name or 'default'}: {type(exc).__name__}: {str(exc).splitlines()[0][:120]}")
     raise RuntimeError("no gfgpu backend runs: " + "; ".join(tried))
 
@@ -382,7 +382,7 @@ def time_detectors(size, deriche):
             desc = str(gfgpu.backends.get_backend(be)).replace("<gfgpu backend ", "").rstrip(">")
             t = bench(lambda be=be: gfgpu.canny(img, 2.0, backend=be))
             rows.append((label, desc, f"{1e3 * t:.1f}", f"{mpix / t:.1f}"))
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             rows.append((label, be, "unavailable", f"{type(exc).__name__}: {str(exc).splitlines()[0][:70]}"))
     t = bench(lambda: skf.canny(img, 2.0))
     rows.append(("skimage.feature.canny sigma=2", "numpy/scipy (host)", f"{1e3 * t:.1f}", f"{mpix / t:.1f}"))
@@ -391,7 +391,7 @@ def time_detectors(size, deriche):
             t = bench(lambda: deriche_canny(img, 0.5, 0.8, 0.9))
             rows.append(("cv2.ximgproc Deriche + gfgpu NMS/hysteresis", "OpenCV + numpy", f"{1e3 * t:.1f}",
                          f"{mpix / t:.1f}"))
-        except Exception as exc:  # noqa: BLE001
+        except Exception as exc:
             rows.append(("cv2.ximgproc Deriche", "OpenCV", "unavailable", type(exc).__name__))
     else:
         rows.append(("cv2.ximgproc Deriche", "-", "skipped", "cv2.ximgproc not installed (opencv-contrib)"))

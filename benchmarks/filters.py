@@ -51,9 +51,9 @@ def cold_compile(name):
     code = (
         "import time, numpy as np, gfgpu\n"
         "img = np.ones((64, 64), np.float32)\n"
-        "t0 = time.perf_counter(); gfgpu.gradient(img, 1.0, backend=%r); t1 = time.perf_counter()\n"
-        "gfgpu.gradient(img, 1.0, backend=%r); t2 = time.perf_counter()\n"
-        "print(t1 - t0, t2 - t1)\n" % (name, name))
+        f"t0 = time.perf_counter(); gfgpu.gradient(img, 1.0, backend={name!r}); t1 = time.perf_counter()\n"
+        f"gfgpu.gradient(img, 1.0, backend={name!r}); t2 = time.perf_counter()\n"
+        "print(t1 - t0, t2 - t1)\n")
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, WARP_CACHE_PATH=os.path.join(tmp, "warp"),
                    PYOPENCL_CACHE_DIR=os.path.join(tmp, "pyopencl"), POCL_CACHE_DIR=os.path.join(tmp, "pocl"),
@@ -63,6 +63,28 @@ def cold_compile(name):
         return None, None
     first, second = (float(v) for v in res.stdout.split()[-2:])
     return first, second
+
+
+def bench_backend(be, img, repeat, record):
+    """Rows for one backend: the raw primitive, the public calls (device arrays in and out)."""
+    n = img.shape[0]
+    dev = be.asarray(img)
+    out = be.empty(img.shape, np.float32)
+    src3, dst3 = be.reshape(dev, (1, n, n)), be.reshape(out, (1, n, n))
+    plan = recursion.plan_pass(greens.UniformGreen(U).line_pass(), n, "reflect", np.float32)
+    sync = be.synchronize
+    g = greens.UniformGreen(U)
+    tag = f"gfgpu {be.name} ({be.device})"
+    record(f"{tag}: G_u pass, rows (primitive)", best_time(lambda: be.recurse(src3, dst3, 2, plan), repeat, sync))
+    record(f"{tag}: G_u pass, columns (primitive)", best_time(lambda: be.recurse(src3, dst3, 1, plan), repeat, sync))
+    record(f"{tag}: green_filter, rows", best_time(
+        lambda: gfgpu.green_filter(dev, g, axis=1, backend=be), repeat, sync), "device array in/out")
+    record(f"{tag}: green_filter, columns", best_time(
+        lambda: gfgpu.green_filter(dev, g, axis=0, backend=be), repeat, sync))
+    record(f"{tag}: shift (1.5, 2.5)", best_time(
+        lambda: gfgpu.shift(dev, (1.5, 2.5), backend=be), repeat, sync), "2 passes")
+    record(f"{tag}: gradient u=1", best_time(
+        lambda: gfgpu.gradient(dev, 1.0, backend=be), repeat, sync), "8 passes, 2 outputs")
 
 
 def main(argv=None):
@@ -111,32 +133,13 @@ def main(argv=None):
 
     # ---- gfgpu backends ---------------------------------------------------------------
     cold = {}
-    lp = greens.UniformGreen(U).line_pass()
     for name in args.backends.split(","):
         try:
             be = get_backend(name)
         except Exception as exc:  # report and carry on with the others
             print(f"# {name}: unavailable ({exc})", file=sys.stderr)
             continue
-        dev = be.asarray(img)
-        out = be.empty(img.shape, np.float32)
-        src3, dst3 = be.reshape(dev, (1, n, n)), be.reshape(out, (1, n, n))
-        plan = recursion.plan_pass(lp, n, "reflect", np.float32)
-        sync = be.synchronize
-        tag = f"gfgpu {name} ({be.device})"
-        record(f"{tag}: G_u pass, rows (primitive)",
-               best_time(lambda: be.recurse(src3, dst3, 2, plan), args.repeat, sync))
-        record(f"{tag}: G_u pass, columns (primitive)",
-               best_time(lambda: be.recurse(src3, dst3, 1, plan), args.repeat, sync))
-        G = greens.UniformGreen(U)
-        record(f"{tag}: green_filter, rows", best_time(
-            lambda: gfgpu.green_filter(dev, G, axis=1, backend=be), args.repeat, sync), "device array in/out")
-        record(f"{tag}: green_filter, columns", best_time(
-            lambda: gfgpu.green_filter(dev, G, axis=0, backend=be), args.repeat, sync))
-        record(f"{tag}: shift (1.5, 2.5)", best_time(
-            lambda: gfgpu.shift(dev, (1.5, 2.5), backend=be), args.repeat, sync), "2 passes")
-        record(f"{tag}: gradient u=1", best_time(
-            lambda: gfgpu.gradient(dev, 1.0, backend=be), args.repeat, sync), "8 passes, 2 outputs")
+        bench_backend(be, img, args.repeat, record)
         if not args.no_cold:
             cold[name] = cold_compile(name)
 

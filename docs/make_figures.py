@@ -8,11 +8,11 @@ import os
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-import gfgpu  # noqa: E402
-from gfgpu import greens  # noqa: E402
+import gfgpu
+from gfgpu import greens
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -50,8 +50,9 @@ def kernels_figure(path):
 
 
 def gradient_figure(path):
-    import imageio.v3 as iio
     from importlib import resources
+
+    import imageio.v3 as iio
     img = iio.imread(resources.files("gfgpu.data").joinpath("camera.png")).astype(np.float32)
     fig, axs = plt.subplots(1, 3, figsize=(12, 4.2))
     axs[0].imshow(img, cmap="gray")

@@ -126,8 +126,9 @@ def main(argv=None):
             print(d)
         return 0
 
-    import gfgpu
     from tqdm import tqdm
+
+    import gfgpu
 
     image, label = _read(args.image, args.example)
     img, axes = _grey_or_channels(image)

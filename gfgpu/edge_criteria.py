@@ -97,9 +97,9 @@ def gaussian_derivative_criteria():
     def integral(g):
         return 2 * integrate.quad(g, 0, np.inf, epsabs=1e-14, epsrel=1e-12, limit=200)[0]
 
-    f = lambda x: x * np.exp(-x * x / 2)                      # noqa: E731  (-f for x > 0, sign-free)
-    d1 = lambda x: (1 - x * x) * np.exp(-x * x / 2)           # noqa: E731
-    d2 = lambda x: (x**3 - 3 * x) * np.exp(-x * x / 2)        # noqa: E731
+    f = lambda x: x * np.exp(-x * x / 2)
+    d1 = lambda x: (1 - x * x) * np.exp(-x * x / 2)
+    d2 = lambda x: (x**3 - 3 * x) * np.exp(-x * x / 2)
     e0, e1, e2 = integral(lambda x: f(x) ** 2), integral(lambda x: d1(x) ** 2), integral(lambda x: d2(x) ** 2)
     area = integral(f) / 2
     m2 = integral(lambda x: x * x * f(x) ** 2)

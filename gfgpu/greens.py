@@ -234,7 +234,7 @@ class Section:
 
     lam: complex | None = None
     kap: complex | None = None
-    kernel: "GreenKernel | None" = None
+    kernel: GreenKernel | None = None
 
     @property
     def shift_invariant(self):

@@ -6,7 +6,7 @@ import pytest
 
 sys.path.insert(0, os.path.dirname(__file__))
 
-from gfgpu.backends import BACKENDS, BackendUnavailable, get_backend  # noqa: E402
+from gfgpu.backends import BACKENDS, BackendUnavailable, get_backend
 
 
 def _available(name):

@@ -19,7 +19,9 @@ def test_grid_optimum_is_a11_eta35():
 
 
 def test_reference_filters():
-    assert ec.deriche_criteria(1.0).index == pytest.approx(4 * np.sqrt(2) * np.pi * np.sqrt(2) / np.sqrt(6 * 10), rel=1e-12)
+    # closed form for Deriche's family: 4√2 π (1+m²)^½ / ((5+m²)(6+3m²+m⁴))^½, here m = 1
+    closed = 4 * np.sqrt(2) * np.pi * np.sqrt(2) / np.sqrt(6 * 10)
+    assert ec.deriche_criteria(1.0).index == pytest.approx(closed, rel=1e-12)
     best = max(ec.deriche_criteria(m).index for m in np.linspace(0.5, 0.8, 301))
     assert best == pytest.approx(3.336, abs=1e-3)
     assert ec.gaussian_derivative_criteria().index == pytest.approx(2.989, abs=1e-3)
@@ -27,7 +29,7 @@ def test_reference_filters():
 
 def test_closed_form_integrals_match_quadrature():
     """The closed-form Σ, Λ of D(x) agree with quadrature of greens.edge_derivative."""
-    f = lambda x: float(greens.edge_derivative(x, 1.0))  # noqa: E731
+    f = lambda x: float(greens.edge_derivative(x, 1.0))
     e0 = 2 * integrate.quad(lambda x: f(x) ** 2, 0, np.inf, limit=400)[0]
     area = integrate.quad(f, -np.inf, 0, limit=400)[0]
     h = 1e-6

@@ -5,12 +5,12 @@ from scipy import integrate
 
 from gfgpu import greens
 
-quad = lambda f, a, b: integrate.quad(f, a, b, limit=400, epsabs=1e-13, epsrel=1e-12)[0]  # noqa: E731
+quad = lambda f, a, b: integrate.quad(f, a, b, limit=400, epsabs=1e-13, epsrel=1e-12)[0]
 
 
 @pytest.mark.parametrize("u", [0.5, 1.0, 3.0])
 def test_g_u_moments_and_equation(u):
-    g = lambda t: float(greens.g_uniform(t, u))  # noqa: E731
+    g = lambda t: float(greens.g_uniform(t, u))
     assert quad(g, 0, np.inf) == pytest.approx(1, abs=1e-9)
     assert quad(lambda t: t * g(t), 0, np.inf) == pytest.approx(u, abs=1e-9)      # mean u
     assert quad(lambda t: t * t * g(t), 0, np.inf) == pytest.approx(u * u, abs=1e-8)  # variance 0
@@ -25,7 +25,7 @@ def test_g_u_moments_and_equation(u):
 
 def test_h_u_moments_and_relation():
     u = 1.3
-    hfun = lambda t: float(greens.h_homogeneous(t, u))  # noqa: E731
+    hfun = lambda t: float(greens.h_homogeneous(t, u))
     assert quad(hfun, 0, np.inf) == pytest.approx(1, abs=1e-9)
     assert quad(lambda t: t * hfun(t), 0, np.inf) == pytest.approx(0, abs=1e-9)
     assert quad(lambda t: t * t * hfun(t), 0, np.inf) == pytest.approx(-u * u, abs=1e-8)
@@ -39,8 +39,8 @@ def test_affine_exact_is_a_zero_variance_affine_warp(u1):
     # integrate over t = log(s/s0), x0 = x_U + s e^{-t}, dx0 = s e^{-t} dt (removes the singularity)
     # where G |dx0/dt| = (2/(u1^2 beta)) e^{alpha t} sin(beta t) (checked against g_affine first)
     alpha, beta = 0.5 - 1 / u1, np.sqrt(1 + u1 - u1 * u1 / 4) / u1
-    x0 = lambda t: x_U + s * np.exp(-t)  # noqa: E731
-    g = lambda t: 2 / (u1 * u1 * beta) * np.exp(alpha * t) * np.sin(beta * t)  # noqa: E731
+    x0 = lambda t: x_U + s * np.exp(-t)
+    g = lambda t: 2 / (u1 * u1 * beta) * np.exp(alpha * t) * np.sin(beta * t)
     ts = np.linspace(0.01, 10, 37)  # beyond, x0 - x_U loses digits to cancellation
     np.testing.assert_allclose(greens.g_affine(x, x0(ts), u1, x_U) * s * np.exp(-ts), g(ts),
                                rtol=1e-9, atol=1e-12)
@@ -54,7 +54,7 @@ def test_affine_exact_is_a_zero_variance_affine_warp(u1):
 
 def test_affine_approx_shift_is_sigma2_over_xu():
     sigma, x_U = 10.0, -400.0
-    g = lambda x0: float(greens.g_affine_approx(0.0, x0, sigma, x_U))  # noqa: E731
+    g = lambda x0: float(greens.g_affine_approx(0.0, x0, sigma, x_U))
     m0 = quad(g, x_U, 0)
     d = quad(lambda x0: -x0 * g(x0), x_U, 0) / m0
     u0, u1 = sigma**2 / abs(x_U), sigma**2 / x_U**2

@@ -18,7 +18,7 @@ import contextlib
 import contextvars
 import os
 from dataclasses import dataclass
-from functools import lru_cache
+from functools import cache, lru_cache
 
 from .base import Backend, BackendUnavailable
 
@@ -45,7 +45,7 @@ def _device_key(device):
         return id(device)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _make(name, device_key, device):
     if name == "numpy":
         if device not in (None, "host", "cpu"):
