@@ -1,9 +1,10 @@
 """The OpenCL backend: ``pyopencl.array.Array`` data on any OpenCL device (PoCL on the CPU, GPUs).
 
 PyOpenCL is imported lazily: importing this module neither imports PyOpenCL nor creates a
-context.  The one device source, ``gfgpu/kernels/opencl/recurse.cl``, is built on first use,
-specialised by ``-D`` defines (real type, sections, constant coefficients, lanes, layout),
-and cached per (context, defines).  PyOpenCL caches the binaries on disk by source and
+context.  The device sources (``gfgpu/kernels/opencl/recurse.cl``: the recursion primitive,
+gather and the non-finite check; ``edges.cl``: non-maximum suppression) are built on first
+use, specialised by ``-D`` defines (real type, sections, constant coefficients, lanes,
+layout), and cached per (context, source, defines).  PyOpenCL caches the binaries on disk by source and
 options (``PYOPENCL_CACHE_DIR``) and PoCL keeps its own cache (``POCL_CACHE_DIR``), so only
 the first process on a machine pays the compile time.
 """
@@ -11,7 +12,7 @@ the first process on a machine pays the compile time.
 from __future__ import annotations
 
 from collections import OrderedDict
-from functools import lru_cache
+from functools import cache
 
 import numpy as np
 
@@ -23,15 +24,15 @@ _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _GPU_GROUP = 64            # work-group size on non-CPU devices (a multiple of warp/wavefront)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
 
-_programs = {}             # (context, defines) -> built pyopencl.Program
-_kernels = {}              # (context, defines, name) -> pyopencl.Kernel (one object per kernel)
+_programs = {}             # (context, source, defines) -> built pyopencl.Program
+_kernels = {}              # (context, source, defines, name) -> pyopencl.Kernel (one per kernel)
 _queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
 
 
 def _import_cl():
     try:
         import pyopencl as cl
-        import pyopencl.array  # noqa: F401  (registers cl.array)
+        import pyopencl.array  # registers cl.array
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise BackendUnavailable(f"pyopencl not installed ({exc})") from exc
     return cl
@@ -58,15 +59,18 @@ def opencl_devices():
     """
     try:
         cl = _import_cl()
+    except BackendUnavailable:
+        return []
+    try:
         platforms = cl.get_platforms()
-    except Exception:  # no ICD loader, no platform: nothing to list (unavailable_reason says why)
+    except cl.Error:  # no platform: nothing to list (unavailable_reason says why)
         return []
     devs = []
     for platform in platforms:
         try:
             devs.extend(platform.get_devices())
-        except Exception:  # a platform without devices raises DEVICE_NOT_FOUND
-            continue
+        except cl.Error:  # a platform without devices raises DEVICE_NOT_FOUND
+            pass
     return [(i, d, _kind(d)) for i, d in enumerate(devs)]
 
 
@@ -85,7 +89,7 @@ def unavailable_reason():
         return str(exc)
     try:
         platforms = cl.get_platforms()
-    except Exception:
+    except cl.Error:  # PLATFORM_NOT_FOUND_KHR from the ICD loader
         platforms = []
     if not platforms:
         return "no OpenCL platform found: install pocl-binary-distribution (CPU) or a GPU driver's ICD"
@@ -94,22 +98,24 @@ def unavailable_reason():
     return None
 
 
-@lru_cache(maxsize=1)
-def _source():
+@cache
+def _source(name):
     from importlib.resources import files
-    return files("gfgpu.kernels.opencl").joinpath("recurse.cl").read_text()
+    return files("gfgpu.kernels.opencl").joinpath(name).read_text()
 
 
-def _program(context, defines):
-    """The program built with ``defines`` (a sorted tuple of (name, value)), cached."""
-    key = (context, defines)
+def _program(context, source, defines):
+    """The program of ``source`` built with ``defines`` (sorted (name, value) pairs), cached."""
+    key = (context, source, defines)
     prog = _programs.get(key)
     if prog is None:
         import pyopencl as cl
-        options = [f"-D{k}={v}" for k, v in defines]
-        # no fast-math: accuracy relies on IEEE arithmetic; PyOpenCL's binary cache is keyed by
-        # source + options + device, so later processes skip the compiler
-        prog = cl.Program(context, _source()).build(options=options)
+        # no fast-math: accuracy relies on IEEE arithmetic.  -w: PoCL warns on every 512-bit
+        # vector argument (an x86 ABI note), which PyOpenCL would surface as CompilerWarning.
+        # PyOpenCL's binary cache is keyed by source + options + device: later processes
+        # skip the compiler.
+        options = [f"-D{k}={v}" for k, v in defines] + ["-w"]
+        prog = cl.Program(context, _source(source)).build(options=options)
         _programs[key] = prog
     return prog
 
@@ -188,12 +194,11 @@ class OpenCLBackend(Backend):
         self.kind = _kind(dev)
         try:
             fp64 = bool(dev.double_fp_config)
-        except Exception:  # devices without fp64 may reject the query
+        except cl.Error:  # devices without fp64 may reject the query
             fp64 = False
         self.supports_float64 = fp64 or "cl_khr_fp64" in dev.extensions
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
-        self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index)
-        self._finite = {}              # dtype -> ReductionKernel counting non-finite values
+        self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
 
     def _find_device(self, device):
         devs = opencl_devices()
@@ -240,26 +245,39 @@ class OpenCLBackend(Backend):
         return array.get(queue=self.queue)
 
     def empty(self, shape, dtype):
-        return self._array.empty(self.queue, tuple(shape), self._check_dtype(dtype))
+        shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(shape)
+        return self._array.empty(self.queue, shape, self._check_dtype(dtype))
 
     def reshape(self, array, shape):
         return array.reshape(tuple(shape))
 
     def all_finite(self, array):
         dtype = np.dtype(array.dtype)
-        if dtype not in _REALS:
+        if dtype not in _REALS or array.size == 0:
             return True   # integer arrays hold no NaN or infinity
-        if array.size == 0:
-            return True
-        knl = self._finite.get(dtype)
-        if knl is None:
-            from pyopencl.reduction import ReductionKernel
-            from pyopencl.tools import dtype_to_ctype
-            knl = self._finite[dtype] = ReductionKernel(
-                self.context, np.int64, neutral="0", reduce_expr="a+b",
-                map_expr="isfinite(x[i]) ? 0 : 1", arguments=f"const {dtype_to_ctype(dtype)} *x")
-        flat = array.reshape(-1) if array.flags.c_contiguous else array.copy().reshape(-1)
-        return int(knl(flat, queue=self.queue).get()) == 0
+        if not array.flags.c_contiguous:
+            return bool(np.isfinite(array.get(queue=self.queue)).all())
+        size = array.size
+        if self.kind == "cpu":
+            # a few contiguous chunks per core
+            items = min(size, 8 * self._device.max_compute_units)
+            chunk = -(-size // items)
+            first, stride, count, group = chunk, 1, chunk, 1
+        else:
+            # grid-stride loop: adjacent work-items read adjacent elements
+            group = self._group()
+            items = min(-(-size // group), 256 * self._device.max_compute_units) * group
+            first, stride, count = 1, items, -(-size // items)
+        mf = self._cl.mem_flags
+        flag = np.zeros(1, np.int32)
+        flag_buf = self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+        knl = self._kernel("any_nonfinite", dtype)
+        args = (array.base_data, np.int64(array.offset // dtype.itemsize), np.int64(size),
+                np.int64(first), np.int64(stride), np.int64(count), flag_buf)
+        gsize = -(-items // group) * group
+        evt = knl(self.queue, (gsize,), (group,), *args, wait_for=array.events or None)
+        self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
+        return int(flag[0]) == 0
 
     def synchronize(self):
         self.queue.finish()
@@ -272,14 +290,14 @@ class OpenCLBackend(Backend):
     def _group(self):
         return 1 if self.kind == "cpu" else min(_GPU_GROUP, self._device.max_work_group_size)
 
-    def _kernel(self, name, dtype, **defines):
+    def _kernel(self, name, dtype, source="recurse.cl", **defines):
         real = "double" if dtype == np.float64 else "float"
         defines = tuple(sorted(dict(REAL=real, **defines).items()))
-        key = (self.context, defines, name)
+        key = (self.context, source, defines, name)
         knl = _kernels.get(key)
         if knl is None:
             # each attribute access would create a new kernel object: keep one
-            knl = _kernels[key] = getattr(_program(self.context, defines), name)
+            knl = _kernels[key] = getattr(_program(self.context, source, defines), name)
         return knl
 
     def _plan_buffers(self, plan, dtype):
@@ -352,12 +370,14 @@ class OpenCLBackend(Backend):
         return dst
 
     def _index_array(self, index, size):
-        """Upload a gather index once per identity, as int32 (the kernel's index type)."""
+        """Upload a gather index once per identity, as int32 (the kernel's index type).
+
+        Returns the device array (None when empty) and its element count.
+        """
         key = id(index)
         hit = self._indices.get(key)
         if hit is not None and hit[0] is index:
             self._indices.move_to_end(key)
-            dev, top = hit[1], hit[2]
         else:
             idx = np.asarray(index).reshape(-1)
             if idx.dtype.kind not in "iu":
@@ -366,15 +386,16 @@ class OpenCLBackend(Backend):
             if top >= 2**31:
                 raise ValueError(f"index holds {top}: the OpenCL gather takes int32 indices "
                                  f"(sources of at most 2**31 elements)")
+            # every negative index means cval: clamping keeps int64 values in int32 range
             idx = np.ascontiguousarray(np.maximum(idx, -1) if idx.dtype.kind == "i" else idx, np.int32)
             dev = self._array.to_device(self.queue, idx) if idx.size else None
-            self._indices[key] = (index, dev, top, idx.size)
+            hit = self._indices[key] = (index, dev, top, idx.size)   # keeping index keeps its id unique
             if len(self._indices) > _INDEX_CACHE_SIZE:
                 self._indices.popitem(last=False)
-            hit = self._indices[key]
+        _, dev, top, count = hit
         if top >= size:
             raise ValueError(f"index holds {top}, beyond the source's {size} elements")
-        return hit[1], hit[3]
+        return dev, count
 
     def gather(self, src, index, cval, out):
         for arg, a in (("src", src), ("out", out)):
@@ -395,10 +416,41 @@ class OpenCLBackend(Backend):
             return out
         knl = self._kernel("gather", dtype)
         item = dtype.itemsize
-        group = 64 if self.kind == "cpu" else self._group()   # PoCL vectorises across a group
+        # on a CPU, PoCL vectorises the loop over a group's work-items: 64 per group, not 1
+        group = 64 if self.kind == "cpu" else self._group()
         gsize = (-(-out.size // group) * group,)
         args = (src.base_data, np.int64(src.offset // item), dev_index.data, out.base_data,
                 np.int64(out.offset // item), dtype.type(cval), np.int64(out.size))
         self._launch(knl, gsize, (group,), [src, dev_index], [out], args)
+        return out
+
+    # ---- edges ----------------------------------------------------------------------
+    def suppress_nonmaxima(self, gy, gx, out):
+        for arg, a in (("gy", gy), ("gx", gx), ("out", out)):
+            if not self.owns(a):
+                raise TypeError(f"{arg} must be a pyopencl.array.Array in the context of {self.device}, "
+                                f"got {type(a).__name__}")
+        if not (gy.shape == gx.shape == out.shape) or len(out.shape) != 2:
+            raise ValueError(f"gy, gx and out must be 2-D arrays of one shape, got {gy.shape}, "
+                             f"{gx.shape}, {out.shape}")
+        if not (gy.dtype == gx.dtype == out.dtype):
+            raise ValueError(f"gy, gx and out must have one dtype, got {gy.dtype}, {gx.dtype}, {out.dtype}")
+        dtype = self._check_dtype(out.dtype)
+        if dtype not in _REALS:
+            raise TypeError(f"gy must be float32 or float64, got {dtype}")
+        h, w = out.shape
+        if out.size == 0:
+            return out
+        # edges.cl takes plain pointers: views with an offset (or strides) go through copies
+        gy, gx = (a if a.offset == 0 and a.flags.c_contiguous else a.copy() for a in (gy, gx))
+        res = out if out.offset == 0 and out.flags.c_contiguous else self.empty(out.shape, dtype)
+        defines = {"GFGPU_DOUBLE": 1} if dtype == np.float64 else {}
+        knl = self._kernel("suppress_nonmaxima", dtype, source="edges.cl", **defines)
+        group = min(_GPU_GROUP, self._device.max_work_group_size)   # PoCL vectorises a group on CPUs
+        gsize = (-(-w // group) * group, h)
+        self._launch(knl, gsize, (group, 1), [gy, gx], [res],
+                     (gy.data, gx.data, res.data, np.int32(h), np.int32(w)))
+        if res is not out:
+            out.set(res.get(queue=self.queue), queue=self.queue)
         return out
 

@@ -4,9 +4,11 @@
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
-inline REAL magnitude_at(__global const REAL *gy, __global const REAL *gx, int i, int j, int w)
+// static inline: some drivers reject plain inline without optimisation; size_t: > 2^31 pixels
+static inline REAL magnitude_at(__global const REAL *gy, __global const REAL *gx, long i, long j, long w)
 {
-    const REAL a = gy[i * w + j], b = gx[i * w + j];
+    const size_t p = (size_t)(i * w + j);
+    const REAL a = gy[p], b = gx[p];
     return sqrt(a * a + b * b);
 }
 
@@ -16,13 +18,14 @@ inline REAL magnitude_at(__global const REAL *gy, __global const REAL *gx, int i
 __kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *gx,
                                  __global REAL *out, const int h, const int w)
 {
-    const int j = get_global_id(0), i = get_global_id(1);
+    const long j = get_global_id(0), i = get_global_id(1);
     if (i >= h || j >= w) return;
-    if (i == 0 || j == 0 || i == h - 1 || j == w - 1) { out[i * w + j] = (REAL)0; return; }
-    const REAL vy = gy[i * w + j], vx = gx[i * w + j];
+    const size_t p = (size_t)(i * w + j);
+    if (i == 0 || j == 0 || i == h - 1 || j == w - 1) { out[p] = (REAL)0; return; }
+    const REAL vy = gy[p], vx = gx[p];
     const REAL m = sqrt(vy * vy + vx * vx);
-    if (m == (REAL)0) { out[i * w + j] = (REAL)0; return; }
-    const int s = (vy * vx < (REAL)0) ? -1 : 1;
+    if (m == (REAL)0) { out[p] = (REAL)0; return; }
+    const long s = (vy * vx < (REAL)0) ? -1 : 1;
     REAL plus, minus;
     if (fabs(vy) >= fabs(vx)) {
         const REAL t = fabs(vx) / fabs(vy);
@@ -34,5 +37,5 @@ __kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *g
         minus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j - 1, w) + t * magnitude_at(gy, gx, i - s, j - 1, w);
     }
     const REAL tol = (REAL)1e-5 * m;   // gfgpu.edges.TIE_RTOL: equal up to rounding is a tie
-    out[i * w + j] = (m > plus + tol && m >= minus - tol) ? m : (REAL)0;
+    out[p] = (m > plus + tol && m >= minus - tol) ? m : (REAL)0;
 }

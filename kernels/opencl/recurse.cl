@@ -59,10 +59,23 @@
 typedef REAL VT;
 #define VLOAD(p) (*(p))
 #define VSTORE(v, p) (*(p) = (v))
-#elif LANES == 2 || LANES == 4 || LANES == 8 || LANES == 16
+#elif LANES == 2 || LANES == 4
 typedef CAT(REAL, LANES) VT;
 #define VLOAD(p) CAT(vload, LANES)(0, (p))
 #define VSTORE(v, p) CAT(vstore, LANES)((v), 0, (p))
+#elif LANES == 8 || LANES == 16
+/* In two halves: PoCL 3.0 on x86 crashes in code generation on 512-bit vloadn/vstoren
+ * (float16, double8: "Do not know how to scalarize ..." or a segfault); the halves are
+ * adjacent and compile to the same moves. */
+#if LANES == 8
+#define HALF 4
+#else
+#define HALF 8
+#endif
+typedef CAT(REAL, LANES) VT;
+#define VLOAD(p) ((VT)(CAT(vload, HALF)(0, (p)), CAT(vload, HALF)(0, (p) + HALF)))
+#define VSTORE(v, p) do { const VT v_ = (v); CAT(vstore, HALF)(v_.lo, 0, (p)); \
+                          CAT(vstore, HALF)(v_.hi, 0, (p) + HALF); } while (0)
 #else
 #error "LANES must be 1, 2, 4, 8 or 16"
 #endif
@@ -91,11 +104,11 @@ typedef CAT(REAL, LANES) VT;
 /* In-place transpose of the LANES x LANES matrix whose rows are t[0..LANES-1].
  * Each round maps element (r, c) to the position whose index bits [r | c] are rotated left
  * by one; LOG2_LANES rounds give [c | r], the transpose.  Fully unrolled: registers only. */
-inline void transpose(VT *t)
+static inline void transpose(VT *t)
 {
 #if LANES > 1
 #pragma unroll
-    for (int round = 0; round < LOG2_LANES; ++round) {
+    for (int r = 0; r < LOG2_LANES; ++r) {
         VT u[LANES];
 #pragma unroll
         for (int i = 0; i < LANES / 2; ++i) {
@@ -114,8 +127,8 @@ typedef struct {
     REAL lr[SECTIONS], li[SECTIONS], kr[SECTIONS], ki[SECTIONS];
 } coef_t;
 
-inline void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *kap,
-                      const int n, const int k)
+static inline void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *kap,
+                             const int n, const int k)
 {
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -127,8 +140,9 @@ inline void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *
     }
 }
 
-/* One step on LANES lines: returns y = sum_s Re F_s + tap v and advances the state. */
-inline VT step(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
+/* One step on LANES lines: returns y = sum_s Re F_s + tap v and advances the state
+ * (named `advance`: `step` is an OpenCL builtin). */
+static inline VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
 {
     VT y = fr[0];
 #pragma unroll
@@ -146,8 +160,8 @@ inline VT step(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
 }
 
 /* F_s += omega[s, j] v  (initial state, traversal position j < L) */
-inline void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
-                        const int L, const int j)
+static inline void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
+                               const int L, const int j)
 {
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -157,8 +171,8 @@ inline void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
     }
 }
 
-/* F_s = omega_c[s] cval, the constant-mode part of the initial state, added after the sum */
-inline void add_cval(VT *fr, VT *fi, __global const REAL *omega_c, const REAL cval)
+/* F_s += omega_c[s] cval: the constant-mode part of the initial state, added after the sum */
+static inline void add_cval(VT *fr, VT *fi, __global const REAL *omega_c, const REAL cval)
 {
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -167,7 +181,7 @@ inline void add_cval(VT *fr, VT *fi, __global const REAL *omega_c, const REAL cv
     }
 }
 
-inline void init_state(VT *fr, VT *fi)
+static inline void init_state(VT *fr, VT *fi)
 {
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -181,7 +195,7 @@ inline void init_state(VT *fr, VT *fi)
 
 /* The LANES samples at p; a partial group (valid < LANES, the last columns of a row) loads
  * lane l from column min(l, valid - 1) so the extra lanes stay finite and in bounds. */
-inline VT load_cols(__global const REAL *p, const int valid, const int full)
+static inline VT load_cols(__global const REAL *p, const int valid, const int full)
 {
     if (full)
         return VLOAD(p);
@@ -192,8 +206,8 @@ inline VT load_cols(__global const REAL *p, const int valid, const int full)
     return VLOAD(tmp);
 }
 
-inline void store_cols(__global REAL *p, const VT y, const int valid, const int full,
-                       const int accumulate)
+static inline void store_cols(__global REAL *p, const VT y, const int valid, const int full,
+                              const int accumulate)
 {
     if (full) {
         VSTORE(accumulate ? VLOAD(p) + y : y, p);
@@ -206,15 +220,15 @@ inline void store_cols(__global REAL *p, const VT y, const int valid, const int 
 }
 
 /* `full` is a literal at each call site so the vector path has no per-step lane logic. */
-inline void run_columns(__global const REAL *src, __global REAL *dst,
-                        __global const REAL *lam, __global const REAL *kap,
-                        __global const REAL *omega, __global const REAL *omega_c,
-                        const int L, const int n, const REAL cval, const REAL tap,
-                        const int reverse, const int accumulate, const long stride,
-                        const int valid, const int full)
+static inline void run_columns(__global const REAL *src, __global REAL *dst,
+                               __global const REAL *lam, __global const REAL *kap,
+                               __global const REAL *omega, __global const REAL *omega_c,
+                               const int L, const int n, const REAL cval, const REAL tap,
+                               const int reverse, const int accumulate, const long stride,
+                               const int valid, const int full)
 {
-    /* traversal position k lives at src + k * step (reversed lines walk backwards) */
-    const long step_ = reverse ? -stride : stride;
+    /* traversal position k lives at src + k * walk (reversed lines walk backwards) */
+    const long walk = reverse ? -stride : stride;
     if (reverse) {
         src += (long)(n - 1) * stride;
         dst += (long)(n - 1) * stride;
@@ -222,7 +236,7 @@ inline void run_columns(__global const REAL *src, __global REAL *dst,
     VT fr[SECTIONS], fi[SECTIONS];
     init_state(fr, fi);
     for (int j = 0; j < L; ++j)
-        add_initial(fr, fi, load_cols(src + j * step_, valid, full), omega, L, j);
+        add_initial(fr, fi, load_cols(src + j * walk, valid, full), omega, L, j);
     add_cval(fr, fi, omega_c, cval);
 
     coef_t c;
@@ -232,9 +246,9 @@ inline void run_columns(__global const REAL *src, __global REAL *dst,
 #if !CONSTANT_COEF
         load_coef(&c, lam, kap, n, k);
 #endif
-        store_cols(dst, step(fr, fi, v, tap, &c), valid, full, accumulate);
-        src += step_;
-        dst += step_;
+        store_cols(dst, advance(fr, fi, v, tap, &c), valid, full, accumulate);
+        src += walk;
+        dst += walk;
     }
 }
 
@@ -265,8 +279,8 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 /* w[i] = samples of every lane at traversal position k0 + i, i < cnt.  A full chunk is a
  * tile load + transpose; a partial one (cnt < LANES, the end of the line) is gathered.
  * Lanes past the last row (valid < LANES) repeat the last row: loads stay in bounds. */
-inline void load_chunk(VT *w, __global const REAL *src, const int n, const int valid,
-                       const int k0, const int cnt, const int reverse)
+static inline void load_chunk(VT *w, __global const REAL *src, const int n, const int valid,
+                              const int k0, const int cnt, const int reverse)
 {
     if (cnt == LANES) {
         VT t[LANES];
@@ -296,8 +310,9 @@ inline void load_chunk(VT *w, __global const REAL *src, const int n, const int v
 }
 
 /* Write y[i] (traversal position k0 + i, i < cnt) of the `valid` real lanes. */
-inline void store_chunk(VT *y, __global REAL *dst, const int n, const int valid, const int k0,
-                        const int cnt, const int reverse, const int accumulate)
+static inline void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
+                               const int k0, const int cnt, const int reverse,
+                               const int accumulate)
 {
     if (cnt == LANES) {
         VT t[LANES];
@@ -333,11 +348,11 @@ inline void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
 }
 
 /* `reverse` is a literal at each call site, so the tile's traversal order is static. */
-inline void run_rows(__global const REAL *src, __global REAL *dst,
-                     __global const REAL *lam, __global const REAL *kap,
-                     __global const REAL *omega, __global const REAL *omega_c,
-                     const int L, const int n, const REAL cval, const REAL tap,
-                     const int accumulate, const int valid, const int reverse)
+static inline void run_rows(__global const REAL *src, __global REAL *dst,
+                            __global const REAL *lam, __global const REAL *kap,
+                            __global const REAL *omega, __global const REAL *omega_c,
+                            const int L, const int n, const REAL cval, const REAL tap,
+                            const int accumulate, const int valid, const int reverse)
 {
     VT fr[SECTIONS], fi[SECTIONS], w[LANES];
     init_state(fr, fi);
@@ -360,7 +375,7 @@ inline void run_rows(__global const REAL *src, __global REAL *dst,
 #if !CONSTANT_COEF
             load_coef(&c, lam, kap, n, k0 + i);
 #endif
-            w[i] = step(fr, fi, w[i], tap, &c);
+            w[i] = advance(fr, fi, w[i], tap, &c);
         }
         store_chunk(w, dst, n, valid, k0, LANES, reverse, accumulate);
     }
@@ -373,7 +388,7 @@ inline void run_rows(__global const REAL *src, __global REAL *dst,
 #if !CONSTANT_COEF
                 load_coef(&c, lam, kap, n, k0 + i);
 #endif
-                w[i] = step(fr, fi, w[i], tap, &c);
+                w[i] = advance(fr, fi, w[i], tap, &c);
             }
         }
         store_chunk(w, dst, n, valid, k0, cnt, reverse, accumulate);
@@ -411,4 +426,19 @@ __kernel void gather(__global const REAL *src, const long src_off, __global cons
         return;
     const int j = index[i];
     out[out_off + i] = j >= 0 ? src[src_off + j] : cval;
+}
+
+/* ---- any_nonfinite: *flag |= 1 if some x[i] (i < size) is NaN or infinite ------------------
+ * Work-item g reads x[g*first + j*stride], j < count: contiguous chunks on a CPU
+ * (first = chunk, stride = 1), a grid-stride loop on a GPU (first = 1, stride = items). */
+__kernel void any_nonfinite(__global const REAL *x, const long off, const long size,
+                            const long first, const long stride, const long count,
+                            __global int *flag)
+{
+    long i = (long)get_global_id(0) * first;
+    int bad = 0;
+    for (long j = 0; j < count && i < size; ++j, i += stride)
+        bad |= !isfinite(x[off + i]);
+    if (bad)
+        atomic_or(flag, 1);
 }
