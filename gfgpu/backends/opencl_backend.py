@@ -197,6 +197,10 @@ class OpenCLBackend(Backend):
         except cl.Error:  # devices without fp64 may reject the query
             fp64 = False
         self.supports_float64 = fp64 or "cl_khr_fp64" in dev.extensions
+        # temporaries (ping-pong buffers, outputs) come from a pool: a fresh buffer of a large
+        # image costs a first-touch page fault per page on CPU devices, as much as a pass
+        import pyopencl.tools as cl_tools
+        self._pool = cl_tools.MemoryPool(cl_tools.ImmediateAllocator(self.queue))
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
         self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
 
@@ -246,7 +250,7 @@ class OpenCLBackend(Backend):
 
     def empty(self, shape, dtype):
         shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(shape)
-        return self._array.empty(self.queue, shape, self._check_dtype(dtype))
+        return self._array.empty(self.queue, shape, self._check_dtype(dtype), allocator=self._pool)
 
     def reshape(self, array, shape):
         return array.reshape(tuple(shape))
