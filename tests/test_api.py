@@ -123,3 +123,13 @@ def test_wheel_contains_the_kernels(tmp_path):
     assert "gfgpu/kernels/opencl/recurse.cl" in names
     assert "gfgpu/kernels/warp/recurse.py" in names
     assert "gfgpu/data/camera.png" in names
+
+
+def test_float64_on_a_device_without_fp64_is_an_error_not_a_downcast():
+    from gfgpu.backends.numpy_backend import NumpyBackend
+    no_fp64 = NumpyBackend()
+    no_fp64.supports_float64 = False      # stands in for a GPU without cl_khr_fp64
+    with pytest.raises(TypeError, match="no float64 support"):
+        gfgpu.shift(np.ones((4, 4)), 1.0, backend=no_fp64)
+    out = gfgpu.shift(np.ones((4, 4), np.float32), 1.0, backend=no_fp64)
+    assert out.dtype == np.float32
