@@ -106,6 +106,9 @@ def build_parser():
     _backend_args(p)
 
     sub.add_parser("devices", help="list backends and devices, usable or not (and why)")
+    # applications register their own subcommands (each sets func= on its parser)
+    from . import shading_cli
+    shading_cli.add_parser(sub)
     return parser
 
 
@@ -120,6 +123,8 @@ def _grey_or_channels(image):
 
 def main(argv=None):
     args = build_parser().parse_args(argv)
+    if hasattr(args, "func"):
+        return args.func(args)
     if args.command == "devices":
         import gfgpu
         for d in gfgpu.devices():

@@ -235,7 +235,10 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
         :class:`~gfgpu.greens.HomogeneousGreen` ``(u)`` (H_u, eq. 33),
         :class:`~gfgpu.greens.AffineGreen` ``(u1, x_U)`` (G_U^(1), eq. 11) or
         :class:`~gfgpu.greens.AffineGreenApprox` ``(sigma, x_U)`` (G_U^(2), eq. 14).
-        Positions (``x_U``) are in samples along the line, 0 at its first sample.
+        Positions (``x_U``) are coordinates of the filtered axis (for ``angle``: of the
+        dominant axis), 0 at the array's first sample, whatever the traversal sense: a
+        right-to-left pass (``anticausal``, or a direction with ``cos θ < 0``) needs the
+        affine kernels' fixed point beyond the last sample, ``x_U > n - 1``.
     axis : int, optional
         Axis to filter along (ignored when ``angle`` is given).
     output : ndarray or dtype, optional

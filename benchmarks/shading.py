@@ -1,0 +1,293 @@
+"""Shape from shading: gfgpu's GSFS and photometric motion beside Pentland (1990) and Tsai-Shah (1994).
+
+What is measured
+----------------
+* Four analytic height maps on a SIZE x SIZE grid (pixel units; Z toward the viewer), rendered
+  as Lambertian images ``max(0, n·L)`` (albedo 1) from their *analytic* gradients:
+
+  - ``sphere``     hemisphere of radius 0.35·SIZE on the plane Z = 0;
+  - ``vase``       surface of revolution about the vertical axis, radius profile
+                   ``r(y) = SIZE·(0.17 + 0.07 sin(2.6π y') + 0.04 cos(5π y'))`` (y' = y/SIZE ∈ [-0.4, 0.4]),
+                   on the plane Z = 0;
+  - ``gaussians``  sum of five Gaussians (one a dip), heights 6 to 16 px, widths 8 to 16 px;
+  - ``random``     white noise (seed 7) smoothed by a Gaussian of 8 px, scaled to an RMS slope
+                   of 0.4 (gradients by central differences).
+
+  Lights (Zhang, Tsai, Cryer & Shah 1999): (0, 0, 1), (1, 0, 1), (5, 5, 7), normalised; l2 > 0
+  points down the rows.  "noise": additive Gaussian, std 0.02 (2 % of the albedo), seed 11.
+
+* Methods, all given the true light direction (as in the survey); albedo and depth scale are
+  each method's own estimate:
+  - ``gsfs``      gfgpu.shape_from_shading (defaults: scheme, mode and u by direction; k1 by re-rendering).
+                  For the frontal light GSFS refuses to guess a direction; it is run with
+                  ``direction=0`` (the x axis) and the row is marked.
+  - ``gpm``       gfgpu.photometric_motion (defaults: shift 1, fixed point -100n, k0 and scale
+                  fitted by re-rendering).
+  - ``pentland``  Pentland's linear SFS (FFT), albedo from Zheng & Chellappa's estimator.
+  - ``tsai-shah`` Tsai & Shah (10 Jacobi iterations, Kalman-gain form), albedo likewise.
+
+* Errors over all pixels except a 2-pixel border (where every method's boundary handling
+  dominates): mean and std of ``|Z − Z_gt|`` and mean ``|∇Z − ∇Z_gt|`` (Euclidean norm of the
+  gradient difference, central differences), each
+
+  - **fit**: after the least-squares scale and offset ``a·Z + b`` (oracle; shape only), and
+  - **own**: with the method's own scale, after the least-squares offset only.
+
+  Run time is the median of 3 calls (numpy backend for gfgpu unless --backend).
+* Light estimation: Zheng & Chellappa (gfgpu.estimate_illuminant), angle between the estimated
+  and the true light, per image.
+
+Usage::
+
+    python benchmarks/shading.py [--size 128] [--backend numpy] [--figure docs/shading_results.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+
+import numpy as np
+from scipy import ndimage
+
+sys.path.insert(0, os.path.dirname(__file__))
+
+from sfs_baselines import pentland_linear, tsai_shah
+
+from gfgpu import shading
+
+LIGHTS = {"(0,0,1)": (0.0, 0.0, 1.0), "(1,0,1)": (1.0, 0.0, 1.0), "(5,5,7)": (5.0, 5.0, 7.0)}
+NOISE = 0.02
+BORDER = 2
+
+
+# ----------------------------------------------------------------------------------------
+# surfaces: (Z, p, q) with analytic gradients
+# ----------------------------------------------------------------------------------------
+def _grid(size):
+    c = (size - 1) / 2
+    yy, xx = np.mgrid[:size, :size].astype(np.float64)
+    return yy - c, xx - c
+
+
+def sphere(size):
+    y, x = _grid(size)
+    r = 0.35 * size
+    inside = x * x + y * y < r * r
+    z = np.where(inside, np.sqrt(np.clip(r * r - x * x - y * y, 0, None)), 0.0)
+    zz = np.maximum(z, 1e-3 * r)
+    return z, np.where(inside, -x / zz, 0.0), np.where(inside, -y / zz, 0.0)
+
+
+def vase(size):
+    y, x = _grid(size)
+    yn = y / size
+    rad = size * (0.17 + 0.07 * np.sin(2.6 * np.pi * yn) + 0.04 * np.cos(5 * np.pi * yn))
+    drad = 0.07 * 2.6 * np.pi * np.cos(2.6 * np.pi * yn) - 0.04 * 5 * np.pi * np.sin(5 * np.pi * yn)
+    inside = (np.abs(yn) < 0.4) & (x * x < rad * rad)
+    z = np.where(inside, np.sqrt(np.clip(rad * rad - x * x, 0, None)), 0.0)
+    zz = np.maximum(z, 1e-3 * size)
+    return z, np.where(inside, -x / zz, 0.0), np.where(inside, rad * drad / zz, 0.0)
+
+
+def gaussians(size):
+    y, x = _grid(size)
+    s = size / 128
+    bumps = [(-25, -20, 14, 16), (30, -25, 10, 12), (0, 28, 16, 14), (-30, 30, 8, 9), (20, 15, -6, 8)]
+    z, p, q = (np.zeros_like(x) for _ in range(3))
+    for cx, cy, a, w in bumps:
+        cx, cy, a, w = cx * s, cy * s, a * s, w * s
+        g = a * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * w * w))
+        z += g
+        p += -g * (x - cx) / (w * w)
+        q += -g * (y - cy) / (w * w)
+    return z, p, q
+
+
+def random_surface(size):
+    rng = np.random.default_rng(7)
+    z = ndimage.gaussian_filter(rng.standard_normal((size, size)), 8 * size / 128, mode="reflect")
+    q, p = np.gradient(z)
+    k = 0.4 / math.sqrt(float((p * p + q * q).mean()))
+    z *= k
+    q, p = np.gradient(z)
+    return z, p, q
+
+
+SURFACES = {"sphere": sphere, "vase": vase, "gaussians": gaussians, "random": random_surface}
+
+
+def render(p, q, light):
+    L = shading.parse_light(light)
+    return np.maximum(0.0, (L[2] - L[0] * p - L[1] * q) / np.sqrt(1 + p * p + q * q))
+
+
+# ----------------------------------------------------------------------------------------
+# metrics
+# ----------------------------------------------------------------------------------------
+def errors(z, z_gt, fit_scale):
+    """(mean |dZ|, std |dZ|, mean |d grad Z|) after LS (scale and) offset, without the border."""
+    sl = (slice(BORDER, -BORDER), slice(BORDER, -BORDER))
+    a, b = z[sl].ravel().astype(np.float64), z_gt[sl].ravel()
+    if fit_scale:
+        A = np.stack([a, np.ones_like(a)], axis=1)
+        coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+        zf = coef[0] * z + coef[1]
+    else:
+        zf = z + float((b - a).mean())
+    d = np.abs(zf - z_gt)[sl]
+    gy, gx = np.gradient(zf)
+    ty, tx = np.gradient(z_gt)
+    g = np.hypot(gx - tx, gy - ty)[sl]
+    return float(d.mean()), float(d.std()), float(g.mean())
+
+
+def timed(fn, repeats=3):
+    times, out = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t0)
+    return out, float(np.median(times))
+
+
+def methods(backend):
+    def gsfs(img, light):
+        frontal = shading.parse_light(light)[2] > math.cos(shading.MIN_SLANT)
+        return shading.shape_from_shading(img, light=light, direction=0.0 if frontal else None, backend=backend)
+
+    def gpm(img, light):
+        return shading.photometric_motion(img, light=light, backend=backend)
+
+    def pentland(img, light):
+        _, albedo = shading.estimate_illuminant(img)
+        return pentland_linear(img, shading.parse_light(light), albedo)
+
+    def tsai(img, light):
+        _, albedo = shading.estimate_illuminant(img)
+        return tsai_shah(img, shading.parse_light(light), albedo)
+
+    return {"gsfs": gsfs, "gpm": gpm, "pentland": pentland, "tsai-shah": tsai}
+
+
+def run(size, backend, repeats):
+    rows, images = [], {}
+    light_rows = []
+    rng = np.random.default_rng(11)
+    meths = methods(backend)
+    for sname, make in SURFACES.items():
+        z_gt, p, q = make(size)
+        for lname, light in LIGHTS.items():
+            clean = render(p, q, light)
+            noisy = clean + NOISE * rng.standard_normal(clean.shape)
+            for noise_label, img in (("none", clean), ("0.02", noisy)):
+                est, _ = shading.estimate_illuminant(img)
+                true = shading.parse_light(light)
+                tilt_err = math.degrees(abs((math.atan2(est[1], est[0]) - math.atan2(true[1], true[0])
+                                             + math.pi) % (2 * math.pi) - math.pi))
+                light_rows.append((sname, lname, noise_label,
+                                   math.degrees(math.acos(min(1.0, float(est @ true)))),
+                                   tilt_err if true[2] < 0.999 else float("nan")))
+                for mname, fn in meths.items():
+                    z, t = timed(lambda fn=fn, img=img, light=light: fn(img, light), repeats)
+                    fit = errors(z, z_gt, True)
+                    own = errors(z, z_gt, False)
+                    rows.append((sname, lname, noise_label, mname, fit, own, t))
+                    images[(sname, lname, noise_label, mname)] = z
+                images[(sname, lname, noise_label, "input")] = img
+        images[(sname, "gt")] = z_gt
+    return rows, light_rows, images
+
+
+def print_tables(rows, light_rows, size, backend):
+    print(f"## Shape from shading, {size}x{size}, gfgpu backend: {backend}\n")
+    print("Depth error |Z − Z_gt| (pixels) and mean gradient error |∇Z − ∇Z_gt|; **fit** = after "
+          "least-squares scale + offset (shape only), **own** = the method's own scale + LS offset. "
+          "GSFS under (0,0,1) runs with direction=0 (no light tilt; marked †).\n")
+    print("| surface | light | noise | method | fit mean | fit std | fit grad | own mean | own std | own grad "
+          "| time (ms) |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for sname, lname, nl, m, fit, own, t in rows:
+        mark = "†" if (m == "gsfs" and lname == "(0,0,1)") else ""
+        print(f"| {sname} | {lname} | {nl} | {m}{mark} | {fit[0]:.2f} | {fit[1]:.2f} | {fit[2]:.3f} | "
+              f"{own[0]:.2f} | {own[1]:.2f} | {own[2]:.3f} | {t * 1e3:.1f} |")
+    print("\n### Summary: mean depth error (fit), GSFS vs the baselines\n")
+    print("| light | noise | gsfs | gpm | pentland | tsai-shah | gsfs < pentland (surfaces) | gsfs < tsai-shah |")
+    print("|---|---|---|---|---|---|---|---|")
+    keyed = {(r[0], r[1], r[2], r[3]): r for r in rows}
+    surfaces = sorted({r[0] for r in rows}, key=list(SURFACES).index)
+    for lname in LIGHTS:
+        for nl in ("none", "0.02"):
+            vals = {m: np.mean([keyed[(s, lname, nl, m)][4][0] for s in surfaces])
+                    for m in ("gsfs", "gpm", "pentland", "tsai-shah")}
+            beat_p = sum(keyed[(s, lname, nl, "gsfs")][4][0] < keyed[(s, lname, nl, "pentland")][4][0]
+                         for s in surfaces)
+            beat_t = sum(keyed[(s, lname, nl, "gsfs")][4][0] < keyed[(s, lname, nl, "tsai-shah")][4][0]
+                         for s in surfaces)
+            print(f"| {lname} | {nl} | {vals['gsfs']:.2f} | {vals['gpm']:.2f} | {vals['pentland']:.2f} | "
+                  f"{vals['tsai-shah']:.2f} | {beat_p}/{len(surfaces)} | {beat_t}/{len(surfaces)} |")
+    print("\n### Light direction estimate (Zheng & Chellappa 1991): angular error of the light vector "
+          "(degrees), tilt error in brackets\n")
+    print("| surface | " + " | ".join(f"{ln} {nl}" for ln in LIGHTS for nl in ("clean", "noisy")) + " |")
+    print("|---|" + "---|" * (2 * len(LIGHTS)))
+    for s in surfaces:
+        vals = [(r[3], r[4]) for r in light_rows if r[0] == s]
+        print(f"| {s} | " + " | ".join(f"{v:.1f}" + ("" if math.isnan(t) else f" ({t:.1f})")
+                                       for v, t in vals) + " |")
+    allv = np.array([r[3] for r in light_rows])
+    print(f"\nmean {allv.mean():.1f} deg, median {np.median(allv):.1f} deg, max {allv.max():.1f} deg over "
+          f"{len(allv)} images")
+
+
+def figure(images, path, light="(1,0,1)", noise="none"):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cols = ["input", "gt", "gsfs", "gpm", "pentland", "tsai-shah"]
+    titles = ["input", "ground truth", "GSFS", "photometric motion", "Pentland 1990", "Tsai-Shah 1994"]
+    fig, axes = plt.subplots(len(SURFACES), len(cols), figsize=(2.1 * len(cols), 2.1 * len(SURFACES)))
+    for i, s in enumerate(SURFACES):
+        gt = images[(s, "gt")]
+        for j, c in enumerate(cols):
+            ax = axes[i, j]
+            if c == "input":
+                ax.imshow(images[(s, light, noise, "input")], cmap="gray")
+            else:
+                z = gt if c == "gt" else images[(s, light, noise, c)]
+                if c != "gt":   # display after the LS scale + offset, like the "fit" columns
+                    A = np.stack([z.ravel(), np.ones(z.size)], 1)
+                    coef, *_ = np.linalg.lstsq(A, gt.ravel(), rcond=None)
+                    z = coef[0] * z + coef[1]
+                ax.imshow(z, cmap="viridis", vmin=gt.min(), vmax=gt.max())
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(titles[j], fontsize=9)
+            if j == 0:
+                ax.set_ylabel(s, fontsize=9)
+    fig.suptitle(f"light {light}, noise {noise}: depth after LS scale + offset (colour = height)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--backend", default="numpy", choices=("numpy", "warp", "opencl"))
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--figure", default=None, help="write the comparison figure (PNG) here")
+    args = ap.parse_args(argv)
+    rows, light_rows, images = run(args.size, args.backend, args.repeats)
+    print_tables(rows, light_rows, args.size, args.backend)
+    if args.figure:
+        figure(images, args.figure)
+        figure(images, args.figure.replace(".png", "_557.png"), light="(5,5,7)", noise="0.02")
+        print(f"\nfigures: {args.figure}, {args.figure.replace('.png', '_557.png')}")
+
+
+if __name__ == "__main__":
+    main()
