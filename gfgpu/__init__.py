@@ -10,6 +10,7 @@ from .backends import BACKENDS, devices, get_backend, use_backend
 from .edges import canny
 from .filters import derivative, gradient, green_filter, projection, shift
 from .greens import AffineGreen, AffineGreenApprox, HomogeneousGreen, UniformGreen
+from .motion import estimate_translation, interpolate_frames, motion_blur, synthesize_motion
 from .shading import estimate_illuminant, photometric_motion, shape_from_shading
 
 __version__ = "0.1.0"
@@ -19,4 +20,5 @@ __all__ = [
     "green_filter", "shift", "derivative", "projection", "gradient", "canny",
     "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
     "shape_from_shading", "photometric_motion", "estimate_illuminant",
+    "motion_blur", "synthesize_motion", "interpolate_frames", "estimate_translation",
 ]

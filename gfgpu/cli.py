@@ -107,7 +107,8 @@ def build_parser():
 
     sub.add_parser("devices", help="list backends and devices, usable or not (and why)")
     # applications register their own subcommands (each sets func= on its parser)
-    from . import shading_cli
+    from . import motion_cli, shading_cli
+    motion_cli.add_parser(sub)
     shading_cli.add_parser(sub)
     return parser
 

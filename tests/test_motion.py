@@ -1,0 +1,269 @@
+"""Motion blur, zoom and frame synthesis (gfgpu.motion)."""
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from gfgpu.greens import g_affine
+from gfgpu.motion import (
+    estimate_translation,
+    interpolate_frames,
+    motion_blur,
+    synthesize_motion,
+    zoom_cell_weights,
+)
+
+
+def _dtype(be):
+    return np.float64 if be.supports_float64 else np.float32
+
+
+def _centroid(img, y, x, r=None):
+    """(x, y) centroid of ``img`` (optionally in a window of radius r about (y, x))."""
+    yy, xx = np.mgrid[: img.shape[0], : img.shape[1]]
+    w = img.astype(np.float64)
+    if r is not None:
+        w = np.where((np.abs(yy - y) <= r) & (np.abs(xx - x) <= r), w, 0.0)
+    return float((w * xx).sum() / w.sum()), float((w * yy).sum() / w.sum())
+
+
+# --------------------------------------------------------------------------------------
+# uniform motion
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("velocity", [(12.5, 0.0), (0.0, -7.25), (-14.3, 0.0), (9.5, 9.5), (-6.0, 6.0),
+                                      (3.3, -3.3)])
+def test_impulse_displacement_equals_velocity(backend, velocity):
+    img = np.zeros((512, 512), _dtype(backend))
+    img[256, 256] = 1.0
+    out = motion_blur(img, velocity, mode="constant", backend=backend.name)
+    assert out.dtype == img.dtype
+    assert abs(out.sum() - 1.0) < 1e-5
+    cx, cy = _centroid(out, 256, 256)
+    assert abs(cx - (256 + velocity[0])) < 0.05
+    assert abs(cy - (256 + velocity[1])) < 0.05
+
+
+def test_edge_displacement_equals_velocity(backend):
+    x = np.arange(512)
+    img = np.tile((x >= 200).astype(_dtype(backend)), (8, 1))
+    out = motion_blur(img, (17.5, 0.0), mode="nearest", backend=backend.name)
+    # the edge's position is the integral of its derivative's first moment
+    d = np.diff(out[4].astype(np.float64))
+    assert abs((d * (x[1:] - 0.5)).sum() / d.sum() - (199.5 + 17.5)) < 0.05
+
+
+def test_oblique_displacement_exact_on_average():
+    """Minor-axis displacement is quantised per pixel (digital lines) but exact on average."""
+    v = (10.0, 4.0)
+    errs = []
+    for x in range(40, 50):
+        img = np.zeros((200, 256))
+        img[90 + x % 3, x] = 1.0
+        out = motion_blur(img, v, mode="constant", backend="numpy")
+        cx, cy = _centroid(out, 0, 0)
+        assert abs(cx - (x + v[0])) < 0.05          # dominant axis exact
+        errs.append(cy - (90 + x % 3 + v[1]))
+    assert max(abs(e) for e in errs) <= 0.5 + 1e-6
+    assert abs(np.mean(errs)) < 0.05
+
+
+def test_displace_false_keeps_centroid(backend):
+    img = np.zeros((256, 256), _dtype(backend))
+    img[128, 128] = 1.0
+    for v in [(20.0, 0.0), (0.0, 11.0), (-8.0, -8.0)]:
+        out = motion_blur(img, v, displace=False, mode="constant", backend=backend.name)
+        cx, cy = _centroid(out, 128, 128)
+        assert abs(cx - 128) < 1e-3 and abs(cy - 128) < 1e-3
+        # symmetric blur: the PSF is even along the motion
+        line = out[128] if v[1] == 0 else (out[:, 128] if v[0] == 0 else np.diagonal(out))
+        np.testing.assert_allclose(line[128 - 100:128], line[128 + 100:128:-1], atol=1e-6)
+
+
+def test_blur_length_is_monotonic():
+    rng = np.random.default_rng(1)
+    img = rng.random((128, 256))
+    for displace in (True, False):
+        energy = []
+        for length in (1, 2, 4, 8, 16, 32):
+            out = motion_blur(img, (length, 0.0), displace=displace, mode="wrap", backend="numpy")
+            energy.append(float((np.diff(out, axis=1) ** 2).mean()))
+        assert all(b < a for a, b in zip(energy, energy[1:])), energy
+
+
+def test_zero_velocity_is_a_copy(backend):
+    img = np.random.default_rng(2).random((16, 24)).astype(np.float32)
+    out = motion_blur(img, (0, 0), backend=backend.name)
+    assert out is not img and np.array_equal(out, img)
+
+
+def test_colour_and_stack_are_per_channel():
+    rng = np.random.default_rng(3)
+    rgb = rng.random((40, 50, 3)).astype(np.float32)
+    out = motion_blur(rgb, (5.0, 2.0), channel_axis=-1, backend="numpy")
+    assert out.shape == rgb.shape
+    for c in range(3):
+        np.testing.assert_allclose(out[..., c], motion_blur(rgb[..., c], (5.0, 2.0), backend="numpy"),
+                                   rtol=1e-6, atol=1e-6)
+    stack = np.moveaxis(rgb, -1, 0).copy()
+    np.testing.assert_allclose(motion_blur(stack, 0.4, kind="zoom", backend="numpy"),
+                               np.moveaxis(motion_blur(rgb, 0.4, kind="zoom", channel_axis=-1,
+                                                       backend="numpy"), -1, 0), atol=1e-6)
+
+
+def test_integer_input_gives_float32_and_is_not_modified():
+    img = (np.arange(64 * 64) % 251).reshape(64, 64).astype(np.uint8)
+    before = img.copy()
+    out = motion_blur(img, (3.0, 1.0), backend="numpy")
+    assert out.dtype == np.float32 and np.array_equal(img, before)
+
+
+# --------------------------------------------------------------------------------------
+# zoom
+# --------------------------------------------------------------------------------------
+def test_cell_weights_are_the_integrals_of_eq11():
+    for u1 in (0.3, 1.2, 1.8):
+        s = 7.0
+        w = zoom_cell_weights(s, np.arange(8.0), u1)
+        ref = [quad(lambda xi, s=s, u1=u1: float(g_affine(s, xi, u1, 0.0)), max(k - 0.5, 1e-12),
+                    min(k + 0.5, s), limit=200)[0] for k in range(8)]
+        np.testing.assert_allclose(w, ref, atol=1e-9)
+        assert abs(w.sum() - 1.0) < 1e-12          # unit DC gain (∫ G_U^(1) dx0 = 1)
+
+
+def _zoom_oracle(line, u1, c):
+    """Direct O(N^2) summation of the cell-integrated G_U^(1) outward from c."""
+    n = len(line)
+    xs = np.arange(n)
+    out = np.empty(n)
+    for x in range(n):
+        src = xs[xs <= x] if x >= c else xs[xs >= x]
+        dist = (src - c) if x >= c else (c - src)
+        out[x] = (zoom_cell_weights(abs(x - c), dist, u1) * line[src]).sum()
+    return out
+
+
+@pytest.mark.parametrize("center", [20.0, 20.5, 20.3, 0.0, 63.0])
+def test_zoom_matches_direct_summation(backend, center):
+    rng = np.random.default_rng(4)
+    dtype = _dtype(backend)
+    img = rng.random((5, 64)).astype(dtype)
+    for u1 in (0.1, 0.6, 1.5):
+        out = motion_blur(img, (u1, 0.0), kind="zoom", center=(center, 2), backend=backend.name)
+        ref = _zoom_oracle(img[3].astype(np.float64), u1, center)
+        tol = 1e-12 if dtype == np.float64 else 1e-5
+        assert np.linalg.norm(out[3] - ref) / np.linalg.norm(ref) < tol
+
+
+def test_zoom_samples_the_affine_preimage():
+    ramp = np.tile(np.arange(512.0), (4, 1))
+    c = 200.0
+    dist = np.abs(np.arange(512) - c)
+    for u1 in (0.1, 0.5, 1.0, 1.5):
+        out = motion_blur(ramp, (u1, 0.0), kind="zoom", center=(c, 1.5), backend="numpy")[1]
+        err = out - (c + (np.arange(512) - c) / (1 + u1))
+        assert np.abs(err).max() < 0.31
+        assert np.abs(err[dist >= 5]).max() < 0.15
+
+
+def test_zoom_maps_points(backend):
+    """Output pixel x shows the input at the affine pre-image (both axes), i.e. the point at p
+    moves to x_U + (p - x_U)(1 + u1): the zoom applied to the coordinate images."""
+    dtype = _dtype(backend)
+    yy, xx = np.mgrid[:200, :240].astype(dtype)
+    cx, cy = 100.0, 90.0
+    far = (np.abs(xx - cx) >= 5) & (np.abs(yy - cy) >= 5)
+    for u1 in (0.25, 0.8, 1.5):
+        mx = motion_blur(xx, u1, kind="zoom", center=(cx, cy), backend=backend.name)
+        my = motion_blur(yy, u1, kind="zoom", center=(cx, cy), backend=backend.name)
+        ex, ey = mx - (cx + (xx - cx) / (1 + u1)), my - (cy + (yy - cy) / (1 + u1))
+        assert np.abs(ex).max() < 0.31 and np.abs(ey).max() < 0.31
+        assert np.abs(ex[far]).max() < 0.15 and np.abs(ey[far]).max() < 0.15
+
+
+def test_zoom_fixed_point_is_kept():
+    img = np.random.default_rng(5).random((33, 41))
+    out = motion_blur(img, 0.9, kind="zoom", center=(20, 16), backend="numpy")
+    assert abs(out[16, 20] - img[16, 20]) < 1e-12
+    assert np.array_equal(motion_blur(img, 0.0, kind="zoom", backend="numpy"), img)
+
+
+# --------------------------------------------------------------------------------------
+# errors
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kwargs, exc, match", [
+    (dict(velocity=(1.0, np.nan)), ValueError, "velocity must be finite"),
+    (dict(velocity=(1.0, 2.0, 3.0)), ValueError, "pair"),
+    (dict(velocity=3.0), ValueError, r"pair \(dx, dy\)"),
+    (dict(velocity=("a", 1)), TypeError, "real numbers"),
+    (dict(velocity=(1.0, 1.0), kind="spin"), ValueError, "kind must be one of"),
+    (dict(velocity=2.0, kind="zoom"), ValueError, r"u1 must lie in \[0, 2\)"),
+    (dict(velocity=-0.3, kind="zoom"), ValueError, "zoom-out"),
+    (dict(velocity=0.5, kind="zoom", center=(40, 5)), ValueError, "center"),
+    (dict(velocity=0.5, kind="zoom", center=(5, -1)), ValueError, "inside the image"),
+    (dict(velocity=(1.0, 1.0), mode="edge"), ValueError, "mode must be one of"),
+])
+def test_bad_inputs(kwargs, exc, match):
+    img = np.zeros((20, 30))
+    with pytest.raises(exc, match=match):
+        motion_blur(img, backend="numpy", **kwargs)
+
+
+def test_bad_images():
+    with pytest.raises(ValueError, match="non-finite|NaN"):
+        motion_blur(np.full((8, 8), np.inf), (1.0, 0.0), backend="numpy")
+    with pytest.raises(ValueError, match="at least 2"):
+        motion_blur(np.zeros(8), (1.0, 0.0), backend="numpy")
+    with pytest.raises(TypeError):
+        motion_blur(np.zeros((8, 8), complex), (1.0, 0.0), backend="numpy")
+
+
+# --------------------------------------------------------------------------------------
+# frames
+# --------------------------------------------------------------------------------------
+def test_synthesize_motion_moves_progressively(backend):
+    img = np.zeros((64, 600), _dtype(backend))
+    img[32, 20] = 1.0
+    frames = synthesize_motion(img, (36.0, 0.0), 5, mode="constant", backend=backend.name)
+    assert frames.shape == (5, 64, 600)
+    np.testing.assert_array_equal(frames[0], img)
+    cx = [_centroid(f, 32, 20)[0] for f in frames]
+    np.testing.assert_allclose(cx, [20, 29, 38, 47, 56], atol=0.05)
+
+
+def test_synthesize_zoom_scales_geometrically():
+    xx = np.tile(np.arange(128.0), (16, 1))
+    calls = []
+    frames = synthesize_motion(xx, 0.44, 3, kind="zoom", center=(40, 8), backend="numpy",
+                               progress=lambda: calls.append(1))
+    assert len(calls) == 3
+    for f, scale in zip(frames, (1.0, 1.2, 1.44)):
+        np.testing.assert_allclose(f[8, 100], 40 + 60 / scale, atol=0.1)
+    with pytest.raises(ValueError, match="n_frames"):
+        synthesize_motion(xx, (1, 0), 1)
+
+
+def test_interpolate_frames_given_and_estimated_velocity():
+    from importlib import resources
+
+    import imageio.v3 as iio
+    with resources.as_file(resources.files("gfgpu.data").joinpath("camera.png")) as path:
+        big = iio.imread(path).astype(np.float64) / 255
+    f0, f1 = big[130:330, 140:340], big[124:324, 131:331]   # f1 = f0 moved by (dx, dy) = (9, 6)
+    dx, dy = estimate_translation(f0, f1)
+    assert abs(dx - 9) < 0.1 and abs(dy - 6) < 0.1
+    mids = interpolate_frames(f0, f1, 2)
+    given = interpolate_frames(f0, f1, 2, velocity=(9.0, 6.0))
+    assert mids.shape == (2,) + f0.shape
+    assert np.abs(mids - given).max() < 0.02
+    # frame k sits at k/3 of the way: (3, 2) and (6, 4) px, integer shifts cut from `big`
+    inner = (slice(20, -20), slice(20, -20))
+    for k, mid in enumerate(mids, start=1):
+        ty, tx = 2 * k, 3 * k
+        truth = big[130 - ty:330 - ty, 140 - tx:340 - tx]
+        fade = (1 - k / 3) * f0 + (k / 3) * f1
+        err = np.sqrt(np.mean((mid - truth)[inner] ** 2))
+        assert err < 0.6 * np.sqrt(np.mean((fade - truth)[inner] ** 2))
+    with pytest.raises(ValueError, match="same shape"):
+        interpolate_frames(f0, f1[:-1], 1)
+    with pytest.raises(ValueError, match="n must be"):
+        interpolate_frames(f0, f1, 0)
