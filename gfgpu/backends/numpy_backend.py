@@ -15,6 +15,8 @@ from functools import lru_cache
 
 import numpy as np
 
+from threadpoolctl import threadpool_limits
+
 from ..recursion import run_reference
 from .base import Backend
 
@@ -52,7 +54,17 @@ def _block_matrices(plan, block):
 
 
 def _blocked(lines, plan, cval):
-    """Blocked evaluation of a constant plan on ``lines`` (n, m) in traversal order; float64."""
+    """Blocked evaluation of a constant plan on ``lines`` (n, m) in traversal order; float64.
+
+    The block products are small (T x T times T x m): BLAS runs them on one thread, since a
+    multi-threaded BLAS spins and slows several-fold when the cores are shared (measured 5x
+    on 2 busy cores).
+    """
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _blocked_products(lines, plan, cval)
+
+
+def _blocked_products(lines, plan, cval):
     n, m = lines.shape
     S = plan.sections
     L = plan.omega.shape[1]
@@ -135,3 +147,30 @@ class NumpyBackend(Backend):
         res[idx < 0] = cval
         out.reshape(-1)[...] = res
         return out
+
+    # ---- stereo: the numpy specifications of gfgpu.stereo ----------------------------------
+    def stereo_census(self, image, out, plane, radius):
+        from ..stereo import census_transform_reference
+        out[plane] = census_transform_reference(image, radius)
+        return out
+
+    def stereo_cost(self, census_left, census_right, out, first_step, steps, block, invalid):
+        from ..stereo import census_cost_reference
+        out[...] = census_cost_reference(census_left[0], census_right, first_step, out.shape[2], steps,
+                                         block, invalid)
+        return out
+
+    def stereo_sgm(self, cost, out, p1, p2, paths):
+        from ..stereo import sgm_aggregate_reference
+        out[...] = sgm_aggregate_reference(cost, p1, p2, paths)
+        return out
+
+    def stereo_select(self, aggregated, disp, disp_right, d_min, steps, uniqueness):
+        from ..stereo import select_disparity_reference
+        disp[...], disp_right[...] = select_disparity_reference(aggregated, d_min, steps, uniqueness)
+        return disp, disp_right
+
+    def stereo_sweep(self, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
+        from ..stereo import sweep_update_reference
+        return sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_right, offset,
+                                      d, radius)
