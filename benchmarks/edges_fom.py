@@ -76,7 +76,7 @@ import numpy as np
 from scipy import ndimage
 
 import gfgpu
-from gfgpu.edges import suppress_nonmaxima_reference
+from gfgpu.edges import hysteresis, suppress_nonmaxima_reference
 from gfgpu.greens import EDGE_A, EDGE_ETA
 
 try:
@@ -188,22 +188,8 @@ class Target:
 
 
 # --------------------------------------------------------------------------------------
-# hysteresis (mirrors gfgpu.canny exactly) and the threshold-grid evaluation
+# the threshold-grid evaluation (gfgpu.edges.hysteresis, labelling shared per low threshold)
 # --------------------------------------------------------------------------------------
-def hysteresis(nms, low, high):
-    """gfgpu.canny's hysteresis: 8-connected components of (nms >= low, nms > 0) holding a
-    pixel >= high."""
-    candidates = nms >= low
-    candidates &= nms > 0
-    labels, count = ndimage.label(candidates, EIGHT)
-    if count == 0:
-        return candidates
-    keep = np.zeros(count + 1, bool)
-    keep[np.unique(labels[candidates & (nms >= high)])] = True
-    keep[0] = False
-    return keep[labels]
-
-
 def grid_foms(target, gy, gx, pairs, lows):
     """FOM for every (low, high) quantile pair from one gradient: NMS once, hysteresis per pair
     (labelling once per low quantile)."""
@@ -216,19 +202,8 @@ def grid_foms(target, gy, gx, pairs, lows):
     for k, (lo, hi) in enumerate(pairs):
         by_low.setdefault(lo, []).append((k, hi))
     for lo, items in by_low.items():
-        low = vals[lo]
-        candidates = nms >= low
-        candidates &= nms > 0
-        labels, count = ndimage.label(candidates, EIGHT)
-        for k, hi in items:
-            high = vals[hi]
-            if count == 0:
-                edges = candidates
-            else:
-                keep = np.zeros(count + 1, bool)
-                keep[np.unique(labels[candidates & (nms >= high)])] = True
-                keep[0] = False
-                edges = keep[labels]
+        maps = hysteresis(nms, vals[lo], [vals[hi] for _, hi in items])
+        for (k, _), edges in zip(items, maps):
             out[k] = target.fom(edges)
     return out
 

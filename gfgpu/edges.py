@@ -13,7 +13,7 @@ from scipy import ndimage
 from .filters import _Job, gradient
 from .greens import EDGE_A, EDGE_ETA
 
-__all__ = ["canny", "suppress_nonmaxima_reference"]
+__all__ = ["canny", "hysteresis", "suppress_nonmaxima_reference"]
 
 #: default thresholds, in gradient-magnitude units (slope per pixel of the image scaled to
 #: [0, 1] for integer types): skimage's defaults 0.1 / 0.2 apply to an unnormalised Sobel
@@ -62,6 +62,33 @@ def suppress_nonmaxima_reference(gy, gx):
     tol = TIE_RTOL * m
     out[c] = np.where((m > 0) & (m > plus + tol) & (m >= minus - tol), m, 0)
     return out
+
+
+def hysteresis(suppressed, low, high):
+    """Hysteresis thresholding of a suppressed gradient magnitude (host, one labelling pass).
+
+    Keeps the 8-connected components of ``suppressed >= low`` (and ``> 0``) that hold a pixel
+    ``>= high``.  ``high`` may be a sequence: the labelling is shared and one edge map is
+    returned per value (used to scan thresholds cheaply).
+
+    Returns
+    -------
+    edges : bool ndarray, or a list of them when ``high`` is a sequence
+    """
+    candidates = suppressed >= low
+    candidates &= suppressed > 0
+    labels, count = ndimage.label(candidates, np.ones((3, 3), bool))
+    highs = np.atleast_1d(high)
+    maps = []
+    for h in highs:
+        if count == 0:
+            maps.append(candidates.copy())
+            continue
+        keep = np.zeros(count + 1, bool)
+        keep[np.unique(labels[candidates & (suppressed >= h)])] = True
+        keep[0] = False
+        maps.append(keep[labels])
+    return maps if np.ndim(high) else maps[0]
 
 
 def _threshold(value, name, use_quantiles, default):
@@ -168,16 +195,7 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
         raise ValueError(f"low_threshold ({low}) must not exceed high_threshold ({high})")
     if mask is not None:
         nms = np.where(ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0), nms, 0)
-    candidates = nms >= low
-    candidates &= nms > 0
-    labels, count = ndimage.label(candidates, np.ones((3, 3), bool))
-    if count == 0:
-        edges = candidates
-    else:
-        keep = np.zeros(count + 1, bool)
-        keep[np.unique(labels[candidates & (nms >= high)])] = True
-        keep[0] = False
-        edges = keep[labels]
+    edges = hysteresis(nms, low, high)
     if return_gradient:
         return edges, magnitude, np.arctan2(hy, hx)
     return edges
