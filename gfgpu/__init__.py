@@ -12,6 +12,7 @@ from .filters import derivative, gradient, green_filter, projection, shift
 from .greens import AffineGreen, AffineGreenApprox, HomogeneousGreen, UniformGreen
 from .motion import estimate_translation, interpolate_frames, motion_blur, synthesize_motion
 from .shading import estimate_illuminant, photometric_motion, shape_from_shading
+from .stereo import disparity
 
 __version__ = "0.1.0"
 
@@ -21,4 +22,5 @@ __all__ = [
     "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
     "shape_from_shading", "photometric_motion", "estimate_illuminant",
     "motion_blur", "synthesize_motion", "interpolate_frames", "estimate_translation",
+    "disparity",
 ]

@@ -10,60 +10,12 @@ Examples::
 from __future__ import annotations
 
 import argparse
-import os
 import sys
-import tempfile
 import time
-from importlib import resources
 
 import numpy as np
 
-EXAMPLES = ("camera",)
-
-
-def _read(path, example):
-    import imageio.v3 as iio
-    if example:
-        if example not in EXAMPLES:
-            raise SystemExit(f"--example must be one of {', '.join(EXAMPLES)}")
-        with resources.as_file(resources.files("gfgpu.data").joinpath(f"{example}.png")) as p:
-            return iio.imread(p), f"{example} (bundled)"
-    if path is None:
-        raise SystemExit("give an IMAGE path or --example camera")
-    try:
-        return iio.imread(path), path
-    except (OSError, ValueError) as exc:
-        raise SystemExit(f"cannot read image {path!r}: {exc}") from None
-
-
-def _write_atomic(path, write):
-    """Write through a temporary file in the same directory, then rename (never a partial file)."""
-    folder = os.path.dirname(os.path.abspath(path)) or "."
-    os.makedirs(folder, exist_ok=True)
-    suffix = os.path.splitext(path)[1]
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=suffix, prefix=".gfgpu-")
-    os.close(fd)
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
-
-
-def _save_png(path, image):
-    import imageio.v3 as iio
-    _write_atomic(path, lambda tmp: iio.imwrite(tmp, image, extension=".png"))
-
-
-def _as_8bit_like(result, original):
-    """Display conversion for filtered images: round and clip to the input's value range."""
-    if original.dtype == np.uint8:
-        return np.clip(np.rint(result), 0, 255).astype(np.uint8)
-    lo, hi = float(np.min(original)), float(np.max(original))
-    scale = 255.0 / (hi - lo) if hi > lo else 1.0
-    return np.clip(np.rint((result - lo) * scale), 0, 255).astype(np.uint8)
+from .files import EXAMPLES, read_image, save_npy, save_png, to_display_8bit
 
 
 def _gradient_png(gy, gx):
@@ -107,7 +59,8 @@ def build_parser():
 
     sub.add_parser("devices", help="list backends and devices, usable or not (and why)")
     # applications register their own subcommands (each sets func= on its parser)
-    from . import motion_cli, shading_cli
+    from . import motion_cli, shading_cli, stereo_cli
+    stereo_cli.add_parser(sub)
     motion_cli.add_parser(sub)
     shading_cli.add_parser(sub)
     return parser
@@ -136,7 +89,7 @@ def main(argv=None):
 
     import gfgpu
 
-    image, label = _read(args.image, args.example)
+    image, label = read_image(args.image, args.example)
     img, axes = _grey_or_channels(image)
     kw = dict(mode=args.mode, backend=args.backend, device=args.device)
     t0 = time.perf_counter()
@@ -155,11 +108,11 @@ def main(argv=None):
             shift = (dy, dx) + (0.0,) * (img.ndim - 2)
             raw = gfgpu.shift(img.astype(np.float32), shift, **kw)
             bar.update(1)
-            png = _as_8bit_like(raw, img)
+            png = to_display_8bit(raw, img)
     elapsed = time.perf_counter() - t0
-    _save_png(args.output, png)
+    save_png(args.output, png)
     if args.npy:
-        _write_atomic(args.npy, lambda tmp: np.save(open(tmp, "wb"), raw))
+        save_npy(args.npy, raw)
     print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} "
           f"({args.command}, {elapsed * 1e3:.0f} ms including device start-up)")
     return 0

@@ -16,7 +16,8 @@ import time
 
 import numpy as np
 
-from .cli import _as_8bit_like, _backend_args, _read, _save_png, _write_atomic
+from .cli import _backend_args
+from .files import read_image, save_png, to_display_8bit, write_atomic
 
 EXAMPLES = ("camera",)
 
@@ -54,7 +55,7 @@ def add_parser(subparsers):
 
 
 def _prepare(args):
-    image, label = _read(args.image, args.example)
+    image, label = read_image(args.image, args.example)
     img = np.asarray(image)
     if img.ndim == 3 and img.shape[-1] == 4:   # alpha is not image content
         img = img[..., :3]
@@ -89,7 +90,7 @@ def run_blur(args):
             raise SystemExit(f"gfgpu blur: {exc}") from None
         bar.update(1)
     elapsed = time.perf_counter() - t0
-    _save_png(args.output, _as_8bit_like(out, img))
+    save_png(args.output, to_display_8bit(out, img))
     print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({kw['kind']}, {elapsed * 1e3:.0f} ms "
           f"including device start-up)")
     return 0
@@ -114,15 +115,15 @@ def run_frames(args):
             frames = synthesize_motion(img.astype(np.float32), velocity, args.frames, progress=bar.update, **kw)
         except ValueError as exc:
             raise SystemExit(f"gfgpu frames: {exc}") from None
-    pngs = [_as_8bit_like(f, img) for f in frames]
+    pngs = [to_display_8bit(f, img) for f in frames]
     width = max(3, len(str(args.frames - 1)))
     for k, png in enumerate(pngs):
         path = os.path.join(folder, f"frame_{k:0{width}d}.png")
         if _same_file(args.image, path):
             raise SystemExit(f"refusing to overwrite the input image {path}")
-        _save_png(path, png)
+        save_png(path, png)
     gif = os.path.join(folder, "frames.gif")
-    _write_atomic(gif, lambda tmp: iio.imwrite(tmp, np.stack(pngs), extension=".gif",
+    write_atomic(gif, lambda tmp: iio.imwrite(tmp, np.stack(pngs), extension=".gif",
                                                duration=1000.0 / args.fps, loop=0))
     print(f"{label}: {args.frames} frames {img.shape[1]}x{img.shape[0]} -> {folder}/frame_*.png and {gif} "
           f"({time.perf_counter() - t0:.1f} s)")

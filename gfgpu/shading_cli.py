@@ -58,7 +58,7 @@ def run(args):
     import imageio.v3 as iio
     from tqdm import tqdm
 
-    from .cli import _save_png, _write_atomic
+    from .files import save_npy, save_png
     from .shading import lambertian_shading, photometric_motion, shape_from_shading
 
     if os.path.abspath(args.output) == os.path.abspath(args.image):
@@ -88,12 +88,12 @@ def run(args):
         except ValueError as exc:
             raise SystemExit(f"gfgpu depth: {exc}") from None
         bar.update(1)
-        _save_png(args.output, _to_png(depth))
+        save_png(args.output, _to_png(depth))
         if args.relief:
             relief = lambertian_shading(depth, (math.radians(-135), math.radians(45)))  # light from top-left
-            _save_png(args.relief, _to_png(relief))
+            save_png(args.relief, _to_png(relief))
         if args.npy:
-            _write_atomic(args.npy, lambda tmp: np.save(open(tmp, "wb"), depth))
+            save_npy(args.npy, depth)
         bar.update(1)
     print(f"{args.image}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({args.method}, "
           f"{(time.perf_counter() - t0) * 1e3:.0f} ms)")

@@ -84,5 +84,37 @@ class Backend:
         """
         raise NotImplementedError
 
+    # ---- stereo (gfgpu.stereo; numpy specifications: the *_reference functions there) ------
+    def stereo_census(self, image, out, plane, radius):
+        """``out[plane] = census_transform_reference(image, radius)``.
+
+        ``image`` (H, W) float32, ``out`` (S, H, W) uint64 device arrays.
+        """
+        raise NotImplementedError
+
+    def stereo_cost(self, census_left, census_right, out, first_step, steps, block, invalid):
+        """``out = census_cost_reference(census_left[0], census_right, first_step / steps, ...)``.
+
+        ``census_left`` (1, H, W) and ``census_right`` (steps, H, W) uint64; ``out``
+        (H, W, D) int16; ``first_step = d_min * steps``.
+        """
+        raise NotImplementedError
+
+    def stereo_sgm(self, cost, out, p1, p2, paths):
+        """``out = sgm_aggregate_reference(cost, p1, p2, paths)`` ((H, W, D) int16 arrays)."""
+        raise NotImplementedError
+
+    def stereo_select(self, aggregated, disp, disp_right, d_min, steps, uniqueness):
+        """``disp, disp_right = select_disparity_reference(aggregated, d_min, steps, uniqueness)``.
+
+        ``disp`` (H, W) float32, ``disp_right`` (H, W) int32 device arrays, written.
+        """
+        raise NotImplementedError
+
+    def stereo_sweep(self, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
+        """``sweep_update_reference(state, ...)`` in place on device arrays (float32)."""
+        raise NotImplementedError
+
     def __repr__(self):
         return f"<gfgpu backend {self.name!r} on {self.device}>"
+

@@ -14,7 +14,6 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-
 from threadpoolctl import threadpool_limits
 
 from ..recursion import run_reference

@@ -458,3 +458,82 @@ class OpenCLBackend(Backend):
             out.set(res.get(queue=self.queue), queue=self.queue)
         return out
 
+
+    # ---- stereo (kernels/opencl/stereo.cl; specification: gfgpu.stereo *_reference) --------
+    def _plain(self, a, name, dtype):
+        """``a`` checked as this context's C-contiguous array of ``dtype`` without an offset
+        (stereo.cl takes plain pointers); offset views are copied."""
+        if not self.owns(a):
+            raise TypeError(f"{name} must be a pyopencl.array.Array in the context of {self.device}, "
+                            f"got {type(a).__name__}")
+        if np.dtype(a.dtype) != np.dtype(dtype):
+            raise TypeError(f"{name} must be {np.dtype(dtype)}, got {a.dtype}")
+        return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
+
+    def _stereo_kernel(self, name):
+        return self._kernel(name, np.dtype(np.float32), source="stereo.cl")
+
+    def _check_written(self, a, name):
+        if a.offset != 0 or not a.flags.c_contiguous:
+            raise ValueError(f"{name} must be a C-contiguous array without offset")
+
+    def stereo_census(self, image, out, plane, radius):
+        image = self._plain(image, "image", np.float32)
+        self._plain(out, "out", np.uint64)
+        self._check_written(out, "out")
+        h, w = image.shape
+        self._launch(self._stereo_kernel("census"), (w, h), None, [image], [out],
+                     (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w),
+                      np.int32(radius)))
+        return out
+
+    def stereo_cost(self, census_left, census_right, out, first_step, steps, block, invalid):
+        cl_ = self._plain(census_left, "census_left", np.uint64)
+        cr = self._plain(census_right, "census_right", np.uint64)
+        self._plain(out, "out", np.int16)
+        self._check_written(out, "out")
+        h, w, n = out.shape
+        self._launch(self._stereo_kernel("census_cost"), (w, h), None, [cl_, cr], [out],
+                     (cl_.data, cr.data, out.data, np.int32(h), np.int32(w), np.int32(n),
+                      np.int32(first_step), np.int32(steps), np.int32(block), np.int32(invalid)))
+        return out
+
+    def stereo_sgm(self, cost, out, p1, p2, paths):
+        from ..stereo import SGM_PATHS
+        cost = self._plain(cost, "cost", np.int16)
+        self._plain(out, "out", np.int16)
+        self._check_written(out, "out")
+        h, w, n = cost.shape
+        lines = h + w - 1
+        scratch = self.empty((lines, 2 * n), np.int32)
+        knl = self._stereo_kernel("sgm_path")
+        for i, (dy, dx) in enumerate(SGM_PATHS[:paths]):
+            count = w if dx == 0 else h if dy == 0 else lines
+            self._launch(knl, (count,), None, [cost, scratch], [out, scratch],
+                         (cost.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(n),
+                          np.int32(dy), np.int32(dx), np.int32(p1), np.int32(p2), np.int32(i > 0)))
+        return out
+
+    def stereo_select(self, aggregated, disp, disp_right, d_min, steps, uniqueness):
+        agg = self._plain(aggregated, "aggregated", np.int16)
+        for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32)):
+            self._plain(a, name, dt)
+            self._check_written(a, name)
+        h, w, n = agg.shape
+        self._launch(self._stereo_kernel("select_disparity"), (w, h), None, [agg], [disp, disp_right],
+                     (agg.data, disp.data, disp_right.data, np.int32(h), np.int32(w), np.int32(n),
+                      np.int32(d_min), np.int32(steps), np.int32(uniqueness)))
+        return disp, disp_right
+
+    def stereo_sweep(self, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
+        self._plain(state, "state", np.float32)
+        self._check_written(state, "state")
+        ls = self._plain(left_shifted, "left_shifted", np.float32)
+        rs = self._plain(right_shifted, "right_shifted", np.float32)
+        gl = self._plain(gain_left, "gain_left", np.float32)
+        gr = self._plain(gain_right, "gain_right", np.float32)
+        h, w = ls.shape
+        self._launch(self._stereo_kernel("sweep_update"), (w, h), None, [ls, rs, gl, gr], [state],
+                     (state.data, ls.data, rs.data, gl.data, gr.data, np.int32(h), np.int32(w),
+                      np.int32(offset), np.float32(d), np.int32(radius)))
+        return state

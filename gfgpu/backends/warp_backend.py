@@ -283,3 +283,51 @@ class WarpBackend(Backend):
                       inputs=[src.flatten(), dev_index, src.dtype(cval), out.flatten()],
                       device=self._device)
         return out
+
+    # ---- stereo (kernels/warp/stereo.py; specification: gfgpu.stereo *_reference) ----------
+    def _stereo(self):
+        from ..kernels.warp import stereo
+        return stereo
+
+    def _contiguous(self, a, name):
+        if not self.owns(a):
+            raise TypeError(f"{name} must be a warp.array on {self._device.alias}, got {type(a).__name__}")
+        return a if a.is_contiguous else a.contiguous()
+
+    def stereo_census(self, image, out, plane, radius):
+        image = self._contiguous(image, "image")
+        self._wp.launch(self._stereo().census, dim=image.shape, inputs=[image, out, int(plane), int(radius)],
+                        device=self._device)
+        return out
+
+    def stereo_cost(self, census_left, census_right, out, first_step, steps, block, invalid):
+        self._wp.launch(self._stereo().census_cost, dim=out.shape[:2],
+                        inputs=[census_left, census_right, out, int(first_step), int(steps), int(block),
+                                int(invalid)], device=self._device)
+        return out
+
+    def stereo_sgm(self, cost, out, p1, p2, paths):
+        from ..stereo import SGM_PATHS
+        h, w, n = cost.shape
+        lines = h + w - 1
+        scratch = self._wp.empty((lines, 2 * n), dtype=self._wp.int32, device=self._device)
+        for i, (dy, dx) in enumerate(SGM_PATHS[:paths]):
+            count = w if dx == 0 else h if dy == 0 else lines
+            self._wp.launch(self._stereo().sgm_path, dim=count,
+                            inputs=[cost, out, scratch, dy, dx, int(p1), int(p2), int(i > 0)],
+                            device=self._device)
+        return out
+
+    def stereo_select(self, aggregated, disp, disp_right, d_min, steps, uniqueness):
+        self._wp.launch(self._stereo().select_disparity, dim=disp.shape,
+                        inputs=[aggregated, disp, disp_right, int(d_min), int(steps), int(uniqueness)],
+                        device=self._device)
+        return disp, disp_right
+
+    def stereo_sweep(self, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
+        ls = self._contiguous(left_shifted, "left_shifted")
+        rs = self._contiguous(right_shifted, "right_shifted")
+        self._wp.launch(self._stereo().sweep_update, dim=ls.shape,
+                        inputs=[state, ls, rs, gain_left, gain_right, int(offset), float(d), int(radius)],
+                        device=self._device)
+        return state

@@ -1,0 +1,216 @@
+"""Stereo benchmark: gfgpu.disparity beside OpenCV StereoBM and StereoSGBM, same run.
+
+Scenes: the four Middlebury pairs of ``../shared/data/stereo/`` (tsukuba, venus, teddy, cones;
+non-occluded masks) and ``skimage.data.stereo_motorcycle()`` (pixels with finite ground
+truth), plus random-dot stereograms with piecewise-constant and slanted disparities (the
+chapter's Fig. 8).  Metrics: bad-1 / bad-2 = % of evaluated pixels with |d - gt| > 1 / 2 px,
+with rejected pixels (holes) filled by :func:`gfgpu.stereo.fill_holes` (the smaller of the
+nearest valid left/right neighbours, as the data README prescribes) for every method; the
+share of holes before filling is printed too.  Times are per pair, steady state (the best of
+``--repeat`` runs after one warm-up, which also compiles the kernels).
+
+OpenCV settings (from ``../shared/data/stereo/README.md``): StereoBM blockSize 15, StereoSGBM
+blockSize 5, P1 = 8·bs², P2 = 32·bs², uniquenessRatio 10, speckle filter 100/2,
+numDisparities = next multiple of 16 above the ground truth's maximum.  gfgpu searches the
+same range.
+
+Usage::
+
+    python benchmarks/stereo.py [--backends opencl warp] [--methods sgm uniform affine]
+                                [--repeat 3] [--figure docs/stereo_scenes.png]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import time
+
+import numpy as np
+
+from gfgpu.stereo import disparity, fill_holes
+
+DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "stereo")
+SCENES = ("tsukuba", "venus", "teddy", "cones")
+
+
+def load_middlebury(scene):
+    import imageio.v3 as iio
+    folder = os.path.join(DATA, scene)
+    meta = json.load(open(os.path.join(folder, "meta.json")))
+    left = iio.imread(os.path.join(folder, "left.png"))
+    right = iio.imread(os.path.join(folder, "right.png"))
+    gt = iio.imread(os.path.join(folder, meta["gt_disparity_left"])).astype(np.float64)
+    if gt.ndim == 3:
+        gt = gt[..., 0]
+    mask = iio.imread(os.path.join(folder, "mask_nonocc.png"))
+    if mask.ndim == 3:
+        mask = mask[..., 0]
+    mask = (mask > 128) & (gt > 0)
+    return left, right, gt / meta["gt_scale"], mask, float(meta["gt_max_disparity_px"])
+
+
+def load_motorcycle():
+    from skimage import data
+    left, right, gt = data.stereo_motorcycle()
+    gt = np.asarray(gt, np.float64)
+    mask = np.isfinite(gt)
+    return left, right, np.where(mask, gt, 0), mask, float(gt[mask].max())
+
+
+def random_dots(kind, shape=(240, 320), seed=0):
+    """Random-dot pair (smoothed dots, cubic resampling) with a known disparity map."""
+    from scipy import ndimage
+    rng = np.random.default_rng(seed)
+    h, w = shape
+    right = ndimage.gaussian_filter(rng.random((h, w)), 1.0)
+    right = (right - right.min()) / np.ptp(right) * 255
+    yy, xx = np.mgrid[:h, :w].astype(np.float64)
+    if kind == "rds-steps":      # piecewise constant: background, two raised squares (sub-pixel)
+        gt = np.full((h, w), 6.0)
+        gt[60:180, 60:150] = 14.5
+        gt[90:200, 190:290] = 23.25
+    else:                        # slanted plane
+        gt = 4.0 + 0.04 * xx + 0.02 * yy
+    left = ndimage.map_coordinates(right, [yy, xx - gt], order=3, mode="nearest")
+    mask = np.zeros((h, w), bool)
+    mask[:, 32:] = True          # left margin: no right pixel to match
+    jumps = (np.abs(np.diff(gt, axis=1, append=gt[:, -1:])) > 1) | \
+        (np.abs(np.diff(gt, axis=0, append=gt[-1:])) > 1)
+    mask &= ~ndimage.binary_dilation(jumps, iterations=3)   # occlusions and discontinuities
+    return left.astype(np.uint8), right.astype(np.uint8), gt, mask, float(gt.max())
+
+
+def grey(img):
+    img = np.asarray(img)
+    if img.ndim == 3:
+        img = img[..., :3].astype(np.float32).mean(axis=-1)
+    return np.clip(np.rint(img), 0, 255).astype(np.uint8)
+
+
+def opencv_matchers(num_disp):
+    import cv2
+    bm = cv2.StereoBM_create(numDisparities=num_disp, blockSize=15)
+    bm.setUniquenessRatio(10)
+    bm.setSpeckleWindowSize(100)
+    bm.setSpeckleRange(2)
+    bs = 5
+    sgbm = cv2.StereoSGBM_create(minDisparity=0, numDisparities=num_disp, blockSize=bs, P1=8 * bs * bs,
+                                 P2=32 * bs * bs, uniquenessRatio=10, speckleWindowSize=100,
+                                 speckleRange=2)
+
+    def run(matcher):
+        def match(left, right):
+            raw = matcher.compute(grey(left), grey(right)).astype(np.float32) / 16
+            raw[raw < 0] = np.nan
+            return raw
+        return match
+    return {"OpenCV StereoBM": run(bm), "OpenCV StereoSGBM": run(sgbm)}
+
+
+def timed(fn, repeat):
+    out = fn()   # warm-up (kernel compilation, caches)
+    best = np.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return out, best
+
+
+def scores(disp, gt, mask):
+    filled = fill_holes(disp)
+    err = np.abs(filled - gt)[mask]
+    return 100 * np.mean(err > 1), 100 * np.mean(err > 2), 100 * np.mean(~np.isfinite(disp)[mask])
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--backends", nargs="+", default=["opencl"])
+    ap.add_argument("--methods", nargs="+", default=["sgm", "uniform", "affine"])
+    ap.add_argument("--sweep-backend", default="opencl", help="backend of the uniform/affine rows")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--scenes", nargs="+", default=list(SCENES) + ["motorcycle", "rds-steps", "rds-slant"])
+    ap.add_argument("--figure", help="write a figure (left, ground truth, gfgpu, SGBM) here")
+    args = ap.parse_args()
+
+    rows, shown = [], {}
+    for scene in args.scenes:
+        if scene in SCENES:
+            if not os.path.isdir(os.path.join(DATA, scene)):
+                print(f"skipping {scene}: {DATA} not found")
+                continue
+            left, right, gt, mask, top = load_middlebury(scene)
+        elif scene == "motorcycle":
+            left, right, gt, mask, top = load_motorcycle()
+        else:
+            left, right, gt, mask, top = random_dots(scene)
+        num_disp = 16 * int(np.ceil((top + 1) / 16))
+        d_max = num_disp - 1
+        runs = {}
+        for be in args.backends:
+            runs[f"gfgpu sgm ({be})"] = lambda be=be, lft=left, rgt=right, top=d_max: disparity(
+                lft, rgt, top, backend=be)
+        for method in args.methods:
+            if method != "sgm":
+                runs[f"gfgpu {method} ({args.sweep_backend})"] = lambda m=method, lft=left, rgt=right, \
+                        top=d_max: disparity(lft, rgt, top, method=m, backend=args.sweep_backend)
+        try:
+            runs.update({k: (lambda f=f, lft=left, rgt=right: f(lft, rgt))
+                         for k, f in opencv_matchers(num_disp).items()})
+        except ImportError:
+            print("OpenCV (cv2) not installed: peers skipped")
+        for name, fn in runs.items():
+            repeat = 1 if ("uniform" in name or "affine" in name or "numpy" in name) else args.repeat
+            disp, seconds = timed(fn, repeat)
+            b1, b2, holes = scores(disp, gt, mask)
+            rows.append((scene, name, b1, b2, holes, seconds))
+            shown[(scene, name)] = disp
+            print(f"{scene:10s} {name:28s} bad-1 {b1:5.1f}  bad-2 {b2:5.1f}  holes {holes:4.1f}%  {seconds:6.3f} s",
+                  flush=True)
+        shown[(scene, "left")], shown[(scene, "gt")] = left, np.where(mask | (gt > 0), gt, np.nan)
+
+    print("\n| scene | method | bad-1 % | bad-2 % | holes % | time (s) | time / SGBM |")
+    print("|---|---|---|---|---|---|---|")
+    for scene, name, b1, b2, holes, seconds in rows:
+        ref = [r[5] for r in rows if r[0] == scene and r[1] == "OpenCV StereoSGBM"]
+        ratio = f"{seconds / ref[0]:.1f}x" if ref else "-"
+        print(f"| {scene} | {name} | {b1:.1f} | {b2:.1f} | {holes:.1f} | {seconds:.3f} | {ratio} |")
+    if args.figure:
+        figure(shown, [s for s in args.scenes if (s, "left") in shown], args.backends[0], args.figure)
+
+
+def figure(shown, scenes, backend, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cols = ("left", "gt", f"gfgpu sgm ({backend})", "OpenCV StereoSGBM")
+    titles = ("left image", "ground truth", "gfgpu (sgm, holes filled)", "OpenCV SGBM (holes filled)")
+    fig, axes = plt.subplots(len(scenes), 4, figsize=(13, 2.7 * len(scenes)))
+    axes = np.atleast_2d(axes)
+    for i, scene in enumerate(scenes):
+        gt = shown[(scene, "gt")]
+        lo, hi = np.nanmin(gt), np.nanmax(gt)
+        for j, key in enumerate(cols):
+            ax = axes[i, j]
+            img = shown.get((scene, key))
+            if img is None:
+                ax.axis("off")
+                continue
+            if key == "left":
+                ax.imshow(img if np.ndim(img) == 3 else img, cmap="gray")
+            else:
+                ax.imshow(fill_holes(img) if key != "gt" else img, cmap="turbo", vmin=lo, vmax=hi)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if i == 0:
+                ax.set_title(titles[j])
+        axes[i, 0].set_ylabel(scene)
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
+    print(f"figure written to {path}")
+
+
+if __name__ == "__main__":
+    main()
