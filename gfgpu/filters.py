@@ -86,7 +86,7 @@ class _Job:
             host = np.ascontiguousarray(arr, dtype=self.dtype)
             if not np.isfinite(host).all():
                 raise ValueError("input contains NaN or infinite values")
-            self.data = be.asarray(host)
+            self.data = be.host_view(host)
         else:
             if _work_dtype(be.dtype_of(arr)) != self.dtype:
                 raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
@@ -109,6 +109,12 @@ class _Job:
 
     def empty(self):
         return self.backend.empty(self.shape, self.dtype)
+
+    def result_buffer(self):
+        """The buffer of the final result: host-shared when a numpy result is returned."""
+        if self.host_input and self.output is None:
+            return self.backend.host_result(self.shape, self.dtype)
+        return self.empty()
 
     def finish(self, result):
         """Return ``result`` (a device array of self.shape) in the caller's array kind."""
@@ -173,6 +179,7 @@ def _apply_sequence(job, steps, mode, cval):
     if not steps:
         return job.finish(_copy_of_input(job))
     bufs = [job.empty() for _ in range(min(2, len(steps)))]
+    bufs[(len(steps) - 1) % 2] = job.result_buffer()
     cur = job.data
     for i, (passes, axis, angle) in enumerate(steps):
         nxt = bufs[i % 2]

@@ -42,6 +42,20 @@ class Backend:
         """Uninitialised C-contiguous device array."""
         raise NotImplementedError
 
+    def host_view(self, host: np.ndarray):
+        """A device array that reads ``host`` (C-contiguous) and is never written.
+
+        Devices that share the host's memory may wrap it without a copy; the default copies.
+        """
+        return self.asarray(host)
+
+    def host_result(self, shape, dtype):
+        """A device array for a final result that :meth:`to_host` can return without a copy.
+
+        The default is an ordinary :meth:`empty` array.
+        """
+        return self.empty(shape, dtype)
+
     def dtype_of(self, array) -> np.dtype:
         """numpy dtype of a device array."""
         return np.dtype(array.dtype)

@@ -137,6 +137,10 @@ def backend_for_queue(queue):
     return be
 
 
+#: host arrays at least this large are shared with CPU devices instead of copied
+_ZERO_COPY_BYTES = 1 << 16
+
+
 class OpenCLBackend(Backend):
     """Run the recursion primitive with OpenCL kernels on ``pyopencl.array.Array`` data.
 
@@ -246,7 +250,35 @@ class OpenCLBackend(Backend):
         return self._array.to_device(self.queue, host)
 
     def to_host(self, array):
+        host = getattr(array, "gfgpu_host", None)
+        if host is not None:
+            # a host_result array: its memory is the numpy array; mapping it (no copy on a CPU
+            # device) is what makes the kernels' writes visible to the host, per the spec
+            mapped, _ = self._cl.enqueue_map_buffer(self.queue, array.base_data, self._cl.map_flags.READ,
+                                                    0, host.shape, host.dtype, is_blocking=True)
+            mapped.base.release(self.queue)
+            return host
         return array.get(queue=self.queue)
+
+    def _wrap_host(self, host, flags):
+        buf = self._cl.Buffer(self.context, flags | self._cl.mem_flags.USE_HOST_PTR, hostbuf=host)
+        arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf)
+        arr.gfgpu_host = host       # keeps the memory alive as long as the device array
+        return arr
+
+    def host_view(self, host):
+        # a CPU device reads the numpy array in place: the upload would cost more than a pass
+        host = np.ascontiguousarray(host)
+        self._check_dtype(host.dtype)
+        if self.kind != "cpu" or host.nbytes < _ZERO_COPY_BYTES:
+            return self.asarray(host)
+        return self._wrap_host(host, self._cl.mem_flags.READ_ONLY)
+
+    def host_result(self, shape, dtype):
+        dtype = self._check_dtype(dtype)
+        if self.kind != "cpu" or int(np.prod(shape)) * dtype.itemsize < _ZERO_COPY_BYTES:
+            return self.empty(shape, dtype)
+        return self._wrap_host(np.empty(shape, dtype), self._cl.mem_flags.READ_WRITE)
 
     def empty(self, shape, dtype):
         shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(shape)
