@@ -52,26 +52,43 @@ def _block_matrices(plan, block):
     return out_in, out_state, carry_in, carry_state
 
 
-def _blocked(lines, plan, cval):
-    """Blocked evaluation of a constant plan on ``lines`` (n, m) in traversal order; float64.
+def _blocked(lines, plan, cval, steps_last=False):
+    """Blocked evaluation of a constant plan, float64, on ``lines`` in traversal order.
 
-    The block products are small (T x T times T x m): BLAS runs them on one thread, since a
-    multi-threaded BLAS spins and slows several-fold when the cores are shared (measured 5x
-    on 2 busy cores).
+    ``lines`` is ``(n, m)`` (step k is row k, one column per line) or, with ``steps_last``,
+    ``(m, n)`` (one row per line): the same products with the matrices transposed instead of
+    the data.  The block products are small (T x T times T x m): BLAS runs them on one
+    thread, since a multi-threaded BLAS spins and slows several-fold when the cores are
+    shared (measured 5x on 2 busy cores).
     """
     with threadpool_limits(limits=1, user_api="blas"):
+        if steps_last:
+            return _blocked_products(lines.T, plan, cval, transposed=True).T
         return _blocked_products(lines, plan, cval)
 
 
-def _blocked_products(lines, plan, cval):
+def _blocked_products(lines, plan, cval, transposed=False):
+    """``lines`` (n, m) view; with ``transposed`` it is the transpose of a row-major (m, n)
+    array and the products are evaluated as ``x.T @ M.T`` to stream the rows."""
     n, m = lines.shape
     S = plan.sections
     L = plan.omega.shape[1]
     state = plan.omega @ lines[:L] if L else np.zeros((S, m), np.complex128)
     state = state + (plan.omega_c * cval)[:, None]
     state = np.concatenate([state.real, state.imag], axis=0)                    # (2S, m)
-    out = np.empty((n, m), np.float64)
     out_in, out_state, carry_in, carry_state = _block_matrices(plan, _BLOCK)
+    if transposed:
+        out = np.empty((m, n), np.float64)
+        rows = lines.T                                                          # (m, n)
+        st = np.ascontiguousarray(state.T)                                      # (m, 2S)
+        for k0 in range(0, n, _BLOCK):
+            x = rows[:, k0:k0 + _BLOCK]
+            t = x.shape[1]
+            out[:, k0:k0 + t] = x @ out_in[:t, :t].T + st @ out_state[:t].T
+            if t == _BLOCK:
+                st = x @ carry_in.T + st @ carry_state.T
+        return out.T
+    out = np.empty((n, m), np.float64)
     for k0 in range(0, n, _BLOCK):
         x = lines[k0:k0 + _BLOCK]
         t = x.shape[0]
@@ -106,21 +123,24 @@ class NumpyBackend(Backend):
     def all_finite(self, array):
         return bool(np.isfinite(array).all())
 
-    def _pass(self, lines, plan, cval):
-        """Result of one pass on ``lines`` (n, m), natural order, as float64."""
+    def _pass(self, lines, plan, cval, steps_last=False):
+        """Result of one pass, float64: ``lines`` (n, m) steps along axis 0, or (m, n)."""
         if not plan.constant:
+            if steps_last:
+                return run_reference(lines.T.astype(np.float64), plan, cval).T
             return run_reference(lines.astype(np.float64), plan, cval)
-        src = lines[::-1] if plan.reverse else lines
-        res = _blocked(np.asarray(src, np.float64), plan, float(cval))
-        return res[::-1] if plan.reverse else res
+        flip = (slice(None), slice(None, None, -1)) if steps_last else slice(None, None, -1)
+        src = lines[flip] if plan.reverse else lines
+        res = _blocked(np.asarray(src, np.float64), plan, float(cval), steps_last)
+        return res[flip] if plan.reverse else res
 
     def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
         if axis not in (1, 2):
             raise ValueError(f"axis must be 1 or 2, got {axis}")
         b, n, m = src.shape
         if axis == 2:
-            # rows: transpose so that each step is one contiguous vector over all lines
-            res = self._pass(src.reshape(b * n, m).T, plan, cval).T.reshape(b, n, m)
+            # rows: one row per line, streamed block by block (no transposed copies)
+            res = self._pass(src.reshape(b * n, m), plan, cval, steps_last=True).reshape(b, n, m)
             if accumulate:
                 dst += res
             else:
