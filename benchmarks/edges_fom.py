@@ -261,14 +261,14 @@ def check_fast_path(target, backend, scales, pairs):
     """The grid's gradient + reference NMS + local hysteresis must equal gfgpu.canny."""
     img = target.noisy(1, 2.0, 999, 99)
     worst = 0
-    for u in (scales[0], scales[len(scales) // 2], scales[-1]):
-        gy, gx = gfgpu.gradient(img, u, backend=backend)
+    for u, ratio in (scales[0], scales[len(scales) // 2], scales[-1]):
+        gy, gx = gfgpu.gradient(img, u, projection_scale=ratio, backend=backend)
         mag = np.hypot(gy, gx)
         nms = suppress_nonmaxima_reference(gy, gx)
         for lo, hi in (pairs[0], pairs[len(pairs) // 2], pairs[-1]):
             low, high = np.percentile(mag, [100 * lo, 100 * hi])
             mine = hysteresis(nms, low, high)
-            ref = gfgpu.canny(img, u, lo, hi, use_quantiles=True, backend=backend)
+            ref = gfgpu.canny(img, u, lo, hi, use_quantiles=True, projection_scale=ratio, backend=backend)
             worst = max(worst, int(np.count_nonzero(mine != ref)))
     return worst
 
@@ -290,8 +290,8 @@ def run_fom(targets, args, backend, grids, deriche):
         t = targets[i]
         img = t.noisy(j, SNRS[j], k, i)
         t0 = time.perf_counter()
-        for a, u in enumerate(grids["u"]):
-            gy, gx = gfgpu.gradient(img, u, a=EDGE_A, eta=EDGE_ETA, backend=backend)
+        for a, (u, ratio) in enumerate(grids["u"]):
+            gy, gx = gfgpu.gradient(img, u, a=EDGE_A, eta=EDGE_ETA, projection_scale=ratio, backend=backend)
             res["gfgpu"][i, j, a, :, k] = grid_foms(t, np.asarray(gy), np.asarray(gx), pairs, lows)
         defaults["gfgpu"][i, j, k] = t.fom(gfgpu.canny(img, 1.0, backend=backend))
         t1 = time.perf_counter()
@@ -327,6 +327,14 @@ def best(res, scales, pairs):
                              ("highest high q", pairs[p][1] == max(q for _, q in pairs)),
                              ("lowest high q", pairs[p][1] == min(q for _, q in pairs))) if hit)}
     return out
+
+
+def fmt_scale(symbol, scale):
+    """``u=3`` or, for gfgpu's (u, projection_scale) with a non-default P, ``u=3 P/2``."""
+    if isinstance(scale, tuple):
+        u, ratio = scale
+        return f"{symbol}={u:g}" + ("" if ratio == 1 else f" P×{ratio:g}")
+    return f"{symbol}={scale:g}"
 
 
 def fmt_q(q):
@@ -445,11 +453,13 @@ def main(argv=None):
     if args.quick:
         if args.draws == 20:
             args.draws = 4
-        grids = {"u": [1.0, 2.0, 4.0], "sigma": [1.0, 2.0, 4.0], "alpha": [1.0, 0.5, 0.25],
+        grids = {"u": [(u, r) for r in (1.0, 0.5) for u in (1.0, 2.0, 4.0)], "sigma": [1.0, 2.0, 4.0],
+                 "alpha": [1.0, 0.5, 0.25],
                  "pairs": make_pairs([0.9, 0.97, 0.99, 0.995], [0.7, 0.9])}
         tsize = args.timing_size or 512
     else:
-        grids = {"u": [0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0],
+        # gfgpu: (u, projection_scale): the chapter's P at D's scale, and P at half of it
+        grids = {"u": [(u, r) for r in (1.0, 0.5) for u in (0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0, 8.0)],
                  "sigma": [0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0],
                  "alpha": [2.0, 1.5, 1.0, 0.75, 0.5, 0.35, 0.25, 0.15, 0.1],
                  "pairs": make_pairs([0.85, 0.9, 0.93, 0.95, 0.97, 0.98, 0.99, 0.995, 0.998],
@@ -506,7 +516,7 @@ def main(argv=None):
             for d in names:
                 b = bests[d][i, j]
                 cells.append(f"{b['mean']:.3f} ± {b['std']:.3f}")
-                cells.append(f"{sym[d]}={b['scale']:g} ({fmt_q(b['pair'][0])}, {fmt_q(b['pair'][1])})")
+                cells.append(f"{fmt_scale(sym[d], b['scale'])} ({fmt_q(b['pair'][0])}, {fmt_q(b['pair'][1])})")
                 if b["edge"]:
                     flagged.append(f"{d} {name}/{snr} ({b['edge']})")
             diff = bests["gfgpu"][i, j]["foms"] - bests["skimage"][i, j]["foms"]

@@ -103,8 +103,8 @@ def _threshold(value, name, use_quantiles, default):
 
 
 def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, use_quantiles=False,
-          mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_ETA, single_scale=False, return_gradient=False,
-          backend=None, device=None):
+          mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_ETA, single_scale=False, projection_scale=1.0,
+          return_gradient=False, backend=None, device=None):
     """Edge map by the Green's-function differentiator (chapter §2) and Canny's steps.
 
     Parameters
@@ -125,8 +125,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     mode, cval : str, float
         Boundary handling of the gradient (see :func:`gfgpu.green_filter`).  The image's
         outermost pixels are never edges.
-    a, eta, single_scale
-        Parameters of D(x), see :func:`gfgpu.derivative`.
+    a, eta, single_scale, projection_scale
+        Parameters of D(x) and of the projection P along edges, see :func:`gfgpu.derivative`.
     return_gradient : bool
         Also return the gradient magnitude and orientation (radians, ``arctan2(gy, gx)``).
     backend, device
@@ -177,7 +177,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
             raise ValueError(f"mask must have the image's shape {job.shape}, got {mask.shape}")
         mask = mask.astype(bool)
     # data lives on the backend, so the gradient stays there for the suppression kernel
-    gy, gx = gradient(data, u, mode=mode, cval=cval, a=a, eta=eta, single_scale=single_scale, backend=be)
+    gy, gx = gradient(data, u, mode=mode, cval=cval, a=a, eta=eta, single_scale=single_scale,
+                      projection_scale=projection_scale, backend=be)
     suppressed = be.empty(job.shape, job.dtype)
     be.suppress_nonmaxima(gy, gx, suppressed)
     nms = be.to_host(suppressed)

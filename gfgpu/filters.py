@@ -378,20 +378,22 @@ def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, bac
     return _apply_sequence(job, steps, mode, cval)
 
 
-def _edge_steps(job, u, axis, axes, a, eta, single_scale):
+def _edge_steps(job, u, axis, axes, a, eta, single_scale, projection_scale=1.0):
     ax = _axes_list(axes, job.ndim)
     d_axis = normalize_axis(axis, job.ndim)
     if d_axis not in ax:
         raise ValueError(f"axis {axis} must be one of axes {ax}")
+    ratio = greens._positive("projection_scale", projection_scale)
     d_passes = list(greens.derivative_passes(u, a, eta, single_scale))
-    p_passes = list(greens.projection_passes(u, a, eta, single_scale))
+    p_passes = list(greens.projection_passes(greens._positive("u", u) * ratio, a, eta, single_scale))
     steps = [(p_passes, other, None) for other in ax if other != d_axis]
     steps.append((d_passes, d_axis, None))
     return steps
 
 
 def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes=None,
-               a=greens.EDGE_A, eta=greens.EDGE_ETA, single_scale=False, backend=None, device=None):
+               a=greens.EDGE_A, eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0,
+               backend=None, device=None):
     """Green's-function derivative: D(x) across ``axis``, the projection P along the others.
 
     Parameters
@@ -407,6 +409,10 @@ def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes
         Weight and scale ratio of the two-scale D (eq. 25-26, ``K = a eta^2``, DESIGN §2).
     single_scale : bool
         Use D_u of eq. 19 (and its integral) instead.
+    projection_scale : float
+        Scale of P relative to D's (> 0); 1 is the chapter's P = ∫D at the same u.  Smaller
+        values smooth less along edges, which makes the 2-D operator closer to isotropic
+        (better on oblique and curved edges; see ``benchmarks/edges_fom.py``).
     output, mode, cval, backend, device
         As in :func:`green_filter`.
 
@@ -437,7 +443,8 @@ def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes
     check_mode(mode)
     cval = _finite_cval(cval)
     job = _Job(input, output, backend, device)
-    return _apply_sequence(job, _edge_steps(job, u, axis, axes, a, eta, single_scale), mode, cval)
+    return _apply_sequence(job, _edge_steps(job, u, axis, axes, a, eta, single_scale, projection_scale),
+                           mode, cval)
 
 
 def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=greens.EDGE_A,
@@ -454,8 +461,10 @@ def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=gr
 
 
 def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
-             single_scale=False, backend=None, device=None):
+             single_scale=False, projection_scale=1.0, backend=None, device=None):
     """Green's-function gradient: :func:`derivative` along each axis in ``axes``.
+
+    Parameters are those of :func:`derivative`.
 
     Returns
     -------
@@ -475,5 +484,5 @@ def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, 
     cval = _finite_cval(cval)
     job = _Job(input, None, backend, device)
     ax = _axes_list(axes, job.ndim)
-    return tuple(_apply_sequence(job, _edge_steps(job, u, d, ax, a, eta, single_scale), mode, cval)
-                 for d in ax)
+    return tuple(_apply_sequence(job, _edge_steps(job, u, d, ax, a, eta, single_scale, projection_scale),
+                                 mode, cval) for d in ax)

@@ -221,3 +221,14 @@ def test_stack_and_colour_images(backend, rng):
     for i in range(3):
         np.testing.assert_allclose(ob[i], gfgpu.green_filter(stack[i], greens.UniformGreen(2.0), angle=0.4,
                                                              backend=backend), rtol=1e-6, atol=1e-6)
+
+
+def test_projection_scale_sets_the_smoothing_along_edges(backend, rng):
+    img = rng.standard_normal((40, 50))
+    d = gfgpu.derivative(img, 2.0, axis=1, projection_scale=0.5, backend=backend)
+    p = gfgpu.projection(img, 1.0, axis=0, backend=backend)          # P at 0.5 * 2.0
+    ref = gfgpu.derivative(p, 2.0, axis=1, axes=[1], backend=backend)
+    np.testing.assert_allclose(d, ref, rtol=1e-12, atol=1e-12)
+    assert relerr(d, gfgpu.derivative(img, 2.0, axis=1, backend=backend)) > 1e-3
+    with pytest.raises(ValueError, match="projection_scale must be > 0"):
+        gfgpu.gradient(img, 1.0, projection_scale=-1, backend=backend)
