@@ -18,6 +18,7 @@ Usage::
 
     python benchmarks/stereo.py [--backends opencl warp] [--methods sgm uniform affine]
                                 [--repeat 3] [--figure docs/stereo_scenes.png]
+    python benchmarks/stereo.py --stages teddy [--backends opencl]   # per-stage times only
 """
 
 from __future__ import annotations
@@ -119,6 +120,54 @@ def timed(fn, repeat):
     return out, best
 
 
+def stage_times(scene_images, d_max, backend, repeat):
+    """Steady-state seconds of each stage of ``disparity(..., method="sgm")`` (defaults) on ``backend``:
+    census (with the Green half-pixel shift), matching cost, aggregation, selection, and the
+    whole call (which adds the host's grey conversion and left-right check)."""
+    from gfgpu import stereo
+    from gfgpu.backends import resolve_backend
+    from gfgpu.filters import shift
+    be = resolve_backend(backend, None)
+    left, right = (stereo._grey(img, name) for img, name in zip(scene_images, ("left", "right")))
+    h, w = left.shape
+    steps, radius, block = 2, 3, 3
+    n = d_max * steps + 1
+    state = {}
+
+    def census():
+        state["cl"] = be.empty((1, h, w), np.uint64)
+        be.stereo_census(be.asarray(left), state["cl"], 0, radius)
+        state["cr"] = be.empty((steps, h, w), np.uint64)
+        rgt = be.asarray(right)
+        for f in range(steps):
+            moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
+            be.stereo_census(moved, state["cr"], f, radius)
+
+    def cost():
+        state["cost"] = be.empty((h, w, n), np.int16)
+        be.stereo_cost(state["cl"], state["cr"], state["cost"], 0, steps, block, (2 * radius + 1) ** 2 - 1)
+
+    def aggregate():
+        state["agg"] = be.empty((h, w, n), np.int16)
+        be.stereo_sgm(state["cost"], state["agg"], 6 * block**2, 64 * block**2, 8)
+
+    def select():
+        be.stereo_select(state["agg"], be.empty((h, w), np.float32), be.empty((h, w), np.int32), 0, steps, 10)
+
+    times = {}
+    for name, fn in (("census + Green shift", census), ("matching cost", cost),
+                     ("8-path aggregation", aggregate), ("selection", select)):
+        best = np.inf
+        for _ in range(repeat + 1):        # the first run compiles
+            t0 = time.perf_counter()
+            fn()
+            be.synchronize()
+            best = min(best, time.perf_counter() - t0)
+        times[name] = best
+    _, times["disparity() total"] = timed(lambda: stereo.disparity(*scene_images, d_max, backend=be), repeat)
+    return times
+
+
 def scores(disp, gt, mask):
     filled = fill_holes(disp)
     err = np.abs(filled - gt)[mask]
@@ -133,7 +182,25 @@ def main():
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--scenes", nargs="+", default=list(SCENES) + ["motorcycle", "rds-steps", "rds-slant"])
     ap.add_argument("--figure", help="write a figure (left, ground truth, gfgpu, SGBM) here")
+    ap.add_argument("--stages", metavar="SCENE", help="print per-stage times of sgm on this Middlebury "
+                    "scene (and SGBM's time) instead of the scene table")
     args = ap.parse_args()
+    if args.stages:
+        left, right, _, _, top = load_middlebury(args.stages)
+        num_disp = 16 * int(np.ceil((top + 1) / 16))
+        cols = {be: stage_times((left, right), num_disp - 1, be, max(args.repeat, 5)) for be in args.backends}
+        print(f"\n{args.stages}, {left.shape[1]}x{left.shape[0]}, d = 0..{num_disp - 1} at half-pixel "
+              f"steps ({2 * num_disp - 1} samples)\n")
+        print("| stage | " + " | ".join(f"{be} (ms)" for be in cols) + " |")
+        print("|---|" + "---|" * len(cols))
+        for stage in next(iter(cols.values())):
+            print(f"| {stage} | " + " | ".join(f"{cols[be][stage] * 1e3:.1f}" for be in cols) + " |")
+        try:
+            _, sgbm = timed(lambda: opencv_matchers(num_disp)["OpenCV StereoSGBM"](left, right), max(args.repeat, 5))
+            print("| OpenCV StereoSGBM (whole) | " + " | ".join(f"{sgbm * 1e3:.1f}" for _ in cols) + " |")
+        except ImportError:
+            print("OpenCV (cv2) not installed: SGBM skipped")
+        return
 
     rows, shown = [], {}
     for scene in args.scenes:

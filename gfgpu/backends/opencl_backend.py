@@ -502,8 +502,10 @@ class OpenCLBackend(Backend):
             raise TypeError(f"{name} must be {np.dtype(dtype)}, got {a.dtype}")
         return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
 
-    def _stereo_kernel(self, name):
-        return self._kernel(name, np.dtype(np.float32), source="stereo.cl")
+    def _stereo_kernel(self, name, n_disp=None):
+        """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp``."""
+        defines = {} if n_disp is None else {"N_DISP": int(n_disp)}
+        return self._kernel(name, np.dtype(np.float32), source="stereo.cl", **defines)
 
     def _check_written(self, a, name):
         if a.offset != 0 or not a.flags.c_contiguous:
@@ -514,7 +516,8 @@ class OpenCLBackend(Backend):
         self._plain(out, "out", np.uint64)
         self._check_written(out, "out")
         h, w = image.shape
-        self._launch(self._stereo_kernel("census"), (w, h), None, [image], [out],
+        knl = self._kernel("census", np.dtype(np.float32), source="stereo.cl", CENSUS_RADIUS=int(radius))
+        self._launch(knl, (w, h), None, [image], [out],
                      (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w),
                       np.int32(radius)))
         return out
@@ -524,26 +527,55 @@ class OpenCLBackend(Backend):
         cr = self._plain(census_right, "census_right", np.uint64)
         self._plain(out, "out", np.int16)
         self._check_written(out, "out")
+        if not 0 <= invalid <= 255:
+            raise ValueError(f"invalid must be 0..255 (a Hamming distance of census codes), got {invalid}")
         h, w, n = out.shape
-        self._launch(self._stereo_kernel("census_cost"), (w, h), None, [cl_, cr], [out],
-                     (cl_.data, cr.data, out.data, np.int32(h), np.int32(w), np.int32(n),
-                      np.int32(first_step), np.int32(steps), np.int32(block), np.int32(invalid)))
+        if out.size == 0:
+            return out
+        # interleaved right codes -> uchar Hamming volume -> running block sums (stereo.cl)
+        ri = self.empty((h, w * steps), np.uint64)
+        self._launch(self._stereo_kernel("census_interleave", n), (w, h), None, [cr], [ri],
+                     (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
+        ham = self.empty((h, w, n), np.uint8)
+        self._launch(self._stereo_kernel("census_hamming", n), (w, h), None, [cl_, ri], [ham],
+                     (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
+                      np.int32(steps), np.int32(invalid)))
+        group = self._group()
+        self._launch(self._stereo_kernel("block_sum", n), (-(-h // group) * group,), (group,), [ham], [out],
+                     (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block)))
         return out
 
     def stereo_sgm(self, cost, out, p1, p2, paths):
-        from ..stereo import SGM_PATHS
         cost = self._plain(cost, "cost", np.int16)
         self._plain(out, "out", np.int16)
         self._check_written(out, "out")
         h, w, n = cost.shape
-        lines = h + w - 1
-        scratch = self.empty((lines, 2 * n), np.int32)
-        knl = self._stereo_kernel("sgm_path")
-        for i, (dy, dx) in enumerate(SGM_PATHS[:paths]):
-            count = w if dx == 0 else h if dy == 0 else lines
-            self._launch(knl, (count,), None, [cost, scratch], [out, scratch],
-                         (cost.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(n),
-                          np.int32(dy), np.int32(dx), np.int32(p1), np.int32(p2), np.int32(i > 0)))
+        if cost.size == 0:
+            return out
+        if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
+            raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
+        if self.kind == "cpu":
+            # two sweeps over the image (one per core), the cost volume read once per sweep
+            nv = -(-n // 16)
+            state = self.empty((2, 5, 16 + (w + 2) * (nv * 16 + 16)), np.int16)
+            state_min = self.empty((2, 4, w + 2), np.int16)
+            back = self.empty((h, w, n), np.int16)
+            self._launch(self._stereo_kernel("sgm_two_sweeps", n), (2,), (1,), [cost],
+                         [out, back, state, state_min],
+                         (cost.data, out.data, back.data, state.data, state_min.data, np.int32(h),
+                          np.int32(w), np.int16(p1), np.int16(p2), np.int32(paths == 8)))
+            group = self._group()
+            self._launch(self._stereo_kernel("add_volume", n), (-(-h // group) * group,), (group,),
+                         [back], [out], (out.data, back.data, np.int32(h), np.int32(w)))
+            return out
+        knl = self._stereo_kernel("sgm_line_pair", n)
+        group = self._group()   # GPU: a warp's multiple
+        # each launch sweeps a direction of gfgpu.stereo.SGM_PATHS and its opposite
+        for i, (dy, dx) in enumerate(((0, 1), (1, 0), (1, 1), (1, -1))[:paths // 2]):
+            count = w if dx == 0 else h if dy == 0 else h + w - 1
+            self._launch(knl, (-(-count // group) * group,), (group,), [cost], [out],
+                         (cost.data, out.data, np.int32(h), np.int32(w), np.int32(dy), np.int32(dx),
+                          np.int16(p1), np.int16(p2), np.int32(i > 0)))
         return out
 
     def stereo_select(self, aggregated, disp, disp_right, d_min, steps, uniqueness):
@@ -552,8 +584,15 @@ class OpenCLBackend(Backend):
             self._plain(a, name, dt)
             self._check_written(a, name)
         h, w, n = agg.shape
-        self._launch(self._stereo_kernel("select_disparity"), (w, h), None, [agg], [disp, disp_right],
-                     (agg.data, disp.data, disp_right.data, np.int32(h), np.int32(w), np.int32(n),
+        if agg.size == 0:
+            return disp, disp_right
+        if n > 32767:
+            raise ValueError(f"aggregated must have at most 32767 disparity samples (int16 lane "
+                             f"indices in select_disparity), got {n}")
+        group = self._group()
+        self._launch(self._stereo_kernel("select_disparity", n), (-(-h // group) * group,), (group,),
+                     [agg], [disp, disp_right],
+                     (agg.data, disp.data, disp_right.data, np.int32(h), np.int32(w),
                       np.int32(d_min), np.int32(steps), np.int32(uniqueness)))
         return disp, disp_right
 
