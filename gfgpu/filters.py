@@ -12,7 +12,6 @@ same kind on the same device.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -39,13 +38,7 @@ def _work_dtype(dtype, name="input"):
 
 
 def _finite_cval(cval):
-    try:
-        c = float(cval)
-    except (TypeError, ValueError):
-        raise TypeError(f"cval must be a real number, got {cval!r}") from None
-    if not math.isfinite(c):
-        raise ValueError(f"cval must be finite, got {cval!r}")
-    return c
+    return greens._finite_scalar("cval", cval)
 
 
 class _Job:

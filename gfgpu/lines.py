@@ -27,6 +27,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from .greens import _finite_scalar
 from .recursion import extension_index
 
 
@@ -67,12 +68,7 @@ def _extend(idx, size, mode):
 
 def direction(angle):
     """``(steep, reverse, gamma)`` of a direction: dominant axis y if steep, traversal sense."""
-    try:
-        theta = float(angle)
-    except (TypeError, ValueError):
-        raise TypeError(f"angle must be a real number (radians), got {angle!r}") from None
-    if not math.isfinite(theta):
-        raise ValueError(f"angle must be finite, got {angle!r}")
+    theta = _finite_scalar("angle", angle)   # radians
     c, s = math.cos(theta), math.sin(theta)
     if abs(c) >= abs(s) - 1e-12:
         return False, c < 0, s / c

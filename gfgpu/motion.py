@@ -52,16 +52,7 @@ def _pair(value, name):
         arr = np.array([value, value], dtype=object)
     if arr.shape != (2,):
         raise ValueError(f"{name} must be a number or a pair of numbers, got {value!r}")
-    out = []
-    for v in arr:
-        try:
-            f = float(v)
-        except (TypeError, ValueError):
-            raise TypeError(f"{name} must contain real numbers, got {value!r}") from None
-        if not math.isfinite(f):
-            raise ValueError(f"{name} must be finite, got {value!r}")
-        out.append(f)
-    return tuple(out)
+    return tuple(greens._finite_scalar(name, v) for v in arr)
 
 
 def _velocity(velocity):

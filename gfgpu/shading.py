@@ -372,13 +372,7 @@ def _resolve_light(image, light, mask):
 def _integration_angle(light, direction, estimated):
     tilt, slant = _tilt_slant(light)
     if direction is not None:
-        try:
-            angle = float(direction)
-        except (TypeError, ValueError):
-            raise TypeError(f"direction must be an angle in radians, got {direction!r}") from None
-        if not math.isfinite(angle):
-            raise ValueError(f"direction must be finite, got {direction!r}")
-        return angle
+        return greens._finite_scalar("direction", direction)   # radians
     if slant < MIN_SLANT:
         src = "the estimated light" if estimated else "light"
         raise ValueError(
