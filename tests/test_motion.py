@@ -194,7 +194,7 @@ def test_zoom_fixed_point_is_kept():
     (dict(velocity=(1.0, np.nan)), ValueError, "velocity must be finite"),
     (dict(velocity=(1.0, 2.0, 3.0)), ValueError, "pair"),
     (dict(velocity=3.0), ValueError, r"pair \(dx, dy\)"),
-    (dict(velocity=("a", 1)), TypeError, "real numbers"),
+    (dict(velocity=("a", 1)), TypeError, "velocity must be a real number"),
     (dict(velocity=(1.0, 1.0), kind="spin"), ValueError, "kind must be one of"),
     (dict(velocity=2.0, kind="zoom"), ValueError, r"u1 must lie in \[0, 2\)"),
     (dict(velocity=-0.3, kind="zoom"), ValueError, "zoom-out"),
