@@ -40,6 +40,10 @@ def write_atomic(path, write):
     os.close(fd)
     try:
         write(tmp)
+        # mkstemp creates 0600 files; outputs get the usual permissions (0666 minus the umask)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
         if os.path.exists(tmp):

@@ -61,17 +61,21 @@ def _velocity(velocity):
     return _pair(velocity, "velocity")
 
 
+U1_MIN = 2.0 - 2.0 * math.sqrt(2.0)   # below: beta of eq. 12 is imaginary (no oscillating G_U^(1))
+
+
+def _zoom_u1(name, u1):
+    """One zoom rate, checked against the range of a bounded real G_U^(1)."""
+    if not U1_MIN < u1 < 2.0:
+        raise ValueError(f"{name} must lie in (2 - 2*sqrt(2), 2) ~ (-0.8284, 2) for a bounded G_U^(1) "
+                         f"(eq. 12: alpha < 0 for zoom-in u1 > 0, real beta for zoom-out u1 < 0), "
+                         f"got {u1!r}")
+    return u1
+
+
 def _zoom_factors(velocity):
     u1x, u1y = _pair(velocity, "velocity (zoom u1)")
-    for u1 in (u1x, u1y):
-        if u1 < 0:
-            raise ValueError(f"zoom-out (u1 < 0) is not implemented: the bounded Green's function is "
-                             f"then anticausal and needs the image beyond its border (science.md §4); "
-                             f"u1 must lie in [0, 2), got {velocity!r}")
-        if not u1 < 2.0:
-            raise ValueError(f"u1 must lie in [0, 2) for a bounded G_U^(1) (eq. 12: alpha < 0), "
-                             f"got {velocity!r}")
-    return u1x, u1y
+    return _zoom_u1("velocity (zoom u1)", u1x), _zoom_u1("velocity (zoom u1)", u1y)
 
 
 def _move_channels(image, channel_axis):
@@ -112,45 +116,62 @@ def _uniform_steps(job, dx, dy, displace):
 
 
 # --------------------------------------------------------------------------------------
-# zoom: G_U^(1) with cell-integrated source taps, run outward from the fixed point
+# zoom: G_U^(1) with cell-integrated source taps, run outward (zoom-in) or inward (zoom-out)
 # --------------------------------------------------------------------------------------
 def _affine_z(u1):
-    alpha, beta = greens._affine_params(u1)
-    return complex(alpha, beta), 2.0 / (u1 * u1 * beta)
+    """``(z, C)`` of G_U^(1) = C/s0 Im[(s/s0)^z], z = alpha + i beta (beta > 0 on both sides).
+
+    Zoom-in (u1 > 0): causal from the fixed point, C = 2/(u1^2 beta).  Zoom-out (u1 < 0):
+    anticausal (sources further from the fixed point than the output), C = -2/(u1^2 beta)
+    from the jump condition (science.md §4); both have unit integral since
+    alpha^2 + beta^2 = 2/u1^2.
+    """
+    alpha = 0.5 - 1.0 / u1
+    beta = math.sqrt(1.0 + u1 - u1 * u1 / 4.0) / abs(u1)
+    c = 2.0 / (u1 * u1 * beta)
+    return complex(alpha, beta), (c if u1 > 0 else -c)
 
 
 def _power(ratio, z):
-    """``ratio**z`` for real ratio > 0 (0 where ratio is inf: alpha < 0)."""
+    """``ratio**z`` for real ratio >= 0 (inf -> 0 when alpha < 0, 0 -> 0 when alpha > 0)."""
     ratio = np.asarray(ratio, np.float64)
     with np.errstate(divide="ignore"):
         logr = np.log(ratio)
     out = np.exp(z * np.where(np.isfinite(logr), logr, 0.0))
-    return np.where(np.isinf(ratio), 0.0, out)
+    return np.where(np.isinf(ratio) | (ratio == 0), 0.0, out)
 
 
 def zoom_cell_weights(s_out, s_src, u1):
     """Cell-integrated G_U^(1) weights (float64 closed form, O(N*K)): the zoom's exact taps.
 
     The weight of the source pixel at distance ``s_src`` from the fixed point for the output
-    at distance ``s_out`` is ``∫ G_U^(1)(s_out, ξ) dξ`` over the pixel's cell
-    ``[s_src - 1/2, s_src + 1/2]`` clipped to the kernel's support ``(0, s_out)``:
+    at distance ``s_out`` (same side) is ``∫ G_U^(1)(s_out, ξ) dξ`` over the pixel's cell
+    ``[s_src - 1/2, s_src + 1/2]`` clipped to the kernel's support: ``(0, s_out)`` for a
+    zoom-in (``u1 > 0``, eq. 11-12), ``(s_out, inf)`` for a zoom-out (``u1 < 0``, the
+    anticausal bounded solution of eq. 10, science.md §4):
 
     .. math:: w = \\operatorname{Im}\\Big[\\frac{C}{z}\\big((s/a)^{z} - (s/b)^{z}\\big)\\Big],
-       \\quad z = \\alpha + i\\beta,\\ C = \\frac{2}{u_1^2\\beta}
+       \\quad z = \\alpha + i\\beta,\\ C = \\pm\\frac{2}{u_1^2\\beta}
 
-    (eq. 11-12 integrated in closed form; ``(s/0)^z = 0`` since ``alpha < 0``).  At ``s_out = 0``
-    (the fixed point itself) the weight is the limit, the identity.
+    with ``alpha = 1/2 - 1/u1``, ``beta = sqrt(1 + u1 - u1^2/4)/|u1|`` and the sign of ``u1``
+    (``(s/0)^z = 0`` for ``alpha < 0``, ``(0/a)^z = 0`` for ``alpha > 0``).  At ``s_out = 0`` (the
+    fixed point itself) the weight is the limit, the identity.
 
     Parameters
     ----------
     s_out, s_src : array_like
         Distances from the fixed point (broadcast together), in pixels.
     u1 : float
-        Zoom parameter, ``0 < u1 < 2``.
+        Zoom parameter, ``2 - 2 sqrt(2) < u1 < 2``, non-zero.
 
     Returns
     -------
     ndarray of float64
+
+    Raises
+    ------
+    ValueError
+        ``u1`` outside that range or zero.
 
     Examples
     --------
@@ -158,12 +179,21 @@ def zoom_cell_weights(s_out, s_src, u1):
     >>> w = zoom_cell_weights(40.0, np.arange(41.0), 0.5)
     >>> round(float(w.sum()), 12), round(float((w * np.arange(41)).sum() / w.sum()), 2)
     (1.0, 26.67)
+    >>> w = zoom_cell_weights(20.0, np.arange(20.0, 20000.0), -0.3)
+    >>> round(float(w.sum()), 9), round(float((w * np.arange(20.0, 20000.0)).sum()), 2)
+    (1.0, 28.57)
     """
-    u1 = greens._u1_range(u1)
+    u1 = _zoom_u1("u1", greens._finite_scalar("u1", u1))
+    if u1 == 0.0:
+        raise ValueError("u1 must be non-zero for zoom_cell_weights (u1 = 0 is the identity)")
     z, c = _affine_z(u1)
     s, k = np.broadcast_arrays(np.asarray(s_out, np.float64), np.asarray(s_src, np.float64))
-    a = np.clip(k - 0.5, 0.0, None)
-    b = np.minimum(k + 0.5, s)
+    if u1 > 0:
+        a = np.clip(k - 0.5, 0.0, None)
+        b = np.minimum(k + 0.5, s)
+    else:
+        a = np.maximum(k - 0.5, s)
+        b = k + 0.5
     valid = (s > 0) & (b > a)
     with np.errstate(divide="ignore", invalid="ignore"):
         ra = np.where(valid, s / np.where(a > 0, a, 0.0), 1.0)
@@ -173,14 +203,32 @@ def zoom_cell_weights(s_out, s_src, u1):
     return np.where((s == 0) & (k == 0), 1.0, w)
 
 
+def _layout(lam_full, kap_full, kap_own):
+    """Two sections on duplicated pixels: A (full source cells) and B (the own half cell)."""
+    n = len(lam_full)
+    lam_a = np.empty(2 * n, np.complex128)
+    kap_a = np.zeros(2 * n, np.complex128)
+    lam_b = np.zeros(2 * n, np.complex128)
+    kap_b = np.zeros(2 * n, np.complex128)
+    lam_a[0::2] = 1.0
+    lam_a[1::2] = lam_full
+    kap_a[1::2] = kap_full
+    kap_b[0::2] = kap_own
+    return lam_a, kap_a, lam_b, kap_b
+
+
 def _segment_coefficients(u1, s0, n):
     """(lam, kap) of the two sections over one segment laid out as duplicated pixels.
 
-    Segment pixels are at distances ``s_k = s0 + k`` (k < n) from the fixed point; each pixel
-    occupies positions 2k and 2k+1.  Section A carries the full cells of the pixels before the
-    output, section B the output pixel's own half cell ``(s - 1/2, s)``; outputs are read at
-    the odd positions (see ``docs/motion.md``).
+    Zoom-in: segment pixels at distances ``s_k = s0 + k`` (k < n) from the fixed point, run
+    outward.  Zoom-out: ``s_k = s0 + (n - 1 - k)``, run inward from the far end, whose cell
+    extends to infinity (the extension beyond it is constant).  Each pixel occupies positions
+    2k and 2k+1.  Section A carries the full cells of the pixels before the output, section B
+    the output pixel's own half cell (``(s - 1/2, s)`` zoom-in, ``(s, s + 1/2)`` zoom-out);
+    outputs are read at the odd positions (see ``docs/motion.md``).
     """
+    if u1 < 0:
+        return _segment_coefficients_inward(u1, s0, n)
     z, c = _affine_z(u1)
     s = s0 + np.arange(n, dtype=np.float64)
     nxt = s + 1.0
@@ -198,15 +246,28 @@ def _segment_coefficients(u1, s0, n):
         own_ratio = np.where(s > 0.5, s / np.where(s > 0.5, s - 0.5, 1.0), np.inf)
     kap_own = np.where(s > 0, -1j * (c / z) * (_power(own_ratio, z) - 1.0), 0.0)
     kap_own = np.where(s == 0, 1.0 + 0j, kap_own)   # the fixed point maps to itself
-    lam_a = np.empty(2 * n, np.complex128)
-    kap_a = np.zeros(2 * n, np.complex128)
-    lam_b = np.zeros(2 * n, np.complex128)
-    kap_b = np.zeros(2 * n, np.complex128)
-    lam_a[0::2] = 1.0
-    lam_a[1::2] = lam_full
-    kap_a[1::2] = kap_full
-    kap_b[0::2] = kap_own
-    return lam_a, kap_a, lam_b, kap_b
+    return _layout(lam_full, kap_full, kap_own)
+
+
+def _segment_coefficients_inward(u1, s0, n):
+    """Zoom-out coefficients: F_{k+1} = (s_{k+1}/s_k)^z F_k + [(s_{k+1}/a_k)^z - (s_{k+1}/b_k)^z] I_k."""
+    z, c = _affine_z(u1)
+    s = s0 + np.arange(n - 1, -1, -1, dtype=np.float64)     # decreasing: far end first
+    nxt = np.append(s[1:], -1.0)                             # distance of the next (inner) pixel
+    inner = nxt > 0            # outputs at s <= 0 are read from the other segment (or are s = 0)
+    a = s - 0.5                # > 0 wherever inner
+    b = s + 0.5
+    b[0] = np.inf              # the far end's cell takes the whole tail of the kernel
+    with np.errstate(divide="ignore", invalid="ignore"):
+        step = np.where(inner, nxt / s, 0.0)
+        ratio_a = np.where(inner, nxt / a, 0.0)
+        ratio_b = np.where(inner, nxt / b, 0.0)
+        own = np.where(s > 0, s / (s + 0.5), 0.0)
+    lam_full = np.where(inner, _power(step, z), 0.0)
+    kap_full = np.where(inner, -1j * (c / z) * (_power(ratio_a, z) - _power(ratio_b, z)), 0.0)
+    # own half cell (s, s + 1/2); at s = 0 this is -iC/z, i.e. weight 1: the fixed point stays
+    kap_own = np.where(s >= 0, -1j * (c / z) * (1.0 - _power(own, z)), 0.0)
+    return _layout(lam_full, kap_full, kap_own)
 
 
 @dataclass(frozen=True)
@@ -214,7 +275,8 @@ class _ZoomLine(greens.GreenKernel):
     """One section of the zoom pass on lines ``[left segment | right segment]``.
 
     Not a kernel of the chapter in its own right: it packs the coefficients of G_U^(1) run
-    outward on both sides of the fixed point (``part`` = ``"full"`` or ``"own"``).
+    outward (zoom-in) or inward (zoom-out) on both sides of the fixed point (``part`` =
+    ``"full"`` or ``"own"``).
     """
 
     u1: float
@@ -224,7 +286,7 @@ class _ZoomLine(greens.GreenKernel):
     right_n: int
     part: str
 
-    x_min = -0.5   # no source beyond the line: the zoom never reads outside the image
+    x_min = -0.5   # no source before the line: a zoom-out's extension is laid out in the line
 
     @property
     def length(self):
@@ -247,25 +309,58 @@ class _ZoomLine(greens.GreenKernel):
             raise ValueError(f"zoom line layout needs {self.length} causal samples, got {n}")
 
 
-def _zoom_pass(u1, centre, n):
-    """The LinePass and segment geometry for a zoom about ``centre`` on lines of ``n`` pixels."""
-    first_right = math.floor(centre)         # right segment: pixels floor(c) .. n-1
-    first_left = math.ceil(centre)           # left segment (mirrored): pixels ceil(c) .. 0
-    geom = dict(left_s0=centre - first_left, left_n=first_left + 1,
-                right_s0=first_right - centre, right_n=n - first_right)
+def _zoom_pass(u1, centre, n, pad):
+    """The LinePass and segment geometry for a zoom about ``centre`` on lines of ``n`` pixels.
+
+    ``pad`` extension pixels lie beyond each border (zoom-out only, whose sources lie between
+    the output and the border and beyond it).
+    """
+    first_right = math.floor(centre)         # right segment: pixels floor(c) .. n-1 (+ pad)
+    first_left = math.ceil(centre)           # left segment (mirrored): pixels ceil(c) .. 0 (- pad)
+    geom = dict(left_s0=centre - first_left, left_n=first_left + 1 + pad,
+                right_s0=first_right - centre, right_n=n - first_right + pad)
     kernels = [_ZoomLine(u1, part=p, **geom) for p in ("full", "own")]
     lp = greens.LinePass(tuple(greens.Section(kernel=k) for k in kernels), 0.0, False)
     return lp, first_left, first_right, kernels[0].length
 
 
+def _extension_index(p, n, mode):
+    """Image index of the (possibly outside) pixel ``p`` under a scipy.ndimage mode; -1 = cval."""
+    if mode == "constant":
+        return np.where((p >= 0) & (p < n), p, -1)
+    if mode == "nearest":
+        return np.clip(p, 0, n - 1)
+    if mode == "wrap":
+        return np.mod(p, n)
+    if mode == "reflect":                    # d c b a | a b c d | d c b a
+        q = np.mod(p, 2 * n)
+        return np.where(q < n, q, 2 * n - 1 - q)
+    if n == 1:                               # mirror: d c b | a b c d | c b a
+        return np.zeros_like(p)
+    q = np.mod(p, 2 * n - 2)
+    return np.where(q < n, q, 2 * n - 2 - q)
+
+
 @lru_cache(maxsize=16)
-def _zoom_maps(batch, height, width, centre, along_x):
-    """Gather maps image -> (lines, L) layout and back, for the zoom pass along x or y."""
+def _zoom_maps(batch, height, width, centre, along_x, pad=0, mode="constant"):
+    """Gather maps image -> (lines, L) layout and back, for the zoom pass along x or y.
+
+    Zoom-in (``pad = 0``): segments run outward from the fixed point.  Zoom-out (``pad > 0``):
+    they run inward from ``pad`` pixels beyond each border, read through ``mode``.
+    """
     n, across = (width, height) if along_x else (height, width)
-    _, first_left, first_right, length = _zoom_pass(0.5, centre, n)   # geometry only
-    left = first_left - np.arange(first_left + 1)
-    right = first_right + np.arange(n - first_right)
-    along = np.repeat(np.concatenate([left, right]), 2)              # (L,) pixel along the line
+    _, first_left, first_right, length = _zoom_pass(0.5, centre, n, pad)   # geometry only
+    if pad == 0:
+        left = first_left - np.arange(first_left + 1)
+        right = first_right + np.arange(n - first_right)
+        pos_right = 2 * (first_left + 1) + 2 * (np.arange(n) - first_right) + 1
+        pos_left = 2 * (first_left - np.arange(n)) + 1
+    else:
+        left = np.arange(-pad, first_left + 1)
+        right = np.arange(n - 1 + pad, first_right - 1, -1)
+        pos_right = 2 * len(left) + 2 * (n - 1 + pad - np.arange(n)) + 1
+        pos_left = 2 * (np.arange(n) + pad) + 1
+    along = np.repeat(_extension_index(np.concatenate([left, right]), n, mode), 2)  # (L,)
     plane = height * width
     b = np.arange(batch)[:, None, None]
     line = np.arange(across)[None, :, None]
@@ -273,8 +368,8 @@ def _zoom_maps(batch, height, width, centre, along_x):
         flat = b * plane + line * width + along[None, None, :]
     else:
         flat = b * plane + along[None, None, :] * width + line
-    pos = np.where(np.arange(n) >= centre, 2 * (first_left + 1) + 2 * (np.arange(n) - first_right) + 1,
-                   2 * (first_left - np.arange(n)) + 1)
+    flat = np.where(along[None, None, :] < 0, -1, flat)       # constant mode: cval
+    pos = np.where(np.arange(n) >= centre, pos_right, pos_left)
     yy, xx = np.meshgrid(np.arange(height), np.arange(width), indexing="ij")
     line_of, along_of = (yy, xx) if along_x else (xx, yy)
     unshear = ((np.arange(batch)[:, None, None] * across + line_of[None]) * length + pos[along_of][None])
@@ -285,7 +380,7 @@ def _zoom_maps(batch, height, width, centre, along_x):
     return shear, unshear, batch * across, length
 
 
-def _zoom(job, u1x, u1y, center):
+def _zoom(job, u1x, u1y, center, mode, cval):
     height, width = job.shape[-2], job.shape[-1]
     batch = int(np.prod(job.shape[:-2], dtype=np.int64))
     if center is None:
@@ -294,19 +389,23 @@ def _zoom(job, u1x, u1y, center):
         cx, cy = _pair(center, "center")
     if not (0.0 <= cx <= width - 1 and 0.0 <= cy <= height - 1):
         raise ValueError(f"center (x, y) = ({cx}, {cy}) must lie inside the image, 0 <= x <= {width - 1} "
-                         f"and 0 <= y <= {height - 1}: a zoom-in about an outside point reads "
-                         f"content beyond the border")
+                         f"and 0 <= y <= {height - 1}: the zoom's line layout splits each line at "
+                         f"the fixed point")
     be, dtype = job.backend, job.dtype
     cur = job.data
     for u1, centre, along_x in ((u1x, cx, True), (u1y, cy, False)):
         if u1 == 0.0:
             continue
         n = width if along_x else height
-        lp, _, _, length = _zoom_pass(u1, float(centre), n)
-        shear, unshear, lines, length = _zoom_maps(batch, height, width, float(centre), along_x)
+        # zoom-out: materialise one line length of the mode's extension beyond each border
+        # (constant beyond that); see docs/motion.md for the error this leaves
+        pad = n if u1 < 0 else 0
+        lp, _, _, length = _zoom_pass(u1, float(centre), n, pad)
+        shear, unshear, lines, length = _zoom_maps(batch, height, width, float(centre), along_x, pad,
+                                                   mode if pad else "constant")
         rows_in = be.empty((1, lines, length), dtype)
         rows_out = be.empty((1, lines, length), dtype)
-        be.gather(be.reshape(cur, (-1,)), shear, 0.0, be.reshape(rows_in, (-1,)))
+        be.gather(be.reshape(cur, (-1,)), shear, cval, be.reshape(rows_in, (-1,)))
         be.recurse(rows_in, rows_out, 2, plan_pass(lp, length, "constant", dtype), 0.0)
         nxt = job.empty()
         be.gather(be.reshape(rows_out, (-1,)), unshear, 0.0, be.reshape(nxt, (-1,)))
@@ -333,8 +432,9 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
         ``kind="uniform"``: the displacement ``(dx, dy)`` in pixels during the exposure, x to
         the right (columns), y down (rows).  ``(0, 0)`` returns a copy.
         ``kind="zoom"``: the affine rate ``u1`` (eq. 10, ``U = u1 (x - x_U)``), one value or
-        ``(u1_x, u1_y)``; ``0 <= u1 < 2`` (zoom-in; 0 leaves that axis unchanged).  A point at
-        ``x`` moves to ``x_U + (x - x_U)(1 + u1)``.
+        ``(u1_x, u1_y)``; ``2 - 2 sqrt(2) < u1 < 2`` (about -0.828 .. 2): ``u1 > 0`` zooms in,
+        ``u1 < 0`` zooms out, 0 leaves that axis unchanged.  A point at ``x`` moves to
+        ``x_U + (x - x_U)(1 + u1)``.
     kind : {'uniform', 'zoom'}
     center : pair of float, optional
         Fixed point ``(x_U, y_U)`` of the zoom, inside the image; default the image centre.
@@ -344,8 +444,9 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
         and is blurred symmetrically along the direction.
     mode, cval : optional
         Boundary extension along the motion (scipy.ndimage names, see :func:`gfgpu.green_filter`).
-        The zoom reads no sample beyond the image (its sources lie between the fixed point and
-        the output), so ``mode`` does not affect it.
+        A zoom-in reads no sample beyond the image (its sources lie between the fixed point and
+        the output), so ``mode`` does not affect it.  A zoom-out reads outward to infinity:
+        ``mode`` extends the image beyond the border (see Notes).
     channel_axis : int, optional
         Axis of colour channels of a numpy image (e.g. ``-1`` for ``(H, W, 3)``).
     output : ndarray or dtype, optional
@@ -361,7 +462,8 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     Raises
     ------
     ValueError
-        Unknown ``kind``, non-finite or malformed ``velocity``, ``u1`` outside ``[0, 2)``, a zoom
+        Unknown ``kind``, non-finite or malformed ``velocity``, ``u1`` outside
+        ``(2 - 2 sqrt(2), 2)``, a zoom
         ``center`` outside the image, bad ``mode``, empty or non-finite input.
     TypeError
         Unsupported dtype or non-numeric parameters.
@@ -386,9 +488,25 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     (the kernel has an integrable singularity there), so the source taps are the exact cell
     integrals of eq. 11 (:func:`zoom_cell_weights`): unit DC gain at every pixel, mean within
     0.3 px of the pre-image (0.13 px beyond 5 px from the fixed point for 0.25 <= u1 <= 1.5;
-    measured in ``docs/motion.md``).  Zoom-out (``u1 < 0``) is not implemented.
+    measured in ``docs/motion.md``).
     The output pixel's own half cell needs a per-position direct
     term, realised by laying each pixel out twice (two sections, see ``docs/motion.md``).
+
+    **Zoom-out** (``u1 < 0``).  The bounded solution of eq. 10 is then anticausal: the sources
+    of the output at distance ``s`` from the fixed point lie further out, ``x0 > s``, with
+    ``G = 2/(u1^2 beta x0) (x0/s)^(-alpha) sin(beta ln(x0/s))`` (``alpha = 1/2 - 1/u1 > 0``,
+    ``beta = sqrt(1 + u1 - u1^2/4)/|u1|``, real for ``u1 > 2 - 2 sqrt(2)``; science.md §4).  It
+    has unit integral and its mean is at the pre-image ``x_U + (x - x_U)/(1 + u1)`` (zero
+    variance for ``u1 > -2/3``; infinite below).  Same cell-integrated taps and factorisation,
+    but the recursion runs inward, from beyond the border toward the fixed point.  The kernel's
+    tail decays only like ``(s/x0)^alpha``, so it reaches past the border: one line length of
+    the ``mode`` extension is laid out beyond each border, and the last extended pixel's cell
+    takes the rest of the tail (exact for ``'nearest'`` and ``'constant'``; for
+    ``'reflect'/'mirror'/'wrap'`` the extension is constant beyond one image length).  Unit DC
+    gain everywhere except with ``mode='constant'``, where the mass beyond the border is
+    ``cval``'s.  The mapping is accurate (0.04 px at ``u1 = -0.1``, 0.06 px at ``-0.3``) where
+    ``s`` is small beside the distance ``S`` to the border (``s <= S/3`` and ``S/10``); closer
+    to the border the extension shows (``docs/motion.md``).
 
     References
     ----------
@@ -407,6 +525,10 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     ...                       backend="numpy")
     >>> round(float(z[4, 50]), 1)  # samples the pre-image 20 + 30 / 1.5
     40.0
+    >>> zo = motion_blur(np.tile(np.arange(512.0), (8, 1)), -0.2, kind="zoom", center=(200, 4),
+    ...                  mode="nearest", backend="numpy")
+    >>> round(float(zo[4, 216]), 2)  # zoom-out: samples the pre-image 200 + 16 / 0.8
+    220.0
     """
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
@@ -424,7 +546,7 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
         return _apply_sequence(job, _uniform_steps(job, dx, dy, bool(displace)), mode, cval)
     u1x, u1y = _zoom_factors(velocity)
     job = _Job(image, output, backend, device, min_ndim=2)
-    return _zoom(job, u1x, u1y, center)
+    return _zoom(job, u1x, u1y, center, mode, cval)
 
 
 def _frame_parameters(velocity, kind, n_frames):

@@ -4,6 +4,7 @@ Examples::
 
     gfgpu blur photo.png -o blurred.png --velocity 25 -10
     gfgpu blur --example camera -o zoom.png --zoom 0.3 --center 256 200
+    gfgpu blur photo.png -o zoom_out.png --zoom -0.2 --center 256 200 --mode nearest
     gfgpu frames photo.png -o frames/ --velocity 40 0 -n 12
 
 Register with ``motion_cli.add_parser(subparsers)`` in :mod:`gfgpu.cli`.
@@ -29,7 +30,9 @@ def _motion_args(p):
     how.add_argument("--velocity", nargs=2, type=float, metavar=("DX", "DY"),
                      help="uniform motion in pixels: DX toward the right, DY downward")
     how.add_argument("--zoom", type=float, metavar="U1",
-                     help="zoom-in rate u1 in [0, 2): a point at x moves to c + (x - c)(1 + u1)")
+                     help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1); "
+                          "u1 > 0 zooms in, u1 < 0 zooms out (reads beyond the border through --mode; "
+                          "e.g. --zoom -0.2 --center 256 200 --mode nearest)")
     p.add_argument("--center", nargs=2, type=float, metavar=("X", "Y"),
                    help="fixed point of the zoom (default: the image centre)")
     p.add_argument("--keep-position", action="store_true",

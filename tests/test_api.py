@@ -133,3 +133,16 @@ def test_float64_on_a_device_without_fp64_is_an_error_not_a_downcast():
         gfgpu.shift(np.ones((4, 4)), 1.0, backend=no_fp64)
     out = gfgpu.shift(np.ones((4, 4), np.float32), 1.0, backend=no_fp64)
     assert out.dtype == np.float32
+
+
+def test_cli_outputs_are_written_atomically_with_normal_permissions(tmp_path):
+    from gfgpu.cli import main
+    out = tmp_path / "g.png"
+    assert main(["gradient", "--example", "camera", "-o", str(out), "--backend", "numpy"]) == 0
+    import imageio.v3 as iio
+    img = iio.imread(out)
+    assert img.shape == (512, 512, 3) and img.dtype == np.uint8 and img.max() > 0
+    umask = os.umask(0)
+    os.umask(umask)
+    assert (out.stat().st_mode & 0o777) == (0o666 & ~umask)
+    assert [p.name for p in tmp_path.iterdir()] == ["g.png"]      # no temporary left behind
