@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from gfgpu.stereo import disparity, fill_holes
+from gfgpu.stereo import disparity, fill_holes, random_dot_stereogram
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "stereo")
 SCENES = ("tsukuba", "venus", "teddy", "cones")
@@ -61,12 +61,9 @@ def load_motorcycle():
 
 
 def random_dots(kind, shape=(240, 320), seed=0):
-    """Random-dot pair (smoothed dots, cubic resampling) with a known disparity map."""
+    """Random-dot pair (gfgpu.stereo.random_dot_stereogram) with a known disparity map."""
     from scipy import ndimage
-    rng = np.random.default_rng(seed)
     h, w = shape
-    right = ndimage.gaussian_filter(rng.random((h, w)), 1.0)
-    right = (right - right.min()) / np.ptp(right) * 255
     yy, xx = np.mgrid[:h, :w].astype(np.float64)
     if kind == "rds-steps":      # piecewise constant: background, two raised squares (sub-pixel)
         gt = np.full((h, w), 6.0)
@@ -74,7 +71,7 @@ def random_dots(kind, shape=(240, 320), seed=0):
         gt[90:200, 190:290] = 23.25
     else:                        # slanted plane
         gt = 4.0 + 0.04 * xx + 0.02 * yy
-    left = ndimage.map_coordinates(right, [yy, xx - gt], order=3, mode="nearest")
+    left, right = random_dot_stereogram(gt, seed)
     mask = np.zeros((h, w), bool)
     mask[:, 32:] = True          # left margin: no right pixel to match
     jumps = (np.abs(np.diff(gt, axis=1, append=gt[:, -1:])) > 1) | \

@@ -36,7 +36,7 @@ from .backends import resolve_backend
 from .filters import green_filter, shift
 
 __all__ = [
-    "disparity", "METHODS", "SGM_PATHS", "fill_holes",
+    "disparity", "METHODS", "SGM_PATHS", "fill_holes", "random_dot_stereogram",
     "census_transform_reference", "census_cost_reference", "sgm_aggregate_reference",
     "select_disparity_reference", "sweep_update_reference", "sweep_finish",
 ]
@@ -605,3 +605,41 @@ def disparity_work(max_disparity, *, min_disparity=0, method="sgm", sweep_step=0
     if method == "sgm":
         return 3
     return int(round((max_disparity - min_disparity) / float(sweep_step))) + 1
+
+
+def random_dot_stereogram(disparity_map, seed=0):
+    """Rectified random-dot pair with a known left-view disparity (the chapter's Fig. 8).
+
+    The right view is a smoothed random-dot field (Gaussian, σ = 1 px) scaled to [0, 255];
+    the left view samples it at ``x - d(x, y)`` (cubic interpolation, nearest extension), so
+    a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``.
+
+    Parameters
+    ----------
+    disparity_map : (H, W) array_like
+        True disparity of the left view, in pixels (any real values).
+    seed : int
+        Seed of the dot field.
+
+    Returns
+    -------
+    left, right : (H, W) float32 ndarrays
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> left, right = random_dot_stereogram(np.full((32, 48), 3.0))
+    >>> left.shape, left.dtype.name
+    ((32, 48), 'float32')
+    """
+    from scipy import ndimage
+    d = np.asarray(disparity_map, np.float64)
+    if d.ndim != 2 or d.size == 0 or not np.isfinite(d).all():
+        raise ValueError(f"disparity_map must be a finite, non-empty 2-D array, got shape {d.shape}")
+    h, w = d.shape
+    rng = np.random.default_rng(seed)
+    right = ndimage.gaussian_filter(rng.random((h, w)), 1.0)
+    right = (right - right.min()) / np.ptp(right) * 255
+    yy, xx = np.mgrid[:h, :w].astype(np.float64)
+    left = ndimage.map_coordinates(right, [yy, xx - d], order=3, mode="nearest")
+    return left.astype(np.float32), right.astype(np.float32)

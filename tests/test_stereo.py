@@ -8,15 +8,11 @@ from gfgpu import stereo
 
 
 def random_dot_pair(disp_fn, shape=(64, 112), seed=0):
-    """(left, right, true disparity): right is a smoothed random-dot field; left(x) = right(x - d)."""
-    rng = np.random.default_rng(seed)
-    h, w = shape
-    right = ndimage.gaussian_filter(rng.random((h, w)), 1.0)
-    right = (right - right.min()) / np.ptp(right) * 255
-    yy, xx = np.mgrid[:h, :w].astype(np.float64)
+    """(left, right, true disparity) for a disparity given as a function of (y, x)."""
+    yy, xx = np.mgrid[: shape[0], : shape[1]].astype(np.float64)
     d = disp_fn(yy, xx)
-    left = ndimage.map_coordinates(right, [yy, xx - d], order=3, mode="nearest")
-    return left.astype(np.float32), right.astype(np.float32), d
+    left, right = stereo.random_dot_stereogram(d, seed)
+    return left, right, d
 
 
 def square(yy, xx):
