@@ -13,6 +13,7 @@ same kind on the same device.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import numpy as np
 
@@ -37,8 +38,32 @@ def _work_dtype(dtype, name="input"):
                     f"converted to float32); got {dtype}")
 
 
+def _host_all_finite(arr, block=1 << 22):
+    """``np.isfinite(arr).all()`` without a full-size temporary (large and memory-mapped images)."""
+    if arr.dtype.kind in "biu":
+        return True
+    flat = arr.reshape(-1) if arr.flags.c_contiguous else None
+    if flat is None:
+        return bool(np.isfinite(arr).all())
+    return all(np.isfinite(flat[i:i + block]).all() for i in range(0, flat.size, block))
+
+
 def _finite_cval(cval):
     return greens._finite_scalar("cval", cval)
+
+
+class Program(NamedTuple):
+    """What an operator computes, independent of arrays and devices.
+
+    ``steps`` is a list of ``(passes, axis, angle)`` applied in turn; the passes of one step
+    run along the same lines and are summed.  ``axis`` is an array axis (``angle`` None) or
+    None for the image-plane direction ``angle`` (the plane is ``plane``, the last two axes).
+    The in-memory operators (:func:`_apply_sequence`), the strip executor
+    (:mod:`gfgpu.strips`) and the Dask wrappers (:mod:`gfgpu.dask`) all run programs.
+    """
+
+    steps: list
+    plane: tuple | None = None
 
 
 class _Job:
@@ -47,7 +72,6 @@ class _Job:
     def __init__(self, input, output, backend, device, min_ndim=1):
         be = resolve_backend(backend, device, input)
         self.backend = be
-        self.plane = None
         self.host_input = be.name == "numpy" or not be.owns(input)
         if self.host_input:
             arr = np.asarray(input)
@@ -76,18 +100,29 @@ class _Job:
             self.dtype = out_dtype
             self.output = None
         if self.host_input:
-            host = np.ascontiguousarray(arr, dtype=self.dtype)
-            if not np.isfinite(host).all():
+            if not _host_all_finite(arr):
                 raise ValueError("input contains NaN or infinite values")
-            self.data = be.host_view(host)
+            self.source = arr           # converted and placed on the device when first used
+            self._data = None
         else:
             if _work_dtype(be.dtype_of(arr)) != self.dtype:
                 raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
             if not be.all_finite(arr):
                 raise ValueError("input contains NaN or infinite values")
-            self.data = arr
+            self.source = self._data = arr
         if self.output is not None:
             self._check_output(self.output)
+
+    @property
+    def data(self):
+        """The input as a device array of the work dtype (host images: uploaded on first use)."""
+        if self._data is None:
+            self._data = self.backend.host_view(np.ascontiguousarray(self.source, dtype=self.dtype))
+        return self._data
+
+    @property
+    def nbytes(self):
+        return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
 
     def _check_output(self, output):
         if tuple(output.shape) != self.shape:
@@ -167,8 +202,16 @@ def _is_axis_angle(angle):
     return abs(gamma) < 1e-12
 
 
-def _apply_sequence(job, steps, mode, cval):
-    """Run ``steps`` = [(passes, axis, angle)] in turn with ping-pong buffers; never touch input."""
+def _apply_sequence(job, program, mode, cval):
+    """Run a :class:`Program` with ping-pong buffers; never touch the input.
+
+    Host images whose working memory exceeds :func:`gfgpu.strips.get_working_set` are
+    streamed through the device in strips (exact, :mod:`gfgpu.strips`).
+    """
+    from . import strips
+    if job.host_input and strips.needs_strips(job, program):
+        return strips.run_job(job, program, mode, cval)
+    steps = program.steps
     if not steps:
         return job.finish(_copy_of_input(job))
     bufs = [job.empty() for _ in range(min(2, len(steps)))]
@@ -176,7 +219,8 @@ def _apply_sequence(job, steps, mode, cval):
     cur = job.data
     for i, (passes, axis, angle) in enumerate(steps):
         nxt = bufs[i % 2]
-        _run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle, plane=job.plane)
+        _run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle,
+                    plane=program.plane)
         cur = nxt
     return job.finish(cur)
 
@@ -200,15 +244,15 @@ def _plane_axes(axes, ndim):
     return ya, xa
 
 
-def _direction_steps(job, passes, angle, axes):
-    """Steps for filtering along ``angle`` in the plane ``axes``: an axis pass when aligned."""
-    ya, xa = _plane_axes(axes, job.ndim)
+def _direction_steps(ndim, passes, angle, axes):
+    """(steps, plane) for filtering along ``angle`` in the plane ``axes``: an axis pass when aligned."""
+    ya, xa = _plane_axes(axes, ndim)
     steep, reverse, gamma = direction(angle)
     if abs(gamma) < 1e-12:
         axis = ya if steep else xa
         flipped = [greens.LinePass(p.sections, p.tap, p.reverse != reverse) for p in passes]
         return [(flipped, axis, None)], None
-    if (ya, xa) != (job.ndim - 2, job.ndim - 1):
+    if (ya, xa) != (ndim - 2, ndim - 1):
         raise ValueError("oblique directions need the image plane on the last two axes; move the "
                          "channel axis first (e.g. numpy.moveaxis(image, -1, 0)) and pass axes=(-2, -1)")
     return [(passes, None, angle)], (ya, xa)
@@ -289,19 +333,22 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
     >>> round(float(out.sum()), 3)  # sampled G_u: DC gain slightly below 1 at u = 3
     0.982
     """
-    if not isinstance(kernel, greens.GreenKernel):
-        raise TypeError(f"kernel must be a gfgpu.greens kernel (UniformGreen, HomogeneousGreen, "
-                        f"AffineGreen, AffineGreenApprox), got {type(kernel).__name__}")
     check_mode(mode)
     cval = _finite_cval(cval)
     job = _Job(input, output, backend, device)
+    program = green_filter_program(job.ndim, kernel, axis, angle=angle, axes=axes, anticausal=anticausal)
+    return _apply_sequence(job, program, mode, cval)
+
+
+def green_filter_program(ndim, kernel, axis=-1, *, angle=None, axes=(-2, -1), anticausal=False):
+    """The :class:`Program` of :func:`green_filter` on ``ndim``-dimensional arrays."""
+    if not isinstance(kernel, greens.GreenKernel):
+        raise TypeError(f"kernel must be a gfgpu.greens kernel (UniformGreen, HomogeneousGreen, "
+                        f"AffineGreen, AffineGreenApprox), got {type(kernel).__name__}")
     passes = [kernel.line_pass(reverse=bool(anticausal))]
     if angle is None:
-        ax = normalize_axis(axis, job.ndim)
-        steps = [(passes, ax, None)]
-    else:
-        steps, job.plane = _direction_steps(job, passes, angle, axes)
-    return _apply_sequence(job, steps, mode, cval)
+        return Program([(passes, normalize_axis(axis, ndim), None)])
+    return Program(*_direction_steps(ndim, passes, angle, axes))
 
 
 def _per_axis(value, axes, name):
@@ -365,15 +412,21 @@ def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, bac
     check_mode(mode)
     cval = _finite_cval(cval)
     job = _Job(input, output, backend, device)
-    ax = _axes_list(axes, job.ndim)
+    return _apply_sequence(job, shift_program(job.ndim, shift, axes), mode, cval)
+
+
+def shift_program(ndim, shift, axes=None):
+    """The :class:`Program` of :func:`shift` on ``ndim``-dimensional arrays."""
+    ax = _axes_list(axes, ndim)
     amounts = _per_axis(shift, ax, "shift")
-    steps = [([greens.shift_pass(s)], a, None) for a, s in zip(ax, amounts) if s != 0.0]
-    return _apply_sequence(job, steps, mode, cval)
+    return Program([([greens.shift_pass(s)], a, None) for a, s in zip(ax, amounts) if s != 0.0])
 
 
-def _edge_steps(job, u, axis, axes, a, eta, single_scale, projection_scale=1.0):
-    ax = _axes_list(axes, job.ndim)
-    d_axis = normalize_axis(axis, job.ndim)
+def derivative_program(ndim, u, axis=-1, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
+                       single_scale=False, projection_scale=1.0):
+    """The :class:`Program` of :func:`derivative`: P along the other axes, then D along ``axis``."""
+    ax = _axes_list(axes, ndim)
+    d_axis = normalize_axis(axis, ndim)
     if d_axis not in ax:
         raise ValueError(f"axis {axis} must be one of axes {ax}")
     ratio = greens._positive("projection_scale", projection_scale)
@@ -381,7 +434,12 @@ def _edge_steps(job, u, axis, axes, a, eta, single_scale, projection_scale=1.0):
     p_passes = list(greens.projection_passes(greens._positive("u", u) * ratio, a, eta, single_scale))
     steps = [(p_passes, other, None) for other in ax if other != d_axis]
     steps.append((d_passes, d_axis, None))
-    return steps
+    return Program(steps)
+
+
+def projection_program(ndim, u, axis=-1, a=greens.EDGE_A, eta=greens.EDGE_ETA, single_scale=False):
+    """The :class:`Program` of :func:`projection`."""
+    return Program([(list(greens.projection_passes(u, a, eta, single_scale)), normalize_axis(axis, ndim), None)])
 
 
 def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes=None,
@@ -436,8 +494,8 @@ def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes
     check_mode(mode)
     cval = _finite_cval(cval)
     job = _Job(input, output, backend, device)
-    return _apply_sequence(job, _edge_steps(job, u, axis, axes, a, eta, single_scale, projection_scale),
-                           mode, cval)
+    program = derivative_program(job.ndim, u, axis, axes, a, eta, single_scale, projection_scale)
+    return _apply_sequence(job, program, mode, cval)
 
 
 def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=greens.EDGE_A,
@@ -449,8 +507,7 @@ def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=gr
     check_mode(mode)
     cval = _finite_cval(cval)
     job = _Job(input, output, backend, device)
-    steps = [(list(greens.projection_passes(u, a, eta, single_scale)), normalize_axis(axis, job.ndim), None)]
-    return _apply_sequence(job, steps, mode, cval)
+    return _apply_sequence(job, projection_program(job.ndim, u, axis, a, eta, single_scale), mode, cval)
 
 
 def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
@@ -477,5 +534,5 @@ def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, 
     cval = _finite_cval(cval)
     job = _Job(input, None, backend, device)
     ax = _axes_list(axes, job.ndim)
-    return tuple(_apply_sequence(job, _edge_steps(job, u, d, ax, a, eta, single_scale, projection_scale),
+    return tuple(_apply_sequence(job, derivative_program(job.ndim, u, d, ax, a, eta, single_scale, projection_scale),
                                  mode, cval) for d in ax)

@@ -33,7 +33,7 @@ from functools import lru_cache
 import numpy as np
 
 from . import greens
-from .filters import _apply_sequence, _copy_of_input, _direction_steps, _finite_cval, _Job
+from .filters import Program, _apply_sequence, _copy_of_input, _direction_steps, _finite_cval, _Job
 from .recursion import check_mode, plan_pass
 
 __all__ = ["motion_blur", "synthesize_motion", "interpolate_frames", "estimate_translation",
@@ -95,11 +95,14 @@ def _move_channels(image, channel_axis):
 # --------------------------------------------------------------------------------------
 # uniform motion: the discrete G_u shift along a direction
 # --------------------------------------------------------------------------------------
-def _uniform_steps(job, dx, dy, displace):
-    """Recursive passes of a uniform motion by (dx, dy) along its own direction."""
+def uniform_motion_program(ndim, velocity, displace=True):
+    """The :class:`~gfgpu.filters.Program` of a uniform motion by ``velocity = (dx, dy)``."""
+    if ndim < 2:
+        raise ValueError(f"motion blur needs an image (at least 2 dimensions), got {ndim}")
+    dx, dy = _velocity(velocity)
     length = max(abs(dx), abs(dy))   # steps of the dominant axis (gfgpu.lines convention)
     if length == 0.0:
-        return []
+        return Program([])
     angle = math.atan2(dy, dx)
     if displace:
         parts = [greens.shift_pass(length)]
@@ -107,12 +110,11 @@ def _uniform_steps(job, dx, dy, displace):
         # anticausal half then causal half: the PSF is the autocorrelation of one half-shift
         # kernel (symmetric, single-peaked); both halves have mean exactly -L/2 and +L/2.
         parts = [greens.shift_pass(-length / 2), greens.shift_pass(length / 2)]
-    steps = []
+    steps, plane = [], None
     for lp in parts:
-        s, plane = _direction_steps(job, [lp], angle, (-2, -1))
-        job.plane = plane
+        s, plane = _direction_steps(ndim, [lp], angle, (-2, -1))
         steps += s
-    return steps
+    return Program(steps, plane)
 
 
 # --------------------------------------------------------------------------------------
@@ -541,9 +543,9 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
         return undo(motion_blur(moved, velocity, kind=kind, center=center, displace=displace, mode=mode,
                                 cval=cval, backend=backend, device=device))
     if kind == "uniform":
-        dx, dy = _velocity(velocity)
+        _velocity(velocity)
         job = _Job(image, output, backend, device, min_ndim=2)
-        return _apply_sequence(job, _uniform_steps(job, dx, dy, bool(displace)), mode, cval)
+        return _apply_sequence(job, uniform_motion_program(job.ndim, velocity, bool(displace)), mode, cval)
     u1x, u1y = _zoom_factors(velocity)
     job = _Job(image, output, backend, device, min_ndim=2)
     return _zoom(job, u1x, u1y, center, mode, cval)

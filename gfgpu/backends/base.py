@@ -71,6 +71,12 @@ class Backend:
     def synchronize(self):
         """Block until queued work has finished (used by benchmarks)."""
 
+    @property
+    def memory_budget(self):
+        """Default working set in bytes (:mod:`gfgpu.strips`): None where device memory is
+        host memory (CPU devices), half the device's memory on a GPU."""
+        return None
+
     # ---- the primitive --------------------------------------------------------------
     def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
         """Run one pass of :func:`gfgpu.recursion.run_reference` on every line.

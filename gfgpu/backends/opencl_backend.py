@@ -318,6 +318,13 @@ class OpenCLBackend(Backend):
     def synchronize(self):
         self.queue.finish()
 
+    @property
+    def memory_budget(self):
+        # one buffer may not exceed max_mem_alloc_size either; strips keep buffers below both
+        if self.kind == "cpu":
+            return None
+        return int(min(self._device.global_mem_size // 2, 4 * self._device.max_mem_alloc_size))
+
     # ---- kernels --------------------------------------------------------------------
     def _lanes(self, dtype):
         # CPU: one cache line per step; GPU: one line per work-item (coalesced columns)

@@ -160,6 +160,10 @@ class WarpBackend(Backend):
     def synchronize(self):
         self._wp.synchronize_device(self._device)
 
+    @property
+    def memory_budget(self):
+        return None if self._device.is_cpu else int(self._device.total_memory) // 2
+
     # ---- the primitive --------------------------------------------------------------
     def _plan_arrays(self, plan, dtype):
         """Upload ``plan.packed(dtype)`` once; plans are immutable, so id(plan) is a key."""

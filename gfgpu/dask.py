@@ -1,0 +1,343 @@
+"""gfgpu operators on Dask arrays: chunked, distributed, and exact across chunks.
+
+Each wrapper takes a :class:`dask.array.Array` and returns one (lazy) with the same chunks.
+A step along an axis that is cut into several chunks runs the recursion of every chunk on its
+device and carries the state between chunks exactly (:mod:`gfgpu.carry`):
+
+1. per chunk: the contribution of its last samples to the state leaving it, and of its first
+   samples to the boundary mode's initial state (small host products, no device work);
+2. a sequential scan, per column of chunks, of the affine maps ``Φ ↦ H Φ + E`` — ``S``
+   complex numbers per line and chunk, so the scan moves little data;
+3. per chunk, in parallel: the zero-state pass on the device plus the carried state's
+   response.
+
+The result equals the single-array call within the dtype's rounding (tested for random
+chunkings), whatever the kernel's length — no overlap depth, no truncation.  Steps along an
+axis held in one chunk run as plain per-block calls.  Image-plane operators that are not
+separable along axes (oblique directions, zoom, canny's hysteresis) need whole image planes:
+their wrappers rechunk the last two axes into one chunk (stacks stay chunked along their
+other axes).
+
+Backends are named (``backend="opencl"``, ``device="0"``), never passed as objects: each
+worker process builds its own backend, device context and kernel caches on first use
+(:func:`gfgpu.get_backend` caches per process).  For GPU workers run one worker process per
+GPU with one thread (``dask worker ADDRESS --nthreads 1``, ``CUDA_VISIBLE_DEVICES`` per
+process): a thread pool would share one device queue and its caches gain nothing.
+
+Examples
+--------
+>>> import numpy as np, dask.array as da
+>>> import gfgpu, gfgpu.dask
+>>> img = np.random.default_rng(0).random((256, 192)).astype(np.float32)
+>>> lazy = gfgpu.dask.shift(da.from_array(img, chunks=(50, 64)), (3.5, -2.0), backend="numpy")
+>>> out = lazy.compute(scheduler="synchronous")
+>>> bool(np.abs(out - gfgpu.shift(img, (3.5, -2.0), backend="numpy")).max() < 1e-5)
+True
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import dask
+import dask.array as da
+import numpy as np
+
+from . import carry, filters, greens
+from .recursion import check_mode, plan_pass
+
+__all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "motion_blur", "canny",
+           "run_program"]
+
+
+# --------------------------------------------------------------------------------------
+# argument handling
+# --------------------------------------------------------------------------------------
+def _check_array(x):
+    if not isinstance(x, da.Array):
+        raise TypeError(f"input must be a dask.array.Array (use gfgpu.{{name}} for numpy arrays), "
+                        f"got {type(x).__name__}")
+    if x.size == 0:
+        raise ValueError(f"input is empty (shape {x.shape})")
+    if any(np.isnan(c) for chunks in x.chunks for c in chunks):
+        raise ValueError("input has unknown chunk sizes; call x.compute_chunk_sizes() first")
+    return filters._work_dtype(x.dtype)
+
+
+def _backend_spec(backend, device):
+    from .backends import Backend
+    if isinstance(backend, Backend):
+        raise TypeError("backend must be a name ('numpy', 'warp', 'opencl') for Dask: backends are "
+                        "rebuilt in each worker process, device contexts do not pickle")
+    if backend is not None:
+        from .backends import _check_name
+        _check_name(backend)
+    elif device is not None:
+        raise ValueError("device= needs backend= as well (e.g. backend='warp', device='cuda:0')")
+    return backend, None if device is None else str(device)
+
+
+def _backend(spec):
+    from .backends import resolve_backend
+    return resolve_backend(*spec)
+
+
+def _host_block(block, dtype):
+    block = np.ascontiguousarray(block, dtype=dtype)
+    if not np.isfinite(block).all():
+        raise ValueError("input contains NaN or infinite values")
+    return block
+
+
+# --------------------------------------------------------------------------------------
+# tasks (run in workers)
+# --------------------------------------------------------------------------------------
+def _local_task(block, steps, plane, mode, cval, spec, dtype):
+    """Steps whose lines lie inside the block, on the worker's backend."""
+    be = _backend(spec)
+    host = _host_block(block, dtype)
+    cur = be.host_view(host)
+    for passes, axis, angle in steps:
+        nxt = be.empty(host.shape, dtype)
+        filters._run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
+        cur = nxt
+    return be.to_host(cur)
+
+
+def _segment(lp, n, mode, dtype, start, stop):
+    return carry.segments_at(plan_pass(lp, n, mode, dtype), start, stop, dtype)
+
+
+def _end_task(block, lp, n, mode, dtype, start, stop, axis):
+    seg = _segment(lp, n, mode, dtype, start, stop)
+    lines = carry.line_matrix(block, axis)
+    return carry.end_state(seg, lines[seg.tail_rows[0] - start:seg.tail_rows[1] - start])
+
+
+def _boundary_task(block, lp, n, mode, dtype, start, stop, axis, cval):
+    seg = _segment(lp, n, mode, dtype, start, stop)
+    lines = carry.line_matrix(block, axis)
+    return carry.boundary_state(seg, lines[seg.head_rows[0] - start:seg.head_rows[1] - start], cval)
+
+
+def _sum_task(*terms):
+    return sum(terms[1:], terms[0])
+
+
+def _scan_task(state, end, lp, n, mode, dtype, start, stop):
+    """State entering the next segment (traversal order) from the one entering this one."""
+    seg = _segment(lp, n, mode, dtype, start, stop)
+    return seg.transfer[:, None] * state + end
+
+
+def _finish_task(block, states, passes, n, mode, dtype, start, stop, axis, spec):
+    be = _backend(spec)
+    host = _host_block(block, dtype)
+    segs = [_segment(lp, n, mode, dtype, start, stop) for lp in passes]
+    y = be.empty(host.shape, dtype)
+    carry.zero_state_pass(be, be.host_view(host), y, axis, segs)
+    out = be.to_host(y)
+    lines = carry.line_matrix(out, axis)
+    for seg, state in zip(segs, states):
+        carry.add_correction(seg, lines, state)
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# graph construction
+# --------------------------------------------------------------------------------------
+def _carried_step(x, passes, axis, mode, cval, spec, dtype):
+    """One step along a chunked axis, with the state carried exactly between chunks."""
+    n = x.shape[axis]
+    bounds = np.concatenate([[0], np.cumsum(x.chunks[axis])]).astype(int).tolist()
+    nb = len(bounds) - 1
+    # the client builds the plans once, only to see which chunks hold boundary samples
+    plans = [plan_pass(lp, n, mode, dtype) for lp in passes]
+    segs = [carry.segments(p, bounds, dtype) for p in plans]
+    blocks = x.to_delayed()
+    out = np.empty(blocks.shape, dtype=object)
+    other = [range(k) if d != axis else [None] for d, k in enumerate(blocks.shape)]
+    for index in itertools.product(*other):
+        column = [blocks[tuple(i if d == axis else index[d] for d in range(x.ndim))] for i in range(nb)]
+        states_per_pass = []
+        for lp, seg_list in zip(passes, segs):
+            ends = [dask.delayed(_end_task, pure=True)(column[i], lp, n, mode, dtype, bounds[i], bounds[i + 1], axis)
+                    for i in range(nb)]
+            terms = [dask.delayed(_boundary_task, pure=True)(column[i], lp, n, mode, dtype, bounds[i],
+                                                             bounds[i + 1], axis, cval)
+                     for i, seg in enumerate(seg_list) if seg.boundary.shape[1] or seg.boundary_c.any()]
+            if not terms:   # a zero state: the boundary mode contributes nothing (e.g. cval 0)
+                terms = [dask.delayed(_boundary_task, pure=True)(column[0], lp, n, mode, dtype, bounds[0],
+                                                                 bounds[1], axis, 0.0)]
+            state = dask.delayed(_sum_task, pure=True)(*terms)
+            order = range(nb - 1, -1, -1) if seg_list[0].reverse else range(nb)
+            states = [None] * nb
+            for i in order:
+                states[i] = state
+                state = dask.delayed(_scan_task, pure=True)(state, ends[i], lp, n, mode, dtype,
+                                                            bounds[i], bounds[i + 1])
+            states_per_pass.append(states)
+        for i in range(nb):
+            key = tuple(i if d == axis else index[d] for d in range(x.ndim))
+            shape = tuple(x.chunks[d][key[d]] for d in range(x.ndim))
+            task = dask.delayed(_finish_task, pure=True)(column[i], [s[i] for s in states_per_pass], passes, n,
+                                                         mode, dtype, bounds[i], bounds[i + 1], axis, spec)
+            out[key] = da.from_delayed(task, shape=shape, dtype=dtype)
+    return da.block(out.tolist())
+
+
+def run_program(x, program, mode="reflect", cval=0.0, *, backend=None, device=None):
+    """Run a :class:`gfgpu.filters.Program` on a dask array (the wrappers' common engine)."""
+    dtype = _check_array(x)
+    check_mode(mode)
+    cval = filters._finite_cval(cval)
+    spec = _backend_spec(backend, device)
+    x = x.astype(dtype) if x.dtype != dtype else x
+    for passes, axis, angle in program.steps:
+        if angle is not None:
+            x = _whole_planes(x).map_blocks(_local_task, [(passes, axis, angle)], program.plane, mode, cval,
+                                            spec, dtype, dtype=dtype)
+        elif len(x.chunks[axis]) == 1:
+            x = x.map_blocks(_local_task, [(passes, axis, None)], None, mode, cval, spec, dtype, dtype=dtype)
+        else:
+            x = _carried_step(x, passes, axis, mode, cval, spec, dtype)
+    if not program.steps:
+        x = x.map_blocks(_host_block, dtype, dtype=dtype)
+    return x
+
+
+def _whole_planes(x):
+    """``x`` with its last two axes (the image plane) in one chunk."""
+    if len(x.chunks[-1]) == 1 and len(x.chunks[-2]) == 1:
+        return x
+    return x.rechunk({x.ndim - 2: -1, x.ndim - 1: -1})
+
+
+# --------------------------------------------------------------------------------------
+# public wrappers
+# --------------------------------------------------------------------------------------
+def green_filter(x, kernel, axis=-1, mode="reflect", cval=0.0, *, angle=None, axes=(-2, -1),
+                 anticausal=False, backend=None, device=None):
+    """:func:`gfgpu.green_filter` on a dask array; exact across chunks along ``axis``.
+
+    Parameters are those of :func:`gfgpu.green_filter` (no ``output``: the result is lazy).
+    An oblique ``angle`` rechunks the image plane (``axes`` must be the last two) whole.
+
+    Returns
+    -------
+    dask.array.Array
+        float32 or float64, the chunks of ``x`` (of the rechunked ``x`` for ``angle``).
+    """
+    _check_array(x)
+    program = filters.green_filter_program(x.ndim, kernel, axis, angle=angle, axes=axes, anticausal=anticausal)
+    return run_program(x, program, mode, cval, backend=backend, device=device)
+
+
+def shift(x, shift, mode="reflect", cval=0.0, *, axes=None, backend=None, device=None):
+    """:func:`gfgpu.shift` on a dask array; exact across chunks along every axis.
+
+    Returns
+    -------
+    dask.array.Array
+    """
+    _check_array(x)
+    return run_program(x, filters.shift_program(x.ndim, shift, axes), mode, cval, backend=backend, device=device)
+
+
+def derivative(x, u, axis=-1, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
+               single_scale=False, projection_scale=1.0, backend=None, device=None):
+    """:func:`gfgpu.derivative` on a dask array; exact across chunks.
+
+    Returns
+    -------
+    dask.array.Array
+    """
+    _check_array(x)
+    program = filters.derivative_program(x.ndim, u, axis, axes, a, eta, single_scale, projection_scale)
+    return run_program(x, program, mode, cval, backend=backend, device=device)
+
+
+def projection(x, u, axis=-1, mode="reflect", cval=0.0, *, a=greens.EDGE_A, eta=greens.EDGE_ETA,
+               single_scale=False, backend=None, device=None):
+    """:func:`gfgpu.projection` on a dask array; exact across chunks.
+
+    Returns
+    -------
+    dask.array.Array
+    """
+    _check_array(x)
+    program = filters.projection_program(x.ndim, u, axis, a, eta, single_scale)
+    return run_program(x, program, mode, cval, backend=backend, device=device)
+
+
+def gradient(x, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
+             single_scale=False, projection_scale=1.0, backend=None, device=None):
+    """:func:`gfgpu.gradient` on a dask array: one lazy derivative per axis in ``axes``.
+
+    Returns
+    -------
+    tuple of dask.array.Array
+    """
+    _check_array(x)
+    ax = filters._axes_list(axes, x.ndim)
+    return tuple(derivative(x, u, d, mode, cval, axes=ax, a=a, eta=eta, single_scale=single_scale,
+                            projection_scale=projection_scale, backend=backend, device=device) for d in ax)
+
+
+def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode="reflect", cval=0.0,
+                backend=None, device=None):
+    """:func:`gfgpu.motion_blur` on a dask array of images ``(..., H, W)``.
+
+    Uniform motion along an axis is exact across chunks; an oblique direction or a zoom
+    rechunks the image plane whole (stacks stay chunked along their leading axes).
+
+    Returns
+    -------
+    dask.array.Array
+    """
+    from . import motion
+    dtype = _check_array(x)
+    if kind == "uniform":
+        program = motion.uniform_motion_program(x.ndim, velocity, bool(displace))
+        return run_program(x, program, mode, cval, backend=backend, device=device)
+    if kind not in motion.KINDS:
+        raise ValueError(f"kind must be one of {', '.join(motion.KINDS)}; got {kind!r}")
+    motion._zoom_factors(velocity)
+    spec = _backend_spec(backend, device)
+    return _whole_planes(x).map_blocks(_plane_task, motion.motion_blur, spec, dtype,
+                                       dict(velocity=velocity, kind=kind, center=center, mode=mode, cval=cval),
+                                       dtype=dtype)
+
+
+def _plane_task(block, function, spec, dtype, kwargs):
+    backend, device = spec
+    return function(_host_block(block, dtype), backend=backend, device=device, **kwargs)
+
+
+def _canny_task(block, spec, kwargs):
+    from .edges import canny as canny_2d
+    backend, device = spec
+    flat = block.reshape((-1,) + block.shape[-2:])
+    out = np.stack([canny_2d(plane, backend=backend, device=device, **kwargs) for plane in flat])
+    return out.reshape(block.shape)
+
+
+def canny(x, u=1.0, low_threshold=None, high_threshold=None, *, use_quantiles=False, backend=None,
+          device=None, **kwargs):
+    """:func:`gfgpu.canny` on each image of a dask stack ``(..., H, W)``.
+
+    Hysteresis joins edge pixels across the whole image, so each image plane is one chunk (the
+    plane is rechunked whole); stacks are processed in parallel along their leading axes.
+    Other keyword arguments are :func:`gfgpu.canny`'s.
+
+    Returns
+    -------
+    dask.array.Array of bool
+    """
+    _check_array(x)
+    if x.ndim < 2:
+        raise ValueError(f"canny needs images (at least 2 dimensions), got shape {x.shape}")
+    spec = _backend_spec(backend, device)
+    kw = dict(kwargs, u=u, low_threshold=low_threshold, high_threshold=high_threshold,
+              use_quantiles=use_quantiles)
+    return _whole_planes(x).map_blocks(_canny_task, spec, kw, dtype=bool)
