@@ -180,15 +180,20 @@ def carry_scan(segs, ends, initial):
     return states
 
 
-def add_correction(seg, out_lines, state):
-    """``out_lines`` (n_seg, m natural order, a view) ``+= Re Σ_s H_s Φ_s`` on the first outputs."""
+def add_correction(seg, out, state, axis=0):
+    """``out += Re Σ_s H_s Φ_s`` in place on the segment's first outputs along ``axis``.
+
+    ``out`` is the segment's block (any shape); ``state`` is (S, m) with the lines in the
+    order of :func:`line_matrix`.
+    """
     r = seg.response.shape[1]
     if r == 0:
         return
     h = seg.response
     corr = h.real.T @ state.real - h.imag.T @ state.imag     # (r, m) float64, traversal order
-    rows = out_lines[seg.stop - seg.start - r:] if seg.reverse else out_lines[:r]
-    rows += _traversal(corr, seg.reverse).astype(out_lines.dtype, copy=False)
+    moved = np.moveaxis(out, axis, 0)                        # a view: written in place
+    rows = moved[seg.stop - seg.start - r:] if seg.reverse else moved[:r]
+    rows += _traversal(corr, seg.reverse).reshape(rows.shape).astype(out.dtype, copy=False)
 
 
 def zero_state_pass(backend, src, dst, axis, segs_of_passes):

@@ -108,16 +108,19 @@ def _segment(lp, n, mode, dtype, start, stop):
     return carry.segments_at(plan_pass(lp, n, mode, dtype), start, stop, dtype)
 
 
+def _rows(block, axis, rows, start):
+    """Lines matrix of the samples ``rows`` (natural positions) of a block starting at ``start``."""
+    return carry.line_matrix(np.moveaxis(block, axis, 0)[rows[0] - start:rows[1] - start], 0)
+
+
 def _end_task(block, lp, n, mode, dtype, start, stop, axis):
     seg = _segment(lp, n, mode, dtype, start, stop)
-    lines = carry.line_matrix(block, axis)
-    return carry.end_state(seg, lines[seg.tail_rows[0] - start:seg.tail_rows[1] - start])
+    return carry.end_state(seg, _rows(block, axis, seg.tail_rows, start))
 
 
 def _boundary_task(block, lp, n, mode, dtype, start, stop, axis, cval):
     seg = _segment(lp, n, mode, dtype, start, stop)
-    lines = carry.line_matrix(block, axis)
-    return carry.boundary_state(seg, lines[seg.head_rows[0] - start:seg.head_rows[1] - start], cval)
+    return carry.boundary_state(seg, _rows(block, axis, seg.head_rows, start), cval)
 
 
 def _sum_task(*terms):
@@ -137,9 +140,8 @@ def _finish_task(block, states, passes, n, mode, dtype, start, stop, axis, spec)
     y = be.empty(host.shape, dtype)
     carry.zero_state_pass(be, be.host_view(host), y, axis, segs)
     out = be.to_host(y)
-    lines = carry.line_matrix(out, axis)
     for seg, state in zip(segs, states):
-        carry.add_correction(seg, lines, state)
+        carry.add_correction(seg, out, state, axis)
     return out
 
 

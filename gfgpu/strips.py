@@ -126,21 +126,21 @@ class _NpyStore:
 
     @classmethod
     def open(cls, path):
-        f = open(path, "rb")
+        path = os.fspath(path)
         try:
-            version = np.lib.format.read_magic(f)
-            shape, fortran, dtype = np.lib.format._read_array_header(f, version)
-        except ValueError as exc:
-            f.close()
-            raise ValueError(f"{path!r} is not a readable .npy file: {exc}") from None
-        if fortran and len(shape) > 1:
-            f.close()
+            # the header only: a map is made but no page of the data is touched
+            mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            what = "is truncated (shorter than its header says)" if "mmap length" in str(exc) else \
+                f"is not a readable .npy file ({exc})"
+            raise ValueError(f"{path!r} {what}") from None
+        shape, dtype, offset = mapped.shape, mapped.dtype, mapped.offset
+        fortran = mapped.ndim > 1 and not mapped.flags.c_contiguous
+        del mapped
+        if fortran:
             raise ValueError(f"{path!r} is stored in Fortran order; strips need C order "
                              f"(re-save it with numpy.save(path, numpy.ascontiguousarray(a)))")
-        if dtype.hasobject:
-            f.close()
-            raise TypeError(f"{path!r} holds Python objects, not numbers")
-        return cls(f, f.tell(), shape, dtype)
+        return cls(open(path, "rb"), offset, shape, dtype)
 
     @classmethod
     def create(cls, path, shape, dtype):
@@ -276,9 +276,8 @@ class _Strips:
             y = be.empty((r1 - r0,) + tuple(src.shape[1:]), self.dtype)
             carry.zero_state_pass(be, x, y, 0, [s[i] for s in segs])
             out = be.to_host(y)
-            lines = carry.line_matrix(out, 0)
             for p in range(len(segs)):
-                carry.add_correction(segs[p][i], lines, states[p][i])
+                carry.add_correction(segs[p][i], out, states[p][i], 0)
             dst.write(r0, r1, out)
 
     def _bar(self, iterable, total):
