@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import ndimage
 
+from . import strips
 from .filters import _Job, gradient
 from .greens import EDGE_A, EDGE_ETA
 
@@ -165,6 +166,7 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     job = _Job(image, None, backend, device, min_ndim=2)
     if job.ndim != 2:
         raise ValueError(f"image must be 2-D (H, W), got shape {job.shape}")
+    strips.require_whole_image(job, "canny (hysteresis links edges across the image)")
     be = job.backend
     data = job.data
     if job.host_input:

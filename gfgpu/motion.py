@@ -32,7 +32,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import greens
+from . import greens, strips
 from .filters import Program, _apply_sequence, _copy_of_input, _direction_steps, _finite_cval, _Job
 from .recursion import check_mode, plan_pass
 
@@ -393,6 +393,7 @@ def _zoom(job, u1x, u1y, center, mode, cval):
         raise ValueError(f"center (x, y) = ({cx}, {cy}) must lie inside the image, 0 <= x <= {width - 1} "
                          f"and 0 <= y <= {height - 1}: the zoom's line layout splits each line at "
                          f"the fixed point")
+    strips.require_whole_image(job, "a zoom (its lines run through the fixed point)")
     be, dtype = job.backend, job.dtype
     cur = job.data
     for u1, centre, along_x in ((u1x, cx, True), (u1y, cy, False)):

@@ -199,6 +199,15 @@ def needs_strips(job, program):
     return limit is not None and _BUFFERS_PER_SAMPLE * job.nbytes > limit
 
 
+def require_whole_image(job, what):
+    """Raise a clear error when an operator that needs the whole image exceeds the working set."""
+    if job.host_input and needs_strips(job, None):
+        raise ValueError(f"{what} needs the whole image on the device: its working memory "
+                         f"({_size_bytes(_BUFFERS_PER_SAMPLE * job.nbytes)}) exceeds the working set "
+                         f"({_size_bytes(get_working_set(job.backend))}); raise it with "
+                         f"gfgpu.set_working_set or GFGPU_WORKING_SET")
+
+
 def _strip_rows(shape, dtype, limit):
     row = int(np.prod(shape[1:], dtype=np.int64)) * np.dtype(dtype).itemsize
     return max(1, min(shape[0], limit // (_BUFFERS_PER_SAMPLE * row)))

@@ -165,3 +165,12 @@ def test_filter_npy_integer_input_gives_float32(tmp_path, rng):
     out = np.load(tmp_path / "out.npy")
     assert out.dtype == np.float32
     assert np.abs(out - gfgpu.shift(img, (0.0, 3.0), backend="numpy")).max() <= 1e-3
+
+
+def test_whole_image_operators_say_so(rng):
+    img = rng.random((200, 200)).astype(np.float32)
+    with strips.working_set(50_000):
+        with pytest.raises(ValueError, match="canny .*needs the whole image"):
+            gfgpu.canny(img, 1.0, backend="numpy")
+        with pytest.raises(ValueError, match="zoom .*needs the whole image"):
+            gfgpu.motion_blur(img, 0.3, kind="zoom", backend="numpy")
