@@ -37,7 +37,10 @@ True
 
 from __future__ import annotations
 
+import contextlib
+import functools
 import itertools
+import threading
 
 import dask
 import dask.array as da
@@ -82,6 +85,15 @@ def _backend(spec):
     return resolve_backend(*spec)
 
 
+#: device work of one process is serialised: a thread pool would share one device queue and
+#: the backends' upload caches, which gains nothing and is not thread-safe
+_DEVICE_LOCK = threading.Lock()
+
+
+def _device_section(be):
+    return contextlib.nullcontext() if be.name == "numpy" else _DEVICE_LOCK
+
+
 def _host_block(block, dtype):
     block = np.ascontiguousarray(block, dtype=dtype)
     if not np.isfinite(block).all():
@@ -96,12 +108,13 @@ def _local_task(block, steps, plane, mode, cval, spec, dtype):
     """Steps whose lines lie inside the block, on the worker's backend."""
     be = _backend(spec)
     host = _host_block(block, dtype)
-    cur = be.host_view(host)
-    for passes, axis, angle in steps:
-        nxt = be.empty(host.shape, dtype)
-        filters._run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
-        cur = nxt
-    return be.to_host(cur)
+    with _device_section(be):
+        cur = be.host_view(host)
+        for passes, axis, angle in steps:
+            nxt = be.empty(host.shape, dtype)
+            filters._run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
+            cur = nxt
+        return be.to_host(cur)
 
 
 def _segment(lp, n, mode, dtype, start, stop):
@@ -133,13 +146,14 @@ def _scan_task(state, end, lp, n, mode, dtype, start, stop):
     return seg.transfer[:, None] * state + end
 
 
-def _finish_task(block, states, passes, n, mode, dtype, start, stop, axis, spec):
+def _finish_task(block, *states, passes, n, mode, dtype, start, stop, axis, spec):
     be = _backend(spec)
     host = _host_block(block, dtype)
     segs = [_segment(lp, n, mode, dtype, start, stop) for lp in passes]
-    y = be.empty(host.shape, dtype)
-    carry.zero_state_pass(be, be.host_view(host), y, axis, segs)
-    out = be.to_host(y)
+    with _device_section(be):
+        y = be.empty(host.shape, dtype)
+        carry.zero_state_pass(be, be.host_view(host), y, axis, segs)
+        out = be.to_host(y)
     for seg, state in zip(segs, states):
         carry.add_correction(seg, out, state, axis)
     return out
@@ -148,42 +162,44 @@ def _finish_task(block, states, passes, n, mode, dtype, start, stop, axis, spec)
 # --------------------------------------------------------------------------------------
 # graph construction
 # --------------------------------------------------------------------------------------
+def _task(function, *collections, **static):
+    """A delayed call; ``static`` arguments are bound, so dask does not traverse them."""
+    return dask.delayed(functools.partial(function, **static))(*collections)
+
+
 def _carried_step(x, passes, axis, mode, cval, spec, dtype):
     """One step along a chunked axis, with the state carried exactly between chunks."""
     n = x.shape[axis]
     bounds = np.concatenate([[0], np.cumsum(x.chunks[axis])]).astype(int).tolist()
     nb = len(bounds) - 1
     # the client builds the plans once, only to see which chunks hold boundary samples
-    plans = [plan_pass(lp, n, mode, dtype) for lp in passes]
-    segs = [carry.segments(p, bounds, dtype) for p in plans]
+    segs = [carry.segments(plan_pass(lp, n, mode, dtype), bounds, dtype) for lp in passes]
     blocks = x.to_delayed()
     out = np.empty(blocks.shape, dtype=object)
     other = [range(k) if d != axis else [None] for d, k in enumerate(blocks.shape)]
     for index in itertools.product(*other):
-        column = [blocks[tuple(i if d == axis else index[d] for d in range(x.ndim))] for i in range(nb)]
+        keys = [tuple(i if d == axis else index[d] for d in range(x.ndim)) for i in range(nb)]
+        column = [blocks[k] for k in keys]
         states_per_pass = []
         for lp, seg_list in zip(passes, segs):
-            ends = [dask.delayed(_end_task, pure=True)(column[i], lp, n, mode, dtype, bounds[i], bounds[i + 1], axis)
-                    for i in range(nb)]
-            terms = [dask.delayed(_boundary_task, pure=True)(column[i], lp, n, mode, dtype, bounds[i],
-                                                             bounds[i + 1], axis, cval)
+            where = [dict(lp=lp, n=n, mode=mode, dtype=dtype, start=bounds[i], stop=bounds[i + 1])
+                     for i in range(nb)]
+            ends = [_task(_end_task, column[i], axis=axis, **where[i]) for i in range(nb)]
+            terms = [_task(_boundary_task, column[i], axis=axis, cval=cval, **where[i])
                      for i, seg in enumerate(seg_list) if seg.boundary.shape[1] or seg.boundary_c.any()]
             if not terms:   # a zero state: the boundary mode contributes nothing (e.g. cval 0)
-                terms = [dask.delayed(_boundary_task, pure=True)(column[0], lp, n, mode, dtype, bounds[0],
-                                                                 bounds[1], axis, 0.0)]
-            state = dask.delayed(_sum_task, pure=True)(*terms)
+                terms = [_task(_boundary_task, column[0], axis=axis, cval=0.0, **where[0])]
+            state = _task(_sum_task, *terms)
             order = range(nb - 1, -1, -1) if seg_list[0].reverse else range(nb)
             states = [None] * nb
             for i in order:
                 states[i] = state
-                state = dask.delayed(_scan_task, pure=True)(state, ends[i], lp, n, mode, dtype,
-                                                            bounds[i], bounds[i + 1])
+                state = _task(_scan_task, state, ends[i], **where[i])
             states_per_pass.append(states)
-        for i in range(nb):
-            key = tuple(i if d == axis else index[d] for d in range(x.ndim))
+        for i, key in enumerate(keys):
             shape = tuple(x.chunks[d][key[d]] for d in range(x.ndim))
-            task = dask.delayed(_finish_task, pure=True)(column[i], [s[i] for s in states_per_pass], passes, n,
-                                                         mode, dtype, bounds[i], bounds[i + 1], axis, spec)
+            task = _task(_finish_task, column[i], *[s[i] for s in states_per_pass], passes=passes, n=n,
+                         mode=mode, dtype=dtype, start=bounds[i], stop=bounds[i + 1], axis=axis, spec=spec)
             out[key] = da.from_delayed(task, shape=shape, dtype=dtype)
     return da.block(out.tolist())
 
@@ -313,14 +329,16 @@ def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode
 
 def _plane_task(block, function, spec, dtype, kwargs):
     backend, device = spec
-    return function(_host_block(block, dtype), backend=backend, device=device, **kwargs)
+    with _device_section(_backend(spec)):
+        return function(_host_block(block, dtype), backend=backend, device=device, **kwargs)
 
 
 def _canny_task(block, spec, kwargs):
     from .edges import canny as canny_2d
     backend, device = spec
     flat = block.reshape((-1,) + block.shape[-2:])
-    out = np.stack([canny_2d(plane, backend=backend, device=device, **kwargs) for plane in flat])
+    with _device_section(_backend(spec)):
+        out = np.stack([canny_2d(plane, backend=backend, device=device, **kwargs) for plane in flat])
     return out.reshape(block.shape)
 
 
