@@ -59,10 +59,11 @@ def build_parser():
 
     sub.add_parser("devices", help="list backends and devices, usable or not (and why)")
     # applications register their own subcommands (each sets func= on its parser)
-    from . import motion_cli, shading_cli, stereo_cli
+    from . import batch_cli, motion_cli, shading_cli, stereo_cli
     stereo_cli.add_parser(sub)
     motion_cli.add_parser(sub)
     shading_cli.add_parser(sub)
+    batch_cli.add_parser(sub)
     return parser
 
 

@@ -1,0 +1,308 @@
+"""``gfgpu batch`` (gfgpu.batch, gfgpu.batch_cli): outputs, resume, atomicity, bad files, Dask."""
+
+import argparse
+import hashlib
+import os
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+import gfgpu
+from gfgpu import batch, batch_cli
+from gfgpu.cli import _gradient_png
+from gfgpu.files import to_display_8bit
+
+
+def run_cli(*argv):
+    """``gfgpu batch ...`` through a parser holding only the batch subcommand; the exit code."""
+    parser = argparse.ArgumentParser(prog="gfgpu")
+    batch_cli.add_parser(parser.add_subparsers(dest="command", required=True))
+    args = parser.parse_args(["batch", *map(str, argv)])
+    return args.func(args)
+
+
+def sha256(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
+def tree_digest(folder):
+    return {name: sha256(os.path.join(folder, name)) for name in sorted(os.listdir(folder))
+            if os.path.isfile(os.path.join(folder, name))}
+
+
+@pytest.fixture
+def images(tmp_path, rng):
+    """A folder with two colour PNGs and one grey PNG (small: 24 x 32)."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    for name in ("c1", "c2"):
+        iio.imwrite(folder / f"{name}.png", (rng.random((24, 32, 3)) * 255).astype(np.uint8))
+    iio.imwrite(folder / "g.png", (rng.random((24, 32)) * 255).astype(np.uint8))
+    return folder
+
+
+def leftovers(folder):
+    """Temporary files of write_atomic left in ``folder`` (there must be none)."""
+    return [n for n in os.listdir(folder) if n.startswith(".gfgpu-")]
+
+
+# --------------------------------------------------------------------------------------
+# outputs equal the direct API call
+# --------------------------------------------------------------------------------------
+def test_shift_npy_equals_api(images, tmp_path, backend):
+    out = tmp_path / "out"
+    assert run_cli("shift", images, "-o", out, "--by", 2.5, -1.25, "--format", "npy",
+                   "--backend", backend.name) == 0
+    for name in ("c1", "c2", "g"):
+        img = iio.imread(images / f"{name}.png").astype(np.float32)
+        ref = gfgpu.shift(img, (-1.25, 2.5), axes=(0, 1), backend=backend.name)
+        got = np.load(out / f"{name}.npy")
+        assert got.dtype == np.float32 and got.shape == img.shape
+        np.testing.assert_array_equal(got, ref)
+
+
+def test_png_and_tiff_outputs(images, tmp_path):
+    for fmt in ("png", "tiff", "npy"):
+        assert run_cli("shift", images / "c1.png", "-o", tmp_path / fmt, "--by", 1, 3, "--format", fmt,
+                       "--backend", "numpy", "--mode", "nearest") == 0
+    img = iio.imread(images / "c1.png")
+    raw = gfgpu.shift(img.astype(np.float32), (3, 1), mode="nearest", axes=(0, 1), backend="numpy")
+    np.testing.assert_array_equal(np.load(tmp_path / "npy" / "c1.npy"), raw)
+    np.testing.assert_array_equal(iio.imread(tmp_path / "tiff" / "c1.tiff"), raw)
+    np.testing.assert_array_equal(iio.imread(tmp_path / "png" / "c1.png"), to_display_8bit(raw, img))
+
+
+def test_gradient_outputs_equal_api(images, tmp_path):
+    assert run_cli("gradient", images, "-o", tmp_path / "npy", "-u", 1.5, "--format", "npy",
+                   "--backend", "numpy") == 0
+    assert run_cli("gradient", images / "c2.png", "-o", tmp_path / "png", "-u", 1.5, "--backend", "numpy") == 0
+    img = iio.imread(images / "c2.png").astype(np.float32).mean(axis=-1)
+    gy, gx = gfgpu.gradient(img, 1.5, backend="numpy")
+    np.testing.assert_array_equal(np.load(tmp_path / "npy" / "c2.npy"), np.stack([gy, gx]))
+    np.testing.assert_array_equal(iio.imread(tmp_path / "png" / "c2.png"), _gradient_png(gy, gx))
+    grey = iio.imread(images / "g.png").astype(np.float32)
+    np.testing.assert_array_equal(np.load(tmp_path / "npy" / "g.npy"), np.stack(gfgpu.gradient(grey, 1.5,
+                                                                                                backend="numpy")))
+
+
+def test_canny_outputs_equal_api(images, tmp_path):
+    assert run_cli("canny", images / "g.png", "-o", tmp_path, "-u", 1, "--low", 0.7, "--high", 0.9,
+                   "--format", "npy", "--backend", "numpy") == 0
+    grey = iio.imread(images / "g.png")
+    ref = gfgpu.canny(grey, 1.0, 0.7, 0.9, use_quantiles=True, backend="numpy")
+    got = np.load(tmp_path / "g.npy")
+    assert got.dtype == bool and got.any()
+    np.testing.assert_array_equal(got, ref)
+
+
+@pytest.mark.parametrize("how", [("--velocity", 6, -2), ("--velocity", 4, 0, "--keep-position"),
+                                 ("--zoom", 0.3, "--center", 10, 12)])
+def test_blur_outputs_equal_api(images, tmp_path, how):
+    assert run_cli("blur", images / "c1.png", "-o", tmp_path, *how, "--format", "npy", "--backend", "numpy") == 0
+    img = iio.imread(images / "c1.png").astype(np.float32)
+    if how[0] == "--zoom":
+        ref = gfgpu.motion_blur(img, 0.3, kind="zoom", center=(10, 12), channel_axis=-1, backend="numpy")
+    else:
+        ref = gfgpu.motion_blur(img, how[1:3], displace=len(how) == 3, channel_axis=-1, backend="numpy")
+    np.testing.assert_array_equal(np.load(tmp_path / "c1.npy"), ref)
+
+
+# --------------------------------------------------------------------------------------
+# resume and atomic writes
+# --------------------------------------------------------------------------------------
+def test_resume_skips_and_overwrite_recomputes(images, tmp_path, capsys):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "c1.npy").write_bytes(b"stale")          # an output from an earlier run
+    args = ("shift", images, "-o", out, "--by", 1, 1, "--format", "npy", "--backend", "numpy")
+    assert run_cli(*args) == 0
+    assert "2 ok, 1 skipped, 0 failed" in capsys.readouterr().out
+    assert (out / "c1.npy").read_bytes() == b"stale"
+    done = {n: os.stat(out / f"{n}.npy").st_mtime_ns for n in ("c2", "g")}
+    digests = tree_digest(out)
+
+    assert run_cli(*args) == 0                      # everything there: nothing recomputed
+    assert "0 ok, 3 skipped, 0 failed" in capsys.readouterr().out
+    assert tree_digest(out) == digests
+    assert {n: os.stat(out / f"{n}.npy").st_mtime_ns for n in ("c2", "g")} == done
+
+    past = 1_000_000_000
+    for n in ("c2", "g"):
+        os.utime(out / f"{n}.npy", ns=(past, past))
+    assert run_cli(*args, "--overwrite") == 0
+    assert "3 ok, 0 skipped, 0 failed" in capsys.readouterr().out
+    ref = gfgpu.shift(iio.imread(images / "c1.png").astype(np.float32), (1, 1), axes=(0, 1), backend="numpy")
+    np.testing.assert_array_equal(np.load(out / "c1.npy"), ref)
+    assert all(os.stat(out / f"{n}.npy").st_mtime_ns > past for n in ("c2", "g"))
+    assert not leftovers(out)
+
+
+@pytest.mark.parametrize("fmt", ["npy", "png"])
+def test_interrupted_write_leaves_no_partial_output(images, tmp_path, monkeypatch, capsys, fmt):
+    """A writer that dies half-way through the second file: no partial output, no temp file."""
+    import imageio.v3
+
+    calls = []
+    real = np.save if fmt == "npy" else imageio.v3.imwrite
+
+    def dying_writer(target, *args, **kwargs):
+        calls.append(target)
+        if len(calls) == 2:
+            if hasattr(target, "write"):
+                target.write(b"\x93NUMPY garbage")
+            else:
+                with open(target, "wb") as f:
+                    f.write(b"\x89PNG garbage")
+            raise OSError("disk full (simulated)")
+        return real(target, *args, **kwargs)
+
+    if fmt == "npy":
+        monkeypatch.setattr(np, "save", dying_writer)
+    else:
+        monkeypatch.setattr(imageio.v3, "imwrite", dying_writer)
+    out = tmp_path / "out"
+    before = tree_digest(images)
+    assert run_cli("shift", images, "-o", out, "--by", 1, 0, "--format", fmt, "--backend", "numpy") == 1
+    text = capsys.readouterr().out
+    assert "2 ok, 0 skipped, 1 failed" in text and "disk full (simulated)" in text
+    assert sorted(os.listdir(out)) == sorted(f"{n}.{fmt}" for n in ("c1", "g"))   # c2 died: absent
+    assert not leftovers(out)
+    assert tree_digest(images) == before
+    monkeypatch.undo()
+    assert run_cli("shift", images, "-o", out, "--by", 1, 0, "--format", fmt, "--backend", "numpy") == 0
+    assert "1 ok, 2 skipped, 0 failed" in capsys.readouterr().out   # the rerun completes the batch
+
+
+# --------------------------------------------------------------------------------------
+# bad files: reported, the others processed, inputs untouched
+# --------------------------------------------------------------------------------------
+def test_bad_files_are_reported_and_the_rest_processed(images, tmp_path, capsys):
+    import tifffile
+    good = (images / "c1.png").read_bytes()
+    (images / "truncated.png").write_bytes(good[: len(good) // 2])
+    tifffile.imwrite(images / "complex.tif", (np.ones((8, 8)) + 2j).astype(np.complex64))
+    (images / "dangling.png").symlink_to(tmp_path / "nowhere.png")    # unreadable entry of the folder
+    (images / "notes.txt").write_text("not an image")                  # not an image extension: ignored
+    unreadable = os.geteuid() != 0                                     # root reads 0o000 files anyway
+    if unreadable:
+        (images / "locked.png").write_bytes(good)
+        os.chmod(images / "locked.png", 0)
+    missing = tmp_path / "missing.png"
+    before = {n: sha256(images / n) for n in os.listdir(images)
+              if n not in ("dangling.png", "locked.png")}
+    out = tmp_path / "out"
+    try:
+        code = run_cli("shift", images, missing, "-o", out, "--by", 0.5, 0.5, "--format", "npy",
+                       "--backend", "numpy")
+    finally:
+        if unreadable:
+            os.chmod(images / "locked.png", 0o644)
+    text = capsys.readouterr().out
+    n_bad = 4 + unreadable
+    assert code == 1
+    assert f"3 ok, 0 skipped, {n_bad} failed" in text
+    reasons = {line.split(": ")[1]: line for line in text.splitlines() if line.strip().startswith("failed:")}
+    assert set(reasons) == {str(images / "truncated.png"), str(images / "complex.tif"), str(images / "dangling.png"),
+                            str(missing)} | ({str(images / "locked.png")} if unreadable else set())
+    assert "complex64" in reasons[str(images / "complex.tif")]
+    assert "FileNotFoundError" in reasons[str(missing)]
+    if unreadable:
+        assert "PermissionError" in reasons[str(images / "locked.png")]
+    assert sorted(os.listdir(out)) == ["c1.npy", "c2.npy", "g.npy"]
+    assert not leftovers(out)
+    assert {n: sha256(images / n) for n in before} == before
+
+
+def test_process_file_never_raises(tmp_path):
+    jobs = [batch.Job(str(tmp_path / "none.png"), str(tmp_path / "o.npy"), "shift", {"by": (1, 1)}, "npy"),
+            batch.Job(str(tmp_path / "none.png"), str(tmp_path / "o.npy"), "rotate", {}, "npy"),
+            batch.Job(str(tmp_path), str(tmp_path / "o.npy"), "shift", {"by": (1, 1)}, "npy")]
+    iio.imwrite(tmp_path / "nan.tiff", np.full((8, 8), np.nan, np.float32))
+    jobs.append(batch.Job(str(tmp_path / "nan.tiff"), str(tmp_path / "o.npy"), "gradient", {"u": 1.0}, "npy",
+                          backend="numpy"))
+    results = [batch.process_file(j) for j in jobs]
+    assert [r.status for r in results] == ["failed"] * 4
+    assert all(r.message and r.seconds >= 0 for r in results)
+    assert "rotate" in results[1].message
+    assert not os.path.exists(tmp_path / "o.npy")
+
+
+# --------------------------------------------------------------------------------------
+# planning errors: before any work
+# --------------------------------------------------------------------------------------
+def test_refuses_to_overwrite_an_input(images):
+    before = tree_digest(images)
+    with pytest.raises(SystemExit, match="overwrite an input"):
+        run_cli("shift", images, "-o", images, "--by", 1, 1, "--backend", "numpy")
+    os.link(images / "g.png", images.parent / "g.npy")       # a hard link is the same file
+    with pytest.raises(ValueError, match="overwrite an input"):
+        batch.plan_jobs([str(images / "g.png")], str(images.parent), "shift", {"by": (1, 1)}, fmt="npy")
+    assert tree_digest(images) == before
+    # the task itself refuses too, whatever its job says
+    job = batch.Job(str(images / "g.png"), str(images / "g.png"), "shift", {"by": (1, 1)}, overwrite=True)
+    assert batch.process_file(job).status == "failed"
+    assert tree_digest(images) == before
+
+
+def test_same_stem_is_an_error_before_any_work(images, tmp_path):
+    (images / "sub").mkdir()
+    (images / "sub" / "g.jpg").write_bytes((images / "g.png").read_bytes())
+    with pytest.raises(SystemExit, match="same name stem 'g'"):
+        run_cli("shift", images, images / "sub", "-o", tmp_path / "out", "--by", 1, 1)
+    assert not (tmp_path / "out").exists()
+
+
+def test_discovery(images, tmp_path):
+    (images / "UPPER.PNG").write_bytes((images / "g.png").read_bytes())
+    (images / "x.JpEg").write_bytes(b"")
+    (images / "readme.txt").write_text("")
+    (images / ".hidden.png").write_bytes(b"")
+    (images / "deep").mkdir()
+    (images / "deep" / "d.tif").write_bytes(b"")
+    names = lambda paths: [os.path.relpath(p, images) for p in paths]
+    assert names(batch.discover_inputs([images])) == ["UPPER.PNG", "c1.png", "c2.png", "g.png", "x.JpEg"]
+    assert names(batch.discover_inputs([str(images / "**" / "*.tif"), images / "g.png",
+                                        str(images / "g.png")])) == ["deep/d.tif", "g.png"]
+    assert all(os.path.isabs(p) for p in batch.discover_inputs([os.path.relpath(images)]))
+    with pytest.raises(ValueError, match=r"\*\.bmp.*matches no file"):
+        batch.discover_inputs([str(images / "*.bmp")])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(SystemExit, match="holds no image file"):
+        run_cli("gradient", tmp_path / "empty", "-o", tmp_path / "out")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (("gradient", "-u", 0), "u must be > 0"),
+    (("canny", "--low", 0.9, "--high", 0.2), r"low quantile \(0.9\) must not exceed"),
+    (("canny", "--low", 1.5), "low_threshold"),
+    (("blur", "--zoom", 3), "u1.* got 3"),
+    (("blur", "--velocity", 1, 1, "--center", 3, 3), "--center"),
+])
+def test_bad_parameters_fail_once_before_any_work(images, tmp_path, argv, message):
+    with pytest.raises(SystemExit, match=message):
+        run_cli(argv[0], images, "-o", tmp_path / "out", *argv[1:], "--backend", "numpy")
+    assert not (tmp_path / "out").exists()
+
+
+# --------------------------------------------------------------------------------------
+# Dask: a LocalCluster of two worker processes, end to end through --workers
+# --------------------------------------------------------------------------------------
+def test_local_cluster_two_workers(images, tmp_path, capsys):
+    pytest.importorskip("dask.distributed")
+    (images / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n")
+    before = tree_digest(images)
+    code = run_cli("shift", images, "-o", tmp_path / "dask", "--by", 2, 1, "--format", "npy",
+                   "--backend", "numpy", "--workers", 2)
+    captured = capsys.readouterr()
+    assert code == 1
+    assert "3 ok, 0 skipped, 1 failed" in captured.out and "broken.png" in captured.out
+    assert "2 worker(s)" in captured.err
+    assert run_cli("shift", images, "-o", tmp_path / "here", "--by", 2, 1, "--format", "npy",
+                   "--backend", "numpy") == 1
+    for name in ("c1", "c2", "g"):
+        np.testing.assert_array_equal(np.load(tmp_path / "dask" / f"{name}.npy"),
+                                      np.load(tmp_path / "here" / f"{name}.npy"))
+    assert not leftovers(tmp_path / "dask")
+    assert tree_digest(images) == before
