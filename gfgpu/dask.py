@@ -18,11 +18,12 @@ separable along axes (oblique directions, zoom, canny's hysteresis) need whole i
 their wrappers rechunk the last two axes into one chunk (stacks stay chunked along their
 other axes).
 
-Backends are named (``backend="opencl"``, ``device="0"``), never passed as objects: each
-worker process builds its own backend, device context and kernel caches on first use
-(:func:`gfgpu.get_backend` caches per process).  For GPU workers run one worker process per
-GPU with one thread (``dask worker ADDRESS --nthreads 1``, ``CUDA_VISIBLE_DEVICES`` per
-process): a thread pool would share one device queue and its caches gain nothing.
+Backends travel by name (``backend="opencl", device="0"``, or a backend object, which
+pickles as its name and device): each worker process builds its own backend, device context
+and kernel caches on first use (:func:`gfgpu.get_backend` caches per process).  For GPU
+workers run one worker process per GPU with one thread (``dask worker ADDRESS --nthreads 1``,
+``CUDA_VISIBLE_DEVICES`` per process): threads of one process share its device queue (device
+work is serialised per process), so they gain nothing.
 
 Examples
 --------
@@ -68,10 +69,12 @@ def _check_array(x):
 
 
 def _backend_spec(backend, device):
+    """``(name, device)`` of a backend: tasks carry this and each worker rebuilds the backend."""
     from .backends import Backend
     if isinstance(backend, Backend):
-        raise TypeError("backend must be a name ('numpy', 'warp', 'opencl') for Dask: backends are "
-                        "rebuilt in each worker process, device contexts do not pickle")
+        if device is not None:
+            raise ValueError("device= cannot be combined with a Backend object (it has its device)")
+        return backend.__reduce__()[1]
     if backend is not None:
         from .backends import _check_name
         _check_name(backend)

@@ -45,8 +45,15 @@ def _device_key(device):
         return id(device)
 
 
-@cache
 def _make(name, device_key, device):
+    be = _construct(name, device_key, device)
+    if device is None or isinstance(device, (str, int)):
+        be._requested = device   # pickles as get_backend(name, device): same request elsewhere
+    return be
+
+
+@cache
+def _construct(name, device_key, device):
     if name == "numpy":
         if device not in (None, "host", "cpu"):
             raise BackendUnavailable(f"the numpy backend runs on the host only; got device={device!r}")

@@ -135,6 +135,18 @@ class Backend:
         """``sweep_update_reference(state, ...)`` in place on device arrays (float32)."""
         raise NotImplementedError
 
+    # ---- pickling: by name, rebuilt in the receiving process ----------------------------
+    @property
+    def spec(self):
+        """``(name, device)`` such that ``gfgpu.get_backend(*spec)`` builds this backend's
+        equivalent in another process (device contexts and queues do not pickle)."""
+        return (self.name, None)
+
+    def __reduce__(self):
+        from . import get_backend
+        requested = getattr(self, "_requested", False)
+        return (get_backend, (self.name, requested) if requested is not False else self.spec)
+
     def __repr__(self):
         return f"<gfgpu backend {self.name!r} on {self.device}>"
 

@@ -319,6 +319,14 @@ class OpenCLBackend(Backend):
         self.queue.finish()
 
     @property
+    def spec(self):
+        # the device's index in opencl_devices(): the same machine layout is assumed elsewhere
+        for index, dev, _ in opencl_devices():
+            if dev == self._device:
+                return ("opencl", index)
+        return ("opencl", self._device.name.strip())
+
+    @property
     def memory_budget(self):
         # one buffer may not exceed max_mem_alloc_size either; strips keep buffers below both
         if self.kind == "cpu":

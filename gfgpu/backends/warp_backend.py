@@ -161,6 +161,10 @@ class WarpBackend(Backend):
         self._wp.synchronize_device(self._device)
 
     @property
+    def spec(self):
+        return ("warp", self._device.alias)
+
+    @property
     def memory_budget(self):
         return None if self._device.is_cpu else int(self._device.total_memory) // 2
 
