@@ -127,20 +127,29 @@ class _NpyStore:
     @classmethod
     def open(cls, path):
         path = os.fspath(path)
+        f = open(path, "rb")
         try:
-            # the header only: a map is made but no page of the data is touched
-            mapped = np.load(path, mmap_mode="r", allow_pickle=False)
+            # the header only (nothing mapped: a memory cap applies to maps as well)
+            version = np.lib.format.read_magic(f)
+            if version == (1, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_1_0(f)
+            elif version == (2, 0):
+                shape, fortran, dtype = np.lib.format.read_array_header_2_0(f)
+            else:
+                raise ValueError(f"format version {version} (re-save it with numpy.save)")
+            offset = f.tell()
+            if dtype.hasobject:
+                raise ValueError("it holds Python objects, not numbers")
+            if fortran and len(shape) > 1:
+                raise ValueError("it is stored in Fortran order; strips need C order (re-save it "
+                                 "with numpy.save(path, numpy.ascontiguousarray(a)))")
+            need = offset + int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+            if os.fstat(f.fileno()).st_size < need:
+                raise ValueError("it is truncated (shorter than its header says)")
         except (ValueError, OSError, EOFError) as exc:
-            what = "is truncated (shorter than its header says)" if "mmap length" in str(exc) else \
-                f"is not a readable .npy file ({exc})"
-            raise ValueError(f"{path!r} {what}") from None
-        shape, dtype, offset = mapped.shape, mapped.dtype, mapped.offset
-        fortran = mapped.ndim > 1 and not mapped.flags.c_contiguous
-        del mapped
-        if fortran:
-            raise ValueError(f"{path!r} is stored in Fortran order; strips need C order "
-                             f"(re-save it with numpy.save(path, numpy.ascontiguousarray(a)))")
-        return cls(open(path, "rb"), offset, shape, dtype)
+            f.close()
+            raise ValueError(f"{path!r} is not a usable .npy file: {exc}") from None
+        return cls(f, offset, shape, dtype)
 
     @classmethod
     def create(cls, path, shape, dtype):
@@ -281,7 +290,9 @@ class _Strips:
         be = self.be
         for i in self._bar(range(len(bounds) - 1), len(bounds) - 1):   # 3. strips
             r0, r1 = bounds[i], bounds[i + 1]
-            x = self._within(src.read(r0, r1, self.dtype), within, plane)
+            # ``host`` must outlive the device work reading it: CPU devices read it in place
+            host = src.read(r0, r1, self.dtype)
+            x = self._within(host, within, plane)
             y = be.empty((r1 - r0,) + tuple(src.shape[1:]), self.dtype)
             carry.zero_state_pass(be, x, y, 0, [s[i] for s in segs])
             out = be.to_host(y)

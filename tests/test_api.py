@@ -146,3 +146,21 @@ def test_cli_outputs_are_written_atomically_with_normal_permissions(tmp_path):
     os.umask(umask)
     assert (out.stat().st_mode & 0o777) == (0o666 & ~umask)
     assert [p.name for p in tmp_path.iterdir()] == ["g.png"]      # no temporary left behind
+
+
+def test_host_views_outlive_the_callers_reference(backend, rng):
+    """A device that reads host memory in place keeps it until its kernels have run."""
+    from gfgpu import greens
+    from gfgpu.recursion import plan_pass
+    plan = plan_pass(greens.UniformGreen(3.0).line_pass(), 512, "reflect", np.float32)
+    expect, outs = [], []
+    for _ in range(8):
+        host = rng.random((1, 512, 512)).astype(np.float32)      # 1 MiB: shared, not copied, on CPU OpenCL
+        expect.append(gfgpu.green_filter(host[0], greens.UniformGreen(3.0), axis=0, backend="numpy"))
+        out = backend.empty(host.shape, np.float32)
+        backend.recurse(backend.host_view(host), out, 1, plan)   # the view is dropped at once
+        del host
+        np.ones((1, 512, 512), np.float32)                         # reuse freed memory if any
+        outs.append(out)
+    for out, ref in zip(outs, expect):
+        assert np.abs(backend.to_host(out)[0] - ref).max() <= 1e-5

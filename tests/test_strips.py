@@ -129,6 +129,17 @@ def test_filter_npy_equals_in_memory(backend, op, params, tmp_path, rng):
     assert sorted(os.listdir(tmp_path)) == ["in.npy", "out.npy"]
 
 
+def test_filter_npy_large_strips(backend, tmp_path, rng):
+    """Strips above the OpenCL CPU zero-copy size: the device reads freshly read host buffers."""
+    img = rng.random((900, 700)).astype(np.float32)
+    np.save(tmp_path / "in.npy", img)
+    info = strips.filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(2.5, -1.5),
+                             working_set="4M", backend=backend.name)
+    assert info["strips"] >= 3 and info["strip_rows"] * 700 * 4 > 1 << 16
+    ref = gfgpu.shift(img, (2.5, -1.5), backend=backend)
+    assert np.abs(np.load(tmp_path / "out.npy") - ref).max() <= 2e-6
+
+
 def test_filter_npy_errors_leave_no_output(tmp_path, rng):
     img = rng.random((100, 50))
     img[90, 3] = np.nan

@@ -139,6 +139,7 @@ def backend_for_queue(queue):
 
 #: host arrays at least this large are shared with CPU devices instead of copied
 _ZERO_COPY_BYTES = 1 << 16
+_IN_FLIGHT_MAX = 32           # wrapped host arrays kept alive before the queue is drained
 
 
 class OpenCLBackend(Backend):
@@ -207,6 +208,7 @@ class OpenCLBackend(Backend):
         self._pool = cl_tools.MemoryPool(cl_tools.ImmediateAllocator(self.queue))
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
         self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
+        self._in_flight = []           # host arrays wrapped for the device, kept until the queue drains
 
     def _find_device(self, device):
         devs = opencl_devices()
@@ -257,13 +259,21 @@ class OpenCLBackend(Backend):
             mapped, _ = self._cl.enqueue_map_buffer(self.queue, array.base_data, self._cl.map_flags.READ,
                                                     0, host.shape, host.dtype, is_blocking=True)
             mapped.base.release(self.queue)
+            self._in_flight.clear()   # the queue is in order: every earlier command is done
             return host
-        return array.get(queue=self.queue)
+        out = array.get(queue=self.queue)
+        self._in_flight.clear()
+        return out
 
     def _wrap_host(self, host, flags):
         buf = self._cl.Buffer(self.context, flags | self._cl.mem_flags.USE_HOST_PTR, hostbuf=host)
         arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf)
         arr.gfgpu_host = host       # keeps the memory alive as long as the device array
+        # ... and until queued kernels have read it, even if the caller drops the array first
+        if len(self._in_flight) >= _IN_FLIGHT_MAX:
+            self.queue.finish()
+            self._in_flight.clear()
+        self._in_flight.append(host)
         return arr
 
     def host_view(self, host):
@@ -317,6 +327,7 @@ class OpenCLBackend(Backend):
 
     def synchronize(self):
         self.queue.finish()
+        self._in_flight.clear()
 
     @property
     def spec(self):
