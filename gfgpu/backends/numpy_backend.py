@@ -14,7 +14,7 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from ..recursion import run_reference
 from .base import Backend
@@ -52,6 +52,12 @@ def _block_matrices(plan, block):
     return out_in, out_state, carry_in, carry_state
 
 
+@lru_cache(maxsize=1)
+def _blas_controller():
+    # inspecting the loaded libraries is the costly part (0.4 ms per call); do it once
+    return ThreadpoolController()
+
+
 def _blocked(lines, plan, cval, steps_last=False):
     """Blocked evaluation of a constant plan, float64, on ``lines`` in traversal order.
 
@@ -61,7 +67,7 @@ def _blocked(lines, plan, cval, steps_last=False):
     thread, since a multi-threaded BLAS spins and slows several-fold when the cores are
     shared (measured 5x on 2 busy cores).
     """
-    with threadpool_limits(limits=1, user_api="blas"):
+    with _blas_controller().limit(limits=1, user_api="blas"):
         if steps_last:
             return _blocked_products(lines.T, plan, cval, transposed=True).T
         return _blocked_products(lines, plan, cval)
