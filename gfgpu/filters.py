@@ -209,7 +209,7 @@ def _apply_sequence(job, program, mode, cval):
     streamed through the device in strips (exact, :mod:`gfgpu.strips`).
     """
     from . import strips
-    if job.host_input and strips.needs_strips(job, program):
+    if job.host_input and strips.needs_strips(job):
         return strips.run_job(job, program, mode, cval)
     steps = program.steps
     if not steps:

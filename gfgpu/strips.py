@@ -202,7 +202,7 @@ def _drop_first_axis(program):
     return Program(steps, plane)
 
 
-def needs_strips(job, program):
+def needs_strips(job):
     """True when a host job's working memory exceeds the working set."""
     limit = get_working_set(job.backend)
     return limit is not None and _BUFFERS_PER_SAMPLE * job.nbytes > limit
@@ -210,7 +210,7 @@ def needs_strips(job, program):
 
 def require_whole_image(job, what):
     """Raise a clear error when an operator that needs the whole image exceeds the working set."""
-    if job.host_input and needs_strips(job, None):
+    if job.host_input and needs_strips(job):
         raise ValueError(f"{what} needs the whole image on the device: its working memory "
                          f"({_size_bytes(_BUFFERS_PER_SAMPLE * job.nbytes)}) exceeds the working set "
                          f"({_size_bytes(get_working_set(job.backend))}); raise it with "
