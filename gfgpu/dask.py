@@ -112,12 +112,7 @@ def _local_task(block, steps, plane, mode, cval, spec, dtype):
     be = _backend(spec)
     host = _host_block(block, dtype)
     with _device_section(be):
-        cur = be.host_view(host)
-        for passes, axis, angle in steps:
-            nxt = be.empty(host.shape, dtype)
-            filters._run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
-            cur = nxt
-        return be.to_host(cur)
+        return be.to_host(filters._run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane))
 
 
 def _segment(lp, n, mode, dtype, start, stop):

@@ -197,6 +197,19 @@ def _run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, 
     return dst
 
 
+def _run_steps(be, data, dtype, steps, mode, cval, plane=None):
+    """Apply ``steps`` in turn to the device array ``data`` (kept); the last result is returned.
+
+    The strip executor and the Dask tasks run their in-block steps with this.
+    """
+    cur = data
+    for passes, axis, angle in steps:
+        nxt = be.empty(tuple(data.shape), dtype)
+        _run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
+        cur = nxt
+    return cur
+
+
 def _is_axis_angle(angle):
     steep, _, gamma = direction(angle)
     return abs(gamma) < 1e-12

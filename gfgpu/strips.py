@@ -231,15 +231,8 @@ class _Strips:
 
     def _within(self, host, steps, plane):
         """Apply in-strip steps to a host strip; return a device array."""
-        from .filters import _run_passes
-        be = self.be
-        cur = be.host_view(host)
-        for passes, axis, angle in steps:
-            nxt = be.empty(host.shape, self.dtype)
-            _run_passes(be, cur, nxt, self.dtype, passes, self.mode, self.cval, axis=axis, angle=angle,
-                        plane=plane)
-            cur = nxt
-        return cur
+        from .filters import _run_steps
+        return _run_steps(self.be, self.be.host_view(host), self.dtype, steps, self.mode, self.cval, plane)
 
     def _rows(self, store, r0, r1, steps, plane):
         if r1 <= r0:
