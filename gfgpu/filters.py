@@ -139,9 +139,18 @@ class _Job:
         return self.backend.empty(self.shape, self.dtype)
 
     def result_buffer(self):
-        """The buffer of the final result: host-shared when a numpy result is returned."""
-        if self.host_input and self.output is None:
-            return self.backend.host_result(self.shape, self.dtype)
+        """The buffer of the final result: the caller's ``output`` itself where it can be
+        written in place, host-shared when a numpy result is returned, else a new array."""
+        be, out = self.backend, self.output
+        if self.host_input:
+            if out is None:
+                return be.host_result(self.shape, self.dtype)
+            direct = (out.dtype == self.dtype and out.flags.c_contiguous and out.flags.writeable
+                      and not np.may_share_memory(out, self.source))
+            return be.host_result(self.shape, self.dtype, into=out) if direct else self.empty()
+        if (out is not None and be.dtype_of(out) == self.dtype and be.is_contiguous(out)
+                and not be.may_share_memory(out, self.source)):
+            return out
         return self.empty()
 
     def finish(self, result):
@@ -150,20 +159,17 @@ class _Job:
         if self.host_input:
             host = be.to_host(result)
             if self.output is not None:
-                self.output[...] = host
+                if host is not self.output:
+                    self.output[...] = host
                 return self.output
             return host
         if self.output is not None:
-            if self.backend.dtype_of(self.output) == self.dtype:
-                self._copy(result, self.output)
-            else:
+            if self.backend.dtype_of(self.output) != self.dtype:
                 raise TypeError("device output must have the computation's dtype")
+            if result is not self.output:
+                be.copy(result, self.output)
             return self.output
         return result
-
-    def _copy(self, src, dst):
-        flat = np.arange(int(np.prod(self.shape)), dtype=np.int64)
-        self.backend.gather(self.backend.reshape(src, (-1,)), flat, 0.0, self.backend.reshape(dst, (-1,)))
 
 
 def _run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, plane=None):
@@ -242,7 +248,7 @@ def _copy_of_input(job):
     if job.host_input:
         return job.backend.asarray(np.array(job.backend.to_host(job.data), copy=True))
     out = job.empty()
-    job._copy(job.data, out)
+    job.backend.copy(job.data, out)
     return out
 
 

@@ -39,6 +39,33 @@ def test_input_is_never_modified_and_output_argument(backend, rng):
     assert zero is not img
 
 
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_output_written_in_place_or_through_a_copy(backend, rng, dtype):
+    # 192 x 160 is above the size from which CPU devices share host memory instead of copying
+    img = rng.standard_normal((192, 160)).astype(dtype)
+    shift = (0.0, -2.25)                # one pass: an aliased output would be read after written
+    ref = gfgpu.shift(img, shift, backend=backend)
+    tol = dict(rtol=0, atol=1e-12 if dtype == np.float64 else 1e-6)
+    raw = np.zeros(img.nbytes + 8, np.uint8)
+    outputs = {"fresh": np.empty_like(img),
+               "strided": np.empty((192, 320), dtype)[:, ::2],
+               "unaligned": raw[8:].view(dtype).reshape(img.shape),
+               "in place": img.copy()}
+    for name, out in outputs.items():
+        src = out if name == "in place" else img
+        res = gfgpu.shift(src, shift, output=out, backend=backend)
+        assert res is out, name
+        np.testing.assert_allclose(out, ref, err_msg=name, **tol)
+    if backend.name == "numpy" or (dtype == np.float64 and not backend.supports_float64):
+        return
+    dev = backend.asarray(img)
+    dev_out = backend.empty(img.shape, dtype)
+    assert gfgpu.shift(dev, shift, output=dev_out) is dev_out
+    np.testing.assert_allclose(backend.to_host(dev_out), ref, **tol)
+    assert gfgpu.shift(dev, shift, output=dev) is dev      # in place on the device
+    np.testing.assert_allclose(backend.to_host(dev), ref, **tol)
+
+
 def test_device_arrays_stay_on_their_device(backend, rng):
     if backend.name == "numpy":
         pytest.skip("host arrays")

@@ -49,12 +49,27 @@ class Backend:
         """
         return self.asarray(host)
 
-    def host_result(self, shape, dtype):
+    def host_result(self, shape, dtype, into=None):
         """A device array for a final result that :meth:`to_host` can return without a copy.
 
-        The default is an ordinary :meth:`empty` array.
+        ``into``, when given, is a writeable C-contiguous numpy array of ``shape`` and ``dtype``
+        (the caller's ``output``): devices that share the host's memory write the result into
+        it, and :meth:`to_host` then returns ``into`` itself.  The default ignores ``into``
+        and returns an ordinary :meth:`empty` array.
         """
         return self.empty(shape, dtype)
+
+    def copy(self, src, dst):
+        """Copy device array ``src`` into ``dst`` (same shape and dtype, C-contiguous)."""
+        raise NotImplementedError
+
+    def is_contiguous(self, array) -> bool:
+        """True if the device array is C-contiguous."""
+        raise NotImplementedError
+
+    def may_share_memory(self, a, b) -> bool:
+        """True if device arrays ``a`` and ``b`` may overlap in memory (bounds check)."""
+        raise NotImplementedError
 
     def dtype_of(self, array) -> np.dtype:
         """numpy dtype of a device array."""

@@ -123,6 +123,19 @@ class NumpyBackend(Backend):
     def empty(self, shape, dtype):
         return np.empty(shape, dtype)
 
+    def host_result(self, shape, dtype, into=None):
+        return np.empty(shape, dtype) if into is None else into
+
+    def copy(self, src, dst):
+        np.copyto(dst, src)
+        return dst
+
+    def is_contiguous(self, array):
+        return bool(array.flags.c_contiguous)
+
+    def may_share_memory(self, a, b):
+        return bool(np.may_share_memory(a, b))
+
     def reshape(self, array, shape):
         return array.reshape(shape)
 

@@ -142,6 +142,15 @@ _ZERO_COPY_BYTES = 1 << 16
 _IN_FLIGHT_MAX = 32           # wrapped host arrays kept alive before the queue is drained
 
 
+def _aligned_empty(shape, dtype, align):
+    """``np.empty`` whose data starts on an ``align``-byte boundary."""
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    raw = np.empty(nbytes + align, np.uint8)
+    start = -raw.ctypes.data % align
+    return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
 class OpenCLBackend(Backend):
     """Run the recursion primitive with OpenCL kernels on ``pyopencl.array.Array`` data.
 
@@ -197,6 +206,7 @@ class OpenCLBackend(Backend):
         dev = self._device
         self.device = f"{dev.name.strip()} ({dev.platform.name.strip()})"
         self.kind = _kind(dev)
+        self._host_align = max(64, dev.mem_base_addr_align // 8)
         try:
             fp64 = bool(dev.double_fp_config)
         except cl.Error:  # devices without fp64 may reject the query
@@ -284,11 +294,30 @@ class OpenCLBackend(Backend):
             return self.asarray(host)
         return self._wrap_host(host, self._cl.mem_flags.READ_ONLY)
 
-    def host_result(self, shape, dtype):
+    def host_result(self, shape, dtype, into=None):
         dtype = self._check_dtype(dtype)
         if self.kind != "cpu" or int(np.prod(shape)) * dtype.itemsize < _ZERO_COPY_BYTES:
             return self.empty(shape, dtype)
-        return self._wrap_host(np.empty(shape, dtype), self._cl.mem_flags.READ_WRITE)
+        # a CPU device uses host memory in place only when it is aligned to its base-address
+        # alignment (PoCL: 128 bytes; numpy gives 16): otherwise it copies at every map
+        host = _aligned_empty(shape, dtype, self._host_align) if into is None else into
+        return self._wrap_host(host, self._cl.mem_flags.READ_WRITE)
+
+    def copy(self, src, dst):
+        if src.nbytes:
+            wait = [e for a in (src, dst) for e in a.events]
+            evt = self._cl.enqueue_copy(self.queue, dst.base_data, src.base_data, byte_count=src.nbytes,
+                                        src_offset=src.offset, dst_offset=dst.offset, wait_for=wait or None)
+            dst.add_event(evt)
+        return dst
+
+    def is_contiguous(self, array):
+        return bool(array.flags.c_contiguous)
+
+    def may_share_memory(self, a, b):
+        if a.base_data is None or b.base_data is None or a.base_data != b.base_data:
+            return False
+        return a.offset < b.offset + b.nbytes and b.offset < a.offset + a.nbytes
 
     def empty(self, shape, dtype):
         shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(shape)

@@ -133,6 +133,9 @@ class WarpBackend(Backend):
         return self._wp.array(host, dtype=self._wp.dtype_from_numpy(host.dtype), device=self._device)
 
     def to_host(self, array):
+        host = getattr(array, "gfgpu_host", None)
+        if host is not None:
+            return host     # a host_result on the CPU: the numpy array is the memory (launches are synchronous)
         out = array.numpy()
         # on the CPU .numpy() is a view of the Warp allocation: copy so later kernels can't alter it
         return out.copy() if self._device.is_cpu else out
@@ -140,6 +143,40 @@ class WarpBackend(Backend):
     def empty(self, shape, dtype):
         return self._wp.empty(tuple(shape), dtype=self._wp.dtype_from_numpy(np.dtype(dtype)),
                               device=self._device)
+
+    def _alias(self, host):
+        return self._wp.array(host, dtype=self._wp.dtype_from_numpy(host.dtype), device=self._device,
+                              copy=False)
+
+    def host_view(self, host):
+        # Warp's CPU device reads numpy memory in place: no copy, no fresh allocation
+        host = np.ascontiguousarray(host)
+        return self._alias(host) if self._device.is_cpu else self.asarray(host)
+
+    def host_result(self, shape, dtype, into=None):
+        if not self._device.is_cpu:
+            return self.empty(shape, dtype)
+        host = np.empty(shape, dtype) if into is None else into
+        arr = self._alias(host)
+        arr.gfgpu_host = host     # keeps the memory alive; to_host returns it
+        return arr
+
+    def copy(self, src, dst):
+        self._wp.copy(dst, src)
+        return dst
+
+    def is_contiguous(self, array):
+        return bool(array.is_contiguous)
+
+    def may_share_memory(self, a, b):
+        if a.device != b.device or not a.size or not b.size:
+            return False
+        def span(x):
+            item = np.dtype(self._wp.dtype_to_numpy(x.dtype)).itemsize
+            extent = sum((n - 1) * abs(st) for n, st in zip(x.shape, x.strides)) + item
+            return x.ptr, x.ptr + extent
+        (a0, a1), (b0, b1) = span(a), span(b)
+        return a0 < b1 and b0 < a1
 
     def dtype_of(self, array):
         return np.dtype(self._wp.dtype_to_numpy(array.dtype))
