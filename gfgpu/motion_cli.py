@@ -5,6 +5,7 @@ Examples::
     gfgpu blur photo.png -o blurred.png --velocity 25 -10
     gfgpu blur --example camera -o zoom.png --zoom 0.3 --center 256 200
     gfgpu blur photo.png -o zoom_out.png --zoom -0.2 --center 256 200 --mode nearest
+    gfgpu blur --example camera -o spin.png --rotate 10 --keep-position
     gfgpu frames photo.png -o frames/ --velocity 40 0 -n 12
 
 Register with ``motion_cli.add_parser(subparsers)`` in :mod:`gfgpu.cli`.
@@ -33,17 +34,21 @@ def _motion_args(p):
                      help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1); "
                           "u1 > 0 zooms in, u1 < 0 zooms out (reads beyond the border through --mode; "
                           "e.g. --zoom -0.2 --center 256 200 --mode nearest)")
+    how.add_argument("--rotate", type=float, metavar="DEGREES",
+                     help="rotation during the exposure, in [-90, 90] degrees, counter-clockwise on "
+                          "screen for > 0, about --center (three Green's shears)")
     p.add_argument("--center", nargs=2, type=float, metavar=("X", "Y"),
-                   help="fixed point of the zoom (default: the image centre)")
+                   help="fixed point of the zoom or rotation (default: the image centre)")
     p.add_argument("--keep-position", action="store_true",
-                   help="uniform motion: blur in place instead of displacing the content")
+                   help="uniform motion or rotation: blur in place instead of displacing the content")
     p.add_argument("--mode", default="reflect", choices=("reflect", "constant", "nearest", "mirror", "wrap"))
     _backend_args(p)
 
 
 def add_parser(subparsers):
     """Add the ``blur`` and ``frames`` subcommands to an argparse ``subparsers`` object."""
-    p = subparsers.add_parser("blur", help="motion blur (--velocity DX DY) or zoom blur (--zoom U1)")
+    p = subparsers.add_parser("blur", help="motion blur (--velocity DX DY), zoom blur (--zoom U1) or "
+                                           "rotation blur (--rotate DEGREES)")
     _motion_args(p)
     p.add_argument("-o", "--output", required=True, help="output PNG")
     p.set_defaults(func=run_blur)
@@ -66,6 +71,8 @@ def _prepare(args):
         raise SystemExit(f"{label}: expected a grey or colour image, got shape {img.shape}")
     if args.velocity is not None:
         kw = dict(kind="uniform", velocity=tuple(args.velocity), displace=not args.keep_position)
+    elif args.rotate is not None:
+        kw = dict(kind="rotation", velocity=args.rotate, center=args.center, displace=not args.keep_position)
     else:
         kw = dict(kind="zoom", velocity=args.zoom, center=args.center)
     kw.update(mode=args.mode, backend=args.backend, device=args.device,

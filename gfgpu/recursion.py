@@ -210,3 +210,93 @@ def run_reference(lines, plan: PassPlan, cval=0.0, out=None, accumulate=False):
         tmp += kap[:, k, None] * v
         state, tmp = tmp, state
     return out
+
+
+# --------------------------------------------------------------------------------------
+# per-line plans: one shift-invariant single-section pass per line (e.g. a shear's shifts)
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class LinePlans:
+    """One shift-invariant, single-section pass per line, for lines of ``n`` samples.
+
+    Line ``i`` runs ``run_reference`` with ``lam[i]``, ``kap[i]`` at every step, direct term
+    ``tap[i]``, initial state ``Σ_j omega[i, j] I[j] + omega_c[i] cval`` and traversal
+    reversed where ``reverse[i]``.  Lines whose pass is the identity have ``tap = 1`` and
+    zero coefficients.  Used where the amount varies from line to line (the shears of
+    :func:`gfgpu.motion.motion_blur`'s rotation), which one :class:`PassPlan` cannot express.
+    """
+
+    lam: np.ndarray      # (m,) complex128
+    kap: np.ndarray      # (m,) complex128
+    tap: np.ndarray      # (m,) float64
+    reverse: np.ndarray  # (m,) bool
+    omega: np.ndarray    # (m, L) complex128
+    omega_c: np.ndarray  # (m,) complex128
+    n: int
+
+    @property
+    def lines(self):
+        return len(self.lam)
+
+    def packed(self, dtype):
+        """Real arrays for kernels: lam, kap (m, 2), tap (m,), reverse (m,) int32,
+        omega (m, L, 2), omega_c (m, 2)."""
+        def split(z):
+            return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-1).astype(dtype))
+        return (split(self.lam), split(self.kap), np.ascontiguousarray(self.tap, dtype),
+                self.reverse.astype(np.int32), split(self.omega), split(self.omega_c))
+
+
+def plan_lines(line_passes, n, mode, dtype):
+    """:class:`LinePlans` from one :class:`~gfgpu.greens.LinePass` per line (None: identity).
+
+    Each pass must have one shift-invariant section; boundary modes as in :func:`plan_pass`.
+    """
+    check_mode(mode)
+    m = len(line_passes)
+    lam = np.zeros(m, np.complex128)
+    kap = np.zeros(m, np.complex128)
+    tap = np.ones(m)
+    reverse = np.zeros(m, bool)
+    omega_c = np.zeros(m, np.complex128)
+    omegas = [np.zeros(0, np.complex128)] * m
+    for i, lp in enumerate(line_passes):
+        if lp is None:
+            continue
+        if len(lp.sections) != 1 or not lp.sections[0].shift_invariant:
+            raise ValueError("per-line plans take passes of one shift-invariant section")
+        plan = plan_pass(lp, n, mode, dtype)     # cached: lines with equal passes share it
+        lam[i], kap[i], tap[i], reverse[i] = plan.lam[0, 0], plan.kap[0, 0], plan.tap, plan.reverse
+        omegas[i], omega_c[i] = plan.omega[0], plan.omega_c[0]
+    length = max((len(o) for o in omegas), default=0)
+    omega = np.zeros((m, length), np.complex128)
+    for i, o in enumerate(omegas):
+        omega[i, :len(o)] = o
+    return LinePlans(lam, kap, tap, reverse, omega, omega_c, int(n))
+
+
+def run_reference_lines(lines, plans: LinePlans, cval=0.0, out=None):
+    """Executable specification of the per-line primitive (numpy, vectorised over lines).
+
+    ``lines`` has shape ``(n, m)``: line ``i`` is column ``i``, in natural order (reversed
+    lines are traversed from the end).  Computation in the input's dtype.
+    """
+    lines = np.asarray(lines)
+    dtype = lines.dtype
+    cdt = np.complex64 if dtype == np.float32 else np.complex128
+    n, m = lines.shape
+    if out is None:
+        out = np.empty_like(lines)
+    rev = plans.reverse
+    src = np.where(rev, lines[::-1], lines)     # traversal order per line
+    L = plans.omega.shape[1]
+    state = np.einsum("ij,ji->i", plans.omega.astype(cdt), src[:L].astype(cdt)) if L else np.zeros(m, cdt)
+    state = state + plans.omega_c.astype(cdt) * dtype.type(cval)
+    lam, kap, tap = plans.lam.astype(cdt), plans.kap.astype(cdt), plans.tap.astype(dtype)
+    res = np.empty_like(lines)
+    for k in range(n):
+        v = src[k]
+        res[k] = state.real + tap * v
+        state = lam * state + kap * v
+    out[...] = np.where(rev, res[::-1], res)
+    return out

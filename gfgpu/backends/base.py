@@ -11,6 +11,17 @@ from __future__ import annotations
 import numpy as np
 
 
+def check_line_plans(src, dst, axis, plans):
+    """Shape checks shared by every backend's :meth:`Backend.recurse_lines`."""
+    if axis not in (1, 2):
+        raise ValueError(f"axis must be 1 or 2, got {axis}")
+    if len(src.shape) != 3 or tuple(src.shape) != tuple(dst.shape):
+        raise ValueError(f"src and dst must be 3-D arrays of one shape, got {src.shape} and {dst.shape}")
+    if plans.n != src.shape[axis] or plans.lines != src.shape[3 - axis]:
+        raise ValueError(f"plans are for {plans.lines} lines of {plans.n} samples; the array has "
+                         f"{src.shape[3 - axis]} lines of {src.shape[axis]} along axis {axis}")
+
+
 class BackendUnavailable(RuntimeError):
     """The requested backend or device cannot be used here (the message says why)."""
 
@@ -104,6 +115,13 @@ class Backend:
         """
         raise NotImplementedError
 
+
+    def recurse_lines(self, src, dst, axis, plans, cval=0.0):
+        """Per-line variant of :meth:`recurse`: line ``i`` (index along the other image
+        axis) runs its own pass of ``plans`` (:class:`gfgpu.recursion.LinePlans`, spec
+        :func:`gfgpu.recursion.run_reference_lines`); the batch axis 0 shares the plans.
+        ``dst`` may be ``src``."""
+        raise NotImplementedError
     def gather(self, src, index, cval, out):
         """``out.flat[i] = src.flat[index[i]]`` or ``cval`` where ``index[i] < 0``.
 

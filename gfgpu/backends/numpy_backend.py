@@ -16,8 +16,8 @@ from functools import lru_cache
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from ..recursion import run_reference
-from .base import Backend
+from ..recursion import run_reference, run_reference_lines
+from .base import Backend, check_line_plans
 
 _BLOCK = 64
 
@@ -152,6 +152,17 @@ class NumpyBackend(Backend):
         src = lines[flip] if plan.reverse else lines
         res = _blocked(np.asarray(src, np.float64), plan, float(cval), steps_last)
         return res[flip] if plan.reverse else res
+
+    def recurse_lines(self, src, dst, axis, plans, cval=0.0):
+        check_line_plans(src, dst, axis, plans)
+        for i in range(src.shape[0]):
+            lines = src[i] if axis == 1 else src[i].T          # (n, m): one column per line
+            res = run_reference_lines(lines.astype(np.float64), plans, cval)
+            if axis == 1:
+                dst[i] = res
+            else:
+                dst[i] = res.T
+        return dst
 
     def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
         if axis not in (1, 2):

@@ -16,7 +16,7 @@ from functools import cache
 
 import numpy as np
 
-from .base import Backend, BackendUnavailable
+from .base import Backend, BackendUnavailable, check_line_plans
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
@@ -390,6 +390,34 @@ class OpenCLBackend(Backend):
             # each attribute access would create a new kernel object: keep one
             knl = _kernels[key] = getattr(_program(self.context, source, defines), name)
         return knl
+
+    def recurse_lines(self, src, dst, axis, plans, cval=0.0):
+        check_line_plans(src, dst, axis, plans)
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or not a.flags.c_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous pyopencl.array.Array in the context of "
+                                f"{self.device}")
+        dtype = self._check_dtype(src.dtype)
+        if src.size == 0:
+            return dst
+        mf = self._cl.mem_flags
+        buffers = []
+        for a in plans.packed(dtype):
+            a = a if a.size else np.zeros(2, a.dtype)     # OpenCL has no empty buffers
+            buffers.append(self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a))
+        lam, kap, tap, reverse, omega, omega_c = buffers
+        b, rows, cols = src.shape
+        n, lines = (cols, rows) if axis == 2 else (rows, cols)
+        line_stride, step = (cols, 1) if axis == 2 else (1, cols)
+        item = dtype.itemsize
+        knl = self._kernel("recurse_lines", dtype, source="recurse_lines.cl")
+        args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                lam, kap, tap, reverse, omega, omega_c, np.int32(plans.omega.shape[1]), np.int32(n),
+                np.int32(lines), np.int64(line_stride), np.int64(step), np.int64(rows * cols), dtype.type(cval))
+        group = 1 if self.kind == "cpu" else self._group()
+        gsize = (-(-lines // group) * group, b)
+        self._launch(knl, gsize, (group, 1), [src], [dst], args)
+        return dst
 
     def _plan_buffers(self, plan, dtype):
         """Upload ``plan.packed(dtype)`` once; plans are immutable, so id(plan) is a key."""

@@ -12,7 +12,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from .base import Backend, BackendUnavailable
+from .base import Backend, BackendUnavailable, check_line_plans
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
@@ -255,6 +255,28 @@ class WarpBackend(Backend):
             wp.launch(self._k.recurse_lines, dim=lines_src.shape[:2],
                       inputs=[lines_src, lines_dst, lam, kap, omega, omega_c, *scalars],
                       device=self._device)
+        return dst
+
+    def recurse_lines(self, src, dst, axis, plans, cval=0.0):
+        wp = self._wp
+        check_line_plans(src, dst, axis, plans)
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or not a.is_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous warp.array on {self._device.alias}")
+        dtype = np.dtype(wp.dtype_to_numpy(src.dtype))
+        if src.size == 0:
+            return dst
+        lam, kap, tap, reverse, omega, omega_c = plans.packed(dtype)
+        init_len = omega.shape[1]
+        if init_len == 0:
+            omega = np.zeros((omega.shape[0], 1, 2), dtype)   # no empty arrays for kernels
+        real = wp.dtype_from_numpy(dtype)
+        dev = [wp.array(a, dtype=real, device=self._device) for a in (lam, kap, tap, omega, omega_c)]
+        rev = wp.array(reverse, dtype=wp.int32, device=self._device)
+        views = (src, dst) if axis == 2 else (src.transpose((0, 2, 1)), dst.transpose((0, 2, 1)))
+        wp.launch(self._k.recurse_per_line, dim=views[0].shape[:2],
+                  inputs=[views[0], views[1], dev[0], dev[1], dev[2], rev, dev[3], dev[4], init_len,
+                          real(cval)], device=self._device)
         return dst
 
     def _line_views(self, src, dst, axis):

@@ -113,6 +113,47 @@ def recurse_lines(
 
 
 @wp.kernel
+def recurse_per_line(
+    src: wp.array3d(dtype=Any),
+    dst: wp.array3d(dtype=Any),
+    lam: wp.array2d(dtype=Any),
+    kap: wp.array2d(dtype=Any),
+    tap: wp.array(dtype=Any),
+    reverse: wp.array(dtype=wp.int32),
+    omega: wp.array3d(dtype=Any),
+    omega_c: wp.array2d(dtype=Any),
+    init_len: int,
+    cval: Any,
+):
+    """One pass over line ``src[b, i, :]`` with line ``i``'s own coefficients
+    (``run_reference_lines``): ``lam``, ``kap``, ``omega_c`` ``(m, 2)``, ``tap`` and
+    ``reverse`` ``(m,)``, ``omega`` ``(m, L, 2)``.  ``dst`` may be ``src``."""
+    b, i = wp.tid()
+    n = src.shape[2]
+    rev = reverse[i]
+    first = (n - 1) * rev
+    step = 1 - 2 * rev
+    fr = omega_c[i, 0] * cval
+    fi = omega_c[i, 1] * cval
+    for j in range(init_len):
+        v = src[b, i, first + step * j]
+        fr = fr + omega[i, j, 0] * v
+        fi = fi + omega[i, j, 1] * v
+    lr = lam[i, 0]
+    li = lam[i, 1]
+    kr = kap[i, 0]
+    ki = kap[i, 1]
+    t = tap[i]
+    for k in range(n):
+        x = first + step * k
+        v = src[b, i, x]
+        dst[b, i, x] = t * v + fr
+        nr = lr * fr - li * fi + kr * v
+        fi = lr * fi + li * fr + ki * v
+        fr = nr
+
+
+@wp.kernel
 def gather(src: wp.array(dtype=Any), index: wp.array(dtype=Any), cval: Any, out: wp.array(dtype=Any)):
     """``out[t] = src[index[t]]``, or ``cval`` where ``index[t] < 0``."""
     t = wp.tid()
@@ -135,6 +176,10 @@ for _real in (wp.float32, wp.float64):
     _plan = {"lam": wp.array3d(dtype=_real), "kap": wp.array3d(dtype=_real),
              "omega": wp.array3d(dtype=_real), "omega_c": wp.array2d(dtype=_real),
              "cval": _real, "tap": _real}
+    wp.overload(recurse_per_line, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real),
+                                   "lam": wp.array2d(dtype=_real), "kap": wp.array2d(dtype=_real),
+                                   "tap": wp.array(dtype=_real), "omega": wp.array3d(dtype=_real),
+                                   "omega_c": wp.array2d(dtype=_real), "cval": _real})
     for _sample in (_real, LANE_TYPES[_real]):
         wp.overload(recurse_lines, {"src": wp.array3d(dtype=_sample), "dst": wp.array3d(dtype=_sample),
                                     **_plan})
