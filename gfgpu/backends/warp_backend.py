@@ -145,8 +145,12 @@ class WarpBackend(Backend):
                               device=self._device)
 
     def _alias(self, host):
-        return self._wp.array(host, dtype=self._wp.dtype_from_numpy(host.dtype), device=self._device,
-                              copy=False)
+        # by pointer with canonical strides: numpy calls arrays with odd strides on length-1
+        # axes C-contiguous, Warp does not
+        arr = self._wp.array(ptr=host.ctypes.data, dtype=self._wp.dtype_from_numpy(host.dtype),
+                             shape=host.shape, device=self._device)
+        arr.gfgpu_memory = host     # the numpy array owns the memory: keep it alive
+        return arr
 
     def host_view(self, host):
         # Warp's CPU device reads numpy memory in place: no copy, no fresh allocation
