@@ -13,12 +13,18 @@ What is measured
   - ``random``     white noise (seed 7) smoothed by a Gaussian of 8 px, scaled to an RMS slope
                    of 0.4 (gradients by central differences).
 
+  Held-out surfaces (``HELD_OUT``; no default, rule or threshold of gfgpu.shading was chosen on
+  them, reported in their own tables): three more smooth random surfaces (seed 21 smoothed by
+  5 px to RMS slope 0.3, seed 33 by 12 px to 0.5, seed 45 by 8 px to 0.4), seven Gaussians drawn
+  with seed 5, and a half ellipsoid (semi-axes 0.38, 0.24, 0.20 of SIZE, rotated 30°) on a plane.
+
   Lights (Zhang, Tsai, Cryer & Shah 1999): (0, 0, 1), (1, 0, 1), (5, 5, 7), normalised; l2 > 0
   points down the rows.  "noise": additive Gaussian, std 0.02 (2 % of the albedo), seed 11.
 
 * Methods, all given the true light direction (as in the survey); albedo and depth scale are
   each method's own estimate:
-  - ``gsfs``      gfgpu.shape_from_shading (defaults: scheme, mode and u by direction; k1 by re-rendering).
+  - ``gsfs``      gfgpu.shape_from_shading (defaults: u = one line length, boundary='auto'; k1 by
+                  re-rendering).
                   For the frontal light GSFS refuses to guess a direction; it is run with
                   ``direction=0`` (the x axis) and the row is marked.
   - ``gpm``       gfgpu.photometric_motion (defaults: shift 1, fixed point -100n, k0 and scale
@@ -35,11 +41,14 @@ What is measured
 
   Run time is the median of 3 calls (numpy backend for gfgpu unless --backend).
 * Light estimation: Zheng & Chellappa (gfgpu.estimate_illuminant), angle between the estimated
-  and the true light, per image.
+  and the true light, and the tilt error (also modulo 180°), per image, as published (all
+  pixels) and with the flat background left out (the default).  The held-out surfaces are run
+  once (no timing repeats) with gsfs, pentland and tsai-shah only.
 
 Usage::
 
     python benchmarks/shading.py [--size 128] [--backend numpy] [--figure docs/shading_results.png]
+                                 [--no-held-out]
 """
 
 from __future__ import annotations
@@ -107,17 +116,63 @@ def gaussians(size):
     return z, p, q
 
 
-def random_surface(size):
-    rng = np.random.default_rng(7)
-    z = ndimage.gaussian_filter(rng.standard_normal((size, size)), 8 * size / 128, mode="reflect")
+def _smooth_random(size, seed, smoothing, slope):
+    rng = np.random.default_rng(seed)
+    z = ndimage.gaussian_filter(rng.standard_normal((size, size)), smoothing * size / 128, mode="reflect")
     q, p = np.gradient(z)
-    k = 0.4 / math.sqrt(float((p * p + q * q).mean()))
-    z *= k
+    z *= slope / math.sqrt(float((p * p + q * q).mean()))
     q, p = np.gradient(z)
     return z, p, q
 
 
+def random_surface(size):
+    return _smooth_random(size, 7, 8, 0.4)
+
+
+def ellipsoid(size):
+    """Half ellipsoid, semi-axes 0.38, 0.24 (in the image plane, rotated 30 deg) and 0.20 of SIZE."""
+    y, x = _grid(size)
+    a, b, c = 0.38 * size, 0.24 * size, 0.20 * size
+    th = math.radians(30)
+    xr, yr = x * math.cos(th) + y * math.sin(th), -x * math.sin(th) + y * math.cos(th)
+    s = 1 - (xr / a) ** 2 - (yr / b) ** 2
+    inside = s > 0
+    z = np.where(inside, c * np.sqrt(np.clip(s, 0, None)), 0.0)
+    zz = np.maximum(z, 1e-3 * c)
+    dxr, dyr = -c * c * xr / (a * a * zz), -c * c * yr / (b * b * zz)
+    p = np.where(inside, dxr * math.cos(th) - dyr * math.sin(th), 0.0)
+    q = np.where(inside, dxr * math.sin(th) + dyr * math.cos(th), 0.0)
+    return z, p, q
+
+
+def gaussians_seven(size):
+    """Seven Gaussians drawn with seed 5: centres in [-45, 45]^2, heights ±(4..12), widths 6..14 px."""
+    y, x = _grid(size)
+    s = size / 128
+    rng = np.random.default_rng(5)
+    z, p, q = (np.zeros_like(x) for _ in range(3))
+    for _ in range(7):
+        cx, cy = rng.uniform(-45, 45, 2)
+        a = rng.choice([-1, 1]) * rng.uniform(4, 12)
+        w = rng.uniform(6, 14)
+        cx, cy, a, w = cx * s, cy * s, a * s, w * s
+        g = a * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * w * w))
+        z += g
+        p += -g * (x - cx) / (w * w)
+        q += -g * (y - cy) / (w * w)
+    return z, p, q
+
+
 SURFACES = {"sphere": sphere, "vase": vase, "gaussians": gaussians, "random": random_surface}
+
+#: surfaces on which no default or threshold was chosen (reported in their own table)
+HELD_OUT = {
+    "random-s21": lambda n: _smooth_random(n, 21, 5, 0.3),
+    "random-s33": lambda n: _smooth_random(n, 33, 12, 0.5),
+    "random-s45": lambda n: _smooth_random(n, 45, 8, 0.4),
+    "gaussians-7": gaussians_seven,
+    "ellipsoid": ellipsoid,
+}
 
 
 def render(p, q, light):
@@ -173,24 +228,34 @@ def methods(backend):
     return {"gsfs": gsfs, "gpm": gpm, "pentland": pentland, "tsai-shah": tsai}
 
 
-def run(size, backend, repeats):
+def _tilt_error(est, true):
+    d = math.degrees(abs((math.atan2(est[1], est[0]) - math.atan2(true[1], true[0]) + math.pi)
+                         % (2 * math.pi) - math.pi))
+    return d, min(d, 180.0 - d)
+
+
+def run(size, backend, repeats, surfaces=SURFACES, method_names=None, light_estimates=True):
     rows, images = [], {}
     light_rows = []
     rng = np.random.default_rng(11)
     meths = methods(backend)
-    for sname, make in SURFACES.items():
+    if method_names is not None:
+        meths = {k: v for k, v in meths.items() if k in method_names}
+    for sname, make in surfaces.items():
         z_gt, p, q = make(size)
         for lname, light in LIGHTS.items():
             clean = render(p, q, light)
             noisy = clean + NOISE * rng.standard_normal(clean.shape)
             for noise_label, img in (("none", clean), ("0.02", noisy)):
-                est, _ = shading.estimate_illuminant(img)
                 true = shading.parse_light(light)
-                tilt_err = math.degrees(abs((math.atan2(est[1], est[0]) - math.atan2(true[1], true[0])
-                                             + math.pi) % (2 * math.pi) - math.pi))
-                light_rows.append((sname, lname, noise_label,
-                                   math.degrees(math.acos(min(1.0, float(est @ true)))),
-                                   tilt_err if true[2] < 0.999 else float("nan")))
+                if light_estimates:
+                    errs = []
+                    for exclude in (False, True):   # Zheng & Chellappa as published / background left out
+                        est, _ = shading.estimate_illuminant(img, exclude_background=exclude)
+                        ang = math.degrees(math.acos(min(1.0, float(est @ true))))
+                        tilt = _tilt_error(est, true) if true[2] < 0.999 else (float("nan"),) * 2
+                        errs.append((ang, *tilt))
+                    light_rows.append((sname, lname, noise_label, errs[0], errs[1]))
                 for mname, fn in meths.items():
                     z, t = timed(lambda fn=fn, img=img, light=light: fn(img, light), repeats)
                     fit = errors(z, z_gt, True)
@@ -202,7 +267,36 @@ def run(size, backend, repeats):
     return rows, light_rows, images
 
 
-def print_tables(rows, light_rows, size, backend):
+def _summary(rows, surfaces, names):
+    print("| light | noise | " + " | ".join(names) + " | gsfs < pentland (surfaces) | gsfs < tsai-shah |")
+    print("|---|---|" + "---|" * len(names) + "---|---|")
+    keyed = {(r[0], r[1], r[2], r[3]): r for r in rows}
+    for lname in LIGHTS:
+        for nl in ("none", "0.02"):
+            vals = {m: np.mean([keyed[(s, lname, nl, m)][4][0] for s in surfaces]) for m in names}
+            beat_p = sum(keyed[(s, lname, nl, "gsfs")][4][0] < keyed[(s, lname, nl, "pentland")][4][0]
+                         for s in surfaces)
+            beat_t = sum(keyed[(s, lname, nl, "gsfs")][4][0] < keyed[(s, lname, nl, "tsai-shah")][4][0]
+                         for s in surfaces)
+            print(f"| {lname} | {nl} | " + " | ".join(f"{vals[m]:.2f}" for m in names)
+                  + f" | {beat_p}/{len(surfaces)} | {beat_t}/{len(surfaces)} |")
+
+
+def _per_surface(rows, surfaces):
+    """gsfs vs pentland vs tsai-shah (fit mean) for every surface, light and noise."""
+    keyed = {(r[0], r[1], r[2], r[3]): r[4][0] for r in rows}
+    print("| surface | light | noise | gsfs | pentland | tsai-shah | gsfs < pentland |")
+    print("|---|---|---|---|---|---|---|")
+    for sname in surfaces:
+        for lname in LIGHTS:
+            for nl in ("none", "0.02"):
+                g, p_, t_ = (keyed[(sname, lname, nl, m)] for m in ("gsfs", "pentland", "tsai-shah"))
+                mark = "†" if lname == "(0,0,1)" else ""
+                print(f"| {sname} | {lname} | {nl} | {g:.2f}{mark} | {p_:.2f} | {t_:.2f} | "
+                      f"{'yes' if g < p_ else 'no'} |")
+
+
+def print_tables(rows, light_rows, size, backend, held_rows=(), held_light_rows=()):
     print(f"## Shape from shading, {size}x{size}, gfgpu backend: {backend}\n")
     print("Depth error |Z − Z_gt| (pixels) and mean gradient error |∇Z − ∇Z_gt|; **fit** = after "
           "least-squares scale + offset (shape only), **own** = the method's own scale + LS offset. "
@@ -214,32 +308,33 @@ def print_tables(rows, light_rows, size, backend):
         mark = "†" if (m == "gsfs" and lname == "(0,0,1)") else ""
         print(f"| {sname} | {lname} | {nl} | {m}{mark} | {fit[0]:.2f} | {fit[1]:.2f} | {fit[2]:.3f} | "
               f"{own[0]:.2f} | {own[1]:.2f} | {own[2]:.3f} | {t * 1e3:.1f} |")
-    print("\n### Summary: mean depth error (fit), GSFS vs the baselines\n")
-    print("| light | noise | gsfs | gpm | pentland | tsai-shah | gsfs < pentland (surfaces) | gsfs < tsai-shah |")
-    print("|---|---|---|---|---|---|---|---|")
-    keyed = {(r[0], r[1], r[2], r[3]): r for r in rows}
-    surfaces = sorted({r[0] for r in rows}, key=list(SURFACES).index)
-    for lname in LIGHTS:
-        for nl in ("none", "0.02"):
-            vals = {m: np.mean([keyed[(s, lname, nl, m)][4][0] for s in surfaces])
-                    for m in ("gsfs", "gpm", "pentland", "tsai-shah")}
-            beat_p = sum(keyed[(s, lname, nl, "gsfs")][4][0] < keyed[(s, lname, nl, "pentland")][4][0]
-                         for s in surfaces)
-            beat_t = sum(keyed[(s, lname, nl, "gsfs")][4][0] < keyed[(s, lname, nl, "tsai-shah")][4][0]
-                         for s in surfaces)
-            print(f"| {lname} | {nl} | {vals['gsfs']:.2f} | {vals['gpm']:.2f} | {vals['pentland']:.2f} | "
-                  f"{vals['tsai-shah']:.2f} | {beat_p}/{len(surfaces)} | {beat_t}/{len(surfaces)} |")
-    print("\n### Light direction estimate (Zheng & Chellappa 1991): angular error of the light vector "
-          "(degrees), tilt error in brackets\n")
-    print("| surface | " + " | ".join(f"{ln} {nl}" for ln in LIGHTS for nl in ("clean", "noisy")) + " |")
-    print("|---|" + "---|" * (2 * len(LIGHTS)))
-    for s in surfaces:
-        vals = [(r[3], r[4]) for r in light_rows if r[0] == s]
-        print(f"| {s} | " + " | ".join(f"{v:.1f}" + ("" if math.isnan(t) else f" ({t:.1f})")
-                                       for v, t in vals) + " |")
-    allv = np.array([r[3] for r in light_rows])
-    print(f"\nmean {allv.mean():.1f} deg, median {np.median(allv):.1f} deg, max {allv.max():.1f} deg over "
-          f"{len(allv)} images")
+    surfaces = [s for s in SURFACES if any(r[0] == s for r in rows)]
+    print("\n### Summary: mean depth error (fit) over the main surfaces, GSFS vs the baselines\n")
+    _summary(rows, surfaces, ("gsfs", "gpm", "pentland", "tsai-shah"))
+    if held_rows:
+        held = [s for s in HELD_OUT if any(r[0] == s for r in held_rows)]
+        print(f"\n### Held-out surfaces ({', '.join(held)}): no default or threshold was chosen on these\n")
+        _summary(held_rows, held, ("gsfs", "pentland", "tsai-shah"))
+        print()
+        _per_surface(held_rows, held)
+    all_light = list(light_rows) + list(held_light_rows)
+    print("\n### Light direction estimate (Zheng & Chellappa 1991), all surfaces: angular error of the light "
+          "vector (degrees); tilt error, and tilt error modulo 180° (the convex/concave ambiguity), in brackets. "
+          "**as published** = all pixels; **background out** = flat background left out (the default)\n")
+    print("| surface | light | noise | as published | background out |")
+    print("|---|---|---|---|---|")
+    for sname, lname, nl, before, after in all_light:
+        cells = []
+        for ang, tilt, tilt180 in (before, after):
+            cells.append(f"{ang:.1f}" + ("" if math.isnan(tilt) else f" ({tilt:.1f}, {tilt180:.1f})"))
+        print(f"| {sname} | {lname} | {nl} | {cells[0]} | {cells[1]} |")
+    for label, k in (("as published", 3), ("background out", 4)):
+        angs = np.array([r[k][0] for r in all_light])
+        tilts = np.array([r[k][1] for r in all_light if not math.isnan(r[k][1])])
+        tilts180 = np.array([r[k][2] for r in all_light if not math.isnan(r[k][2])])
+        print(f"\n{label}: light angle mean {angs.mean():.1f}, median {np.median(angs):.1f}, max {angs.max():.1f} deg "
+              f"over {len(angs)} images; tilt error mean {tilts.mean():.1f} deg, modulo 180° mean "
+              f"{tilts180.mean():.1f} deg (oblique lights)")
 
 
 def figure(images, path, light="(1,0,1)", noise="none"):
@@ -280,9 +375,14 @@ def main(argv=None):
     ap.add_argument("--backend", default="numpy", choices=("numpy", "warp", "opencl"))
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--figure", default=None, help="write the comparison figure (PNG) here")
+    ap.add_argument("--no-held-out", action="store_true", help="skip the held-out surfaces")
     args = ap.parse_args(argv)
     rows, light_rows, images = run(args.size, args.backend, args.repeats)
-    print_tables(rows, light_rows, args.size, args.backend)
+    held_rows, held_light_rows = (), ()
+    if not args.no_held_out:
+        held_rows, held_light_rows, _ = run(args.size, args.backend, 1, HELD_OUT,
+                                            method_names=("gsfs", "pentland", "tsai-shah"))
+    print_tables(rows, light_rows, args.size, args.backend, held_rows, held_light_rows)
     if args.figure:
         figure(images, args.figure)
         figure(images, args.figure.replace(".png", "_557.png"), light="(5,5,7)", noise="0.02")

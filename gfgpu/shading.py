@@ -3,7 +3,7 @@
 Two of the chapter's applications (§3 and §4), built on the line filters of
 :mod:`gfgpu.filters`:
 
-* :func:`shape_from_shading` (GSFS, eq. 31-33): the matching image ``I2 = G_u * I1`` of a
+* :func:`shape_from_shading` (GSFS, eq. 30-33): the matching image ``I2 = G_u * I1`` of a
   virtual light displacement along the light's image-plane direction γ, and the depth
   ``Z = u·Ī2/k1`` with ``Ī2 = ½(G_u + H_u) * I1`` (science.md §2.2: eq. 32 with
   ``(a, b, c) = (½, -1, ½)``), one exact O(N) recursion per line;
@@ -11,7 +11,9 @@ Two of the chapter's applications (§3 and §4), built on the line filters of
   the approximate affine Green's function G_U^(2) (eq. 14), and the depth of eq. 39.
 
 Helpers: :func:`estimate_illuminant` (Zheng & Chellappa 1991), :func:`lambertian_shading`
-(the re-rendering used to fix the depth scale) and :func:`parse_light`.
+(the re-rendering used to fix the depth scale), :func:`parse_light`, and the scene tests that
+fix GSFS's per-line constants: :func:`flat_background`, :func:`has_background` and
+:func:`noise_sigma` (Immerkær 1996).
 
 Conventions (docs/shading.md): ``x`` is the column, ``y`` the row (downward), ``Z`` the height
 toward the viewer in pixel units, ``p = ∂Z/∂x``, ``q = ∂Z/∂y``; the unit normal is
@@ -25,7 +27,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
+from scipy import ndimage, optimize
 
 from . import greens
 from .filters import green_filter
@@ -33,16 +35,31 @@ from .lines import direction as _line_direction
 
 __all__ = [
     "shape_from_shading", "photometric_motion", "estimate_illuminant", "lambertian_shading",
-    "parse_light", "fit_depth_scale", "ShadingGreen", "MIN_SLANT",
+    "parse_light", "fit_depth_scale", "flat_background", "has_background", "noise_sigma", "ShadingGreen", "MIN_SLANT",
 ]
 
 #: Lights whose slant (angle from the viewing direction, radians) is below this have no usable
 #: image-plane direction: the linear term of the reflectance map, which GSFS integrates, vanishes.
 MIN_SLANT = math.radians(1.0)
 
-#: GSFS defaults per kind of direction (scheme, boundary mode, u as a fraction of one line's
-#: length across the image); see Notes of :func:`shape_from_shading` and docs/shading.md
-GSFS_DEFAULTS = {"axis": ("antisymmetric", "reflect", 1.0), "oblique": ("causal", "wrap", 0.25)}
+#: GSFS matching constant u as a fraction of the path length of one digital line across the image
+#: (the operator is then an integrator over the whole line; Notes of :func:`shape_from_shading`)
+GSFS_U_FRACTION = 1.0
+
+#: shading-free ("flat background") pixels: smoothing scale (pixels) of the gradient test, the
+#: gradient floor relative to the image's strong (99th-percentile) shading gradient, the erosion
+#: radius that drops isolated critical points of the shading, and the smallest fraction of the
+#: analysed pixels for the image to count as an object on a background (see :func:`flat_background`)
+FLAT_SMOOTHING = 2.0
+FLAT_RELATIVE_GRADIENT = 0.02
+FLAT_EROSION = 3
+FLAT_MIN_FRACTION = 0.02
+
+#: the image border counts as background (GSFS ``boundary='auto'``) when the intensity standard
+#: deviation over a band of this fraction of the image size is below BORDER_QUIET times that of
+#: the whole image (see :func:`has_background`)
+BORDER_WIDTH = 0.05
+BORDER_QUIET = 0.5
 
 #: largest number of pixels used by the scale fits (a regular subsample beyond this)
 _FIT_PIXELS = 65536
@@ -215,7 +232,142 @@ def lambertian_shading(depth, light, albedo=1.0):
     return _render_pq(p, q, parse_light(light), float(albedo))
 
 
-def estimate_illuminant(image, mask=None):
+def noise_sigma(image):
+    """Standard deviation of additive white noise in an image (Immerkær 1996).
+
+    Parameters
+    ----------
+    image : (H, W) array_like
+        At least 4 x 4 pixels.
+
+    Returns
+    -------
+    float
+        ``sqrt(π/2) · mean|N * I| / 6`` over the interior, ``N`` the 3 x 3 difference of two
+        Laplacians (``[[1, -2, 1], [-2, 4, -2], [1, -2, 1]]``), which cancels every quadratic
+        intensity profile: smooth shading contributes only through its third derivatives.
+
+    References
+    ----------
+    .. [1] J. Immerkær, "Fast noise variance estimation", Computer Vision and Image
+       Understanding 64(2):300-302, 1996.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> yy, xx = np.mgrid[:128, :128] / 128.0
+    >>> round(noise_sigma(xx * yy + 0.02 * rng.standard_normal((128, 128))), 3)
+    0.02
+    """
+    img = _image(image).astype(np.float64)
+    kernel = np.array([[1.0, -2.0, 1.0], [-2.0, 4.0, -2.0], [1.0, -2.0, 1.0]])
+    resp = ndimage.correlate(img, kernel, mode="nearest")[1:-1, 1:-1]
+    return math.sqrt(math.pi / 2) * float(np.abs(resp).mean()) / 6.0
+
+
+def flat_background(image, mask=None):
+    """Shading-free pixels: the flat background that an object stands on, if there is one.
+
+    Parameters
+    ----------
+    image : (H, W) array_like
+    mask : (H, W) bool array_like, optional
+        Pixels to consider (default all).
+
+    Returns
+    -------
+    ndarray of bool, (H, W)
+        True where the image is flat; all False when fewer than :data:`FLAT_MIN_FRACTION` of the
+        considered pixels are flat (no background: a textured surface filling the frame).
+
+    Notes
+    -----
+    A pixel is flat when the gradient magnitude of the image smoothed by a Gaussian of
+    :data:`FLAT_SMOOTHING` pixels is at most ``max(3 σ_g, r · g99)``: ``σ_g = σ_n/(√(8π) s²)`` is
+    the standard deviation of one gradient component of smoothed white noise of the level
+    ``σ_n`` given by :func:`noise_sigma`, and ``r = FLAT_RELATIVE_GRADIENT`` of the 99th
+    percentile ``g99`` of the gradient magnitude sets a floor for noise-free images (shading
+    50 times weaker than the image's strong shading).  The flat set is then eroded by a
+    square of radius :data:`FLAT_EROSION` pixels, which removes the isolated points where
+    the shading of a curved surface happens to be stationary; what remains are extended
+    regions of constant intensity, i.e. planes.  Under a single distant light a Lambertian
+    plane has constant intensity, and the one that fills large parts of an image around an
+    object is its background.  The thresholds are documented choices (docs/shading.md), not
+    fitted per image.
+
+    Examples
+    --------
+    >>> yy, xx = np.mgrid[-32:32, -32:32] + 0.5
+    >>> z = 8 * np.exp(-(xx**2 + yy**2) / 50)
+    >>> flat = flat_background(lambertian_shading(z, (1, 0, 1)))
+    >>> bool(flat[0, 0]), bool(flat[32, 28])
+    (True, False)
+    """
+    img = _image(image).astype(np.float64)
+    m = _mask(mask, img.shape)
+    s = FLAT_SMOOTHING
+    smooth = ndimage.gaussian_filter(img, s, mode="nearest")
+    gy, gx = np.gradient(smooth)
+    mag = np.hypot(gx, gy)
+    sigma_g = noise_sigma(img) / (math.sqrt(8 * math.pi) * s * s)
+    tau = max(3.0 * sigma_g, FLAT_RELATIVE_GRADIENT * float(np.percentile(mag[m], 99)))
+    r = FLAT_EROSION
+    flat = ndimage.binary_erosion(mag <= tau, np.ones((2 * r + 1, 2 * r + 1), bool), border_value=1) & m
+    if flat.sum() < FLAT_MIN_FRACTION * m.sum():
+        flat[:] = False
+    return flat
+
+
+def _border_band(shape):
+    h, w = shape
+    b = max(2, int(round(BORDER_WIDTH * min(h, w))))
+    band = np.ones(shape, bool)
+    band[b:h - b, b:w - b] = False
+    return band
+
+
+def has_background(image, mask=None):
+    """Whether the image shows an object on a background: a quiet image border.
+
+    Parameters
+    ----------
+    image : (H, W) array_like
+    mask : (H, W) bool array_like, optional
+        Pixels to consider (default all).
+
+    Returns
+    -------
+    bool
+        True when the intensity standard deviation over the border band (width
+        :data:`BORDER_WIDTH` of the smaller image side, at least 2 pixels) is below
+        :data:`BORDER_QUIET` times the standard deviation over the whole image.
+
+    Notes
+    -----
+    The depth at the two ends of every line along γ is unobservable by a linear SFS method;
+    it lies on one plane exactly when the surface at the image border is that plane, i.e.
+    when the border carries (almost) no shading.  On the synthetic set (docs/shading.md) the
+    ratio is 0 to 0.36 for objects on a plane, noise 0.02 included, and 0.95 to 1.15 for
+    textured surfaces that fill the frame; 0.5 lies between.
+
+    Examples
+    --------
+    >>> yy, xx = np.mgrid[-32:32, -32:32] + 0.5
+    >>> has_background(lambertian_shading(8 * np.exp(-(xx**2 + yy**2) / 100), (1, 0, 1)))
+    True
+    >>> has_background(lambertian_shading(3 * np.sin(xx / 5) * np.cos(yy / 7), (1, 0, 1)))
+    False
+    """
+    img = _image(image).astype(np.float64)
+    m = _mask(mask, img.shape)
+    band = _border_band(img.shape) & m
+    total = float(img[m].std())
+    if band.sum() < 16 or not total > 0:
+        return False
+    return float(img[band].std()) < BORDER_QUIET * total
+
+
+def estimate_illuminant(image, mask=None, *, exclude_background=True):
     """Light direction and albedo of a Lambertian image (Zheng & Chellappa 1991).
 
     Parameters
@@ -223,6 +375,8 @@ def estimate_illuminant(image, mask=None):
     image : (H, W) array_like
     mask : (H, W) bool array_like, optional
         Pixels to use (default all).
+    exclude_background : bool, optional
+        Leave out the flat background found by :func:`flat_background` (default True; Notes).
 
     Returns
     -------
@@ -247,6 +401,14 @@ def estimate_illuminant(image, mask=None):
     gradients, ``τ = atan2(E[I_y/|∇I|], E[I_x/|∇I|])`` (gradients by central differences, pixels
     with ``|∇I|`` below 1e-6 of the largest ignored): shading brightens toward the light.
 
+    The uniform-normal assumption fails on an object on a flat background: every background
+    pixel has the same normal, which drags the moments toward a frontal light (slant near 0).
+    With ``exclude_background`` those pixels (:func:`flat_background`) are left out, so the
+    statistics are those of the object's surface.  A linear shading image is unchanged when the
+    light's image-plane direction and the surface are both reversed (the convex/concave
+    ambiguity), so on surfaces whose bumps and dips are equally likely the tilt is only
+    determined modulo 180° (docs/shading.md reports both errors).
+
     References
     ----------
     .. [1] Q. Zheng and R. Chellappa, "Estimation of illuminant direction, albedo, and shape
@@ -265,6 +427,11 @@ def estimate_illuminant(image, mask=None):
     img = _image(image).astype(np.float64)
     m = _mask(mask, img.shape)
     _check_contrast(img, m)
+    if exclude_background:
+        fg = m & ~flat_background(img, m)
+        if fg.sum() >= 16:
+            m = fg
+            _check_contrast(img, m)
     vals = img[m]
     mu1, mu2 = float(vals.mean()), float((vals * vals).mean())
     disc = 6 * math.pi**2 * mu2 - 48 * mu1**2
@@ -383,8 +550,56 @@ def _integration_angle(light, direction, estimated):
     return tilt
 
 
+def _line_coordinates(shape, angle):
+    """Digital line index (0-based) and step position of every pixel at ``angle`` (lines.py)."""
+    steep, _, gamma = _line_direction(angle)
+    h, w = shape
+    yy, xx = np.mgrid[:h, :w]
+    t, minor = (yy, xx) if steep else (xx, yy)
+    r = np.floor(gamma * np.arange(h if steep else w) + 0.5).astype(np.int64)
+    line = minor - r[t]
+    return line - line.min(), t.astype(np.float64)
+
+
+def _fix_line_solutions(z, line, t, weights, anchors):
+    """Add ``c + a·t`` to every line: the homogeneous solutions of the line integration.
+
+    ``anchors`` None: ``a = 0`` and ``c`` gives each line zero weighted mean (minimum norm).
+    Otherwise ``(c, a)`` per line are the least-squares fit of ``Z + c + a·t = 0`` on its anchor
+    pixels (weighted); a line with anchors at one position only gets ``a = 0``.
+    """
+    n = int(line.max()) + 1
+    lab = line.ravel()
+
+    def per_line(w, v):
+        return np.bincount(lab, (w * v).ravel(), minlength=n)
+
+    if anchors is None:
+        cnt = per_line(weights, 1.0)
+        c = -np.divide(per_line(weights, z), cnt, out=np.zeros(n), where=cnt > 0)
+        return z + c[line]
+    w = weights * anchors
+    s0, s1, s2 = per_line(w, 1.0), per_line(w, t), per_line(w, t * t)
+    sz, stz = per_line(w, z), per_line(w, t * z)
+    det = s0 * s2 - s1 * s1
+    ok = det > 1e-9 * np.maximum(s0 * s2, 1e-300)
+    a = np.zeros(n)
+    a[ok] = -(s0[ok] * stz[ok] - s1[ok] * sz[ok]) / det[ok]
+    c = -np.divide(sz + a * s1, s0, out=np.zeros(n), where=s0 > 0)
+    return z + c[line] + a[line] * t
+
+
+def _line_ends(line, t, weights):
+    """Pixels at the first and the last weighted position of every line."""
+    n = int(line.max()) + 1
+    idx = np.arange(n)
+    lo = ndimage.minimum(np.where(weights > 0, t, np.inf), line, idx)
+    hi = ndimage.maximum(np.where(weights > 0, t, -np.inf), line, idx)
+    return (weights > 0) & ((t == lo[line]) | (t == hi[line]))
+
+
 def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, direction=None,
-                       scheme="auto", mode=None, backend=None, device=None):
+                       boundary="auto", backend=None, device=None):
     """Depth from one shading image by Green's-function shape from shading (GSFS).
 
     Parameters
@@ -397,27 +612,25 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
         Default: estimated from the image by :func:`estimate_illuminant` (Zheng & Chellappa).
     u : float, optional
         Matching constant (virtual disparity, eq. 7), in pixels of path along γ, > 0.
-        Default: a fraction of the length of one digital line across the image: 1 along an
-        axis, 0.25 along an oblique direction (Notes).
+        Default: :data:`GSFS_U_FRACTION` (1) times the path length of one digital line
+        across the image (Notes).
     k1 : {'render', 'linear'} or float, optional
         Depth scale of eq. 31.  ``'render'`` (default): the value whose Lambertian re-rendering
         best matches the image in least squares (:func:`fit_depth_scale`).  ``'linear'``:
         ``k1 = -ρ sin σ`` from the linearised reflectance map, with the albedo ρ of
         :func:`estimate_illuminant`.  A float is used as given (non-zero).
     mask : (H, W) bool array_like, optional
-        Pixels that enter the light estimate, the k1 fit and the depth offset (default all).
-        The filtering itself runs over the whole image.
+        Pixels that enter the light estimate, k0, the line constants and the k1 fit (default
+        all).  The filtering itself runs over the whole image.
     direction : float, optional
         Matching direction γ as an angle in radians from +x toward +y; default the light's
         tilt.  Required when the light is frontal (slant below :data:`MIN_SLANT`).
-    scheme : {'auto', 'antisymmetric', 'causal'}, optional
-        ``'causal'``: eq. 31 as printed, ``Ī2`` integrated from each line's start.
-        ``'antisymmetric'``: half the difference of the causal and the anticausal ``Ī2``.
-        ``'auto'`` (default): antisymmetric along an image axis, causal along an oblique
-        direction (Notes).
-    mode : str, optional
-        Boundary extension of the lines (scipy.ndimage names).  Default: ``'reflect'`` along an
-        axis, ``'wrap'`` along an oblique direction (Notes).
+    boundary : {'auto', 'background', 'free'}, optional
+        How the two constants that the integration leaves free on every line are fixed
+        (Notes).  ``'background'``: the flat background and the ends of every line lie on
+        one reference plane.  ``'free'``: one global k0 and zero-mean lines.  ``'auto'``
+        (default): ``'background'`` when :func:`has_background` (a quiet image border),
+        else ``'free'``.
     backend, device : str, optional
         Where the line filtering runs (:func:`gfgpu.green_filter`).
 
@@ -431,45 +644,47 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
     ------
     ValueError
         Non-2-D, empty, constant or non-finite image; a light pointing away from the viewer;
-        a frontal light without ``direction``; ``u <= 0``; ``k1 == 0``; bad ``scheme``/``mask``.
+        a frontal light without ``direction``; ``u <= 0``; ``k1 == 0``; bad ``boundary``/``mask``.
     TypeError
         Non-numeric image or parameters.
 
     Notes
     -----
-    Eq. 30 of DBPS with the second-order matching equation (7) integrated once along γ gives
-    (science.md §2.2) ``Z = u Ī2 / k1`` (eq. 31) with ``Ī2 = I2 + (u/2)∂_γ I2`` and, in terms
-    of the input, exactly ``Ī2 = ½(G_u + H_u) * I1``, i.e. eq. 32 with ``(a, b, c) = (½, -1, ½)``.
-    This is one first-order complex recursion per line (:class:`ShadingGreen`), run along the
-    digital lines at angle γ by :func:`gfgpu.green_filter` on the chosen backend.  Along an
-    oblique line one step covers ``1/max(|cos γ|, |sin γ|)`` pixels, so ``u`` in pixels is
-    divided by that length to get the kernel's ``u`` in steps; the kernel's area ``u`` then
-    equals the path length, and ``u·Ī2`` approximates the path integral ``∫ I ds`` of the image
-    along γ for frequencies above ``1/u`` (its transfer function tends to ``1/(iω)``) and is
-    ``u·I`` below.  With the linearised Lambertian map ``I ≈ ρ l3 − ρ sin σ ∂_γ Z`` this is the
-    depth for ``k1 = -ρ sin σ``, up to a constant.
+    *Operator.*  Eq. 30 of DBPS with the second-order matching equation (7) integrated once
+    along γ gives (science.md §2.2) ``Z = u Ī2 / k1 − k0 (x + γy)/(k1 (1+γ²))`` (eq. 30-31)
+    with ``Ī2 = I2 + (u/2)∂_γ I2`` and, in terms of the input, exactly
+    ``Ī2 = ½(G_u + H_u) * I1``, i.e. eq. 32 with ``(a, b, c) = (½, -1, ½)``.  The k0 ramp of
+    eq. 30 is the integral of the constant k0, so it is removed by filtering ``I1 − k0``.
+    ``½(G_u + H_u)`` is one first-order complex recursion per line (:class:`ShadingGreen`),
+    run causally along the digital lines at angle γ by :func:`gfgpu.green_filter` on the chosen
+    backend, with ``I1 − k0 = 0`` beyond the image (``mode='constant'``: the surface continues
+    as the reference plane).  Along an oblique line one step covers ``1/max(|cos γ|, |sin γ|)``
+    pixels, so ``u`` in pixels is divided by that length to get the kernel's ``u`` in steps.
+    The transfer function ``(1 + ε/2)/(1 + ε + ε²/2)``, ``ε = iuω``, times ``u`` tends to the
+    integrator ``1/(iω)`` for ``uω ≫ 1``; with ``u`` = one line length that holds for every
+    frequency a line can carry, so ``u Ī2`` is the path integral of ``I1 − k0`` along γ and,
+    with the linearised Lambertian map ``I ≈ k0 − ρ sin σ ∂_γ Z``, the depth for
+    ``k1 = −ρ sin σ``.
 
-    *Boundary and offsets.*  The causal sum integrates from the start of each line, so every
-    line carries its own unknown start depth (streaks along γ).  The antisymmetric scheme
-    ``½(c * I − c̃ * I)`` (``c̃`` the anticausal twin) integrates from both ends and is
-    ``∫_{-∞}^{x} I − ½∫ I`` in the integrator limit: each line's offset is fixed by the mean of
-    its two end depths rather than by its first sample, and the DC of the image (the ambient
-    ``ρ l3`` term) cancels exactly.  Depth variation across γ is unobservable by any method
-    that uses only the linear reflectance term.
+    *The two free constants of every line.*  Integrating along γ determines the depth on each
+    line up to the homogeneous solutions of the integrated equation: a constant and, through
+    the unknown k0, a ramp along the line (the integrator limit of eq. 34's solutions).  Depth
+    variation across γ is unobservable from the linear term, so these constants must come
+    from a prior, and the right prior depends on the scene:
 
-    *Defaults (chosen on the benchmark, docs/shading.md).*  Along an image axis the
-    antisymmetric scheme with the ``'reflect'`` extension integrates the even extension of each
-    line, which forces equal depths at both ends of the line and removes its mean shading
-    (a cosine-series integration; it roughly halves the error on objects on a flat
-    background), and ``u`` = one line length (larger ``u`` changes little).  Along an oblique
-    direction a digital line that leaves the image through its top or bottom continues in the
-    extended image (:mod:`gfgpu.lines`); reflection there would reverse the line's
-    minor-axis direction and break the relation between the shading and the slope along γ,
-    so the default is the periodic ``'wrap'`` extension.  With ``'wrap'`` and a long ``u`` the
-    antisymmetric scheme reproduces Pentland's FFT method exactly; the causal scheme with
-    ``u`` = 0.25 line length keeps part of eq. 31's low-pass term ``u·I`` (brighter = nearer
-    for near-frontal shading), which lowered the error on three of four benchmark surfaces.
-    These are empirical choices on four synthetic surfaces, not derived optima.
+    * an object on a flat background (``boundary='background'``): k0 is the background's
+      intensity (median over the :func:`flat_background` pixels, or over the border band when
+      there are none; a frontal plane gives exactly ``ρ l3``), and on
+      every line ``(c, a)`` are fitted in least squares so that the flat pixels and the two
+      ends of the line lie on the reference plane ``Z = 0`` (Dirichlet conditions, which also
+      cancel each line's shading bias from the non-linear terms: shadows, ``1/|n|``);
+    * a textured surface filling the frame (``boundary='free'``): one global k0, the mean
+      intensity (the surface has no mean slope along γ), which keeps each line's own
+      end-to-end depth difference, and ``c`` gives every line zero mean depth (the minimum
+      norm solution, also the least cross-line gradient energy).
+
+    ``'auto'`` chooses by :func:`has_background`.  Pentland's FFT method instead discards
+    each line's mean intensity and wraps it periodically, which is neither.
 
     *Frontal light.*  For a light along the viewing direction γ is undefined and the linear
     term vanishes; GSFS refuses such a light unless ``direction`` is given, in which case the
@@ -482,6 +697,7 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
        Recognition 34:2367-2382, 2001.
     .. [2] Torreão, Victer and Fernandes, "Green's Functions of Matching Equations", 2007,
        §3, eqs. 29-34.
+    .. [3] A. Pentland, "Linear shape from shading", IJCV 4:153-162, 1990.
 
     Examples
     --------
@@ -497,27 +713,35 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
     img = _image(image)
     m = _mask(mask, img.shape)
     _check_contrast(img, m)
-    if scheme not in ("auto", "antisymmetric", "causal"):
-        raise ValueError(f"scheme must be 'auto', 'antisymmetric' or 'causal', got {scheme!r}")
+    if boundary not in ("auto", "background", "free"):
+        raise ValueError(f"boundary must be 'auto', 'background' or 'free', got {boundary!r}")
     L, estimated = _resolve_light(img, light, m)
     angle = _integration_angle(L, direction, estimated)
     step = _step_length(angle)
-    kind = "axis" if abs(_line_direction(angle)[2]) < 1e-12 else "oblique"
-    auto_scheme, auto_mode, u_fraction = GSFS_DEFAULTS[kind]
-    if scheme == "auto":
-        scheme = auto_scheme
-    if mode is None:
-        mode = auto_mode
     if u is None:
-        u_px = u_fraction * _line_extent(img.shape, angle)
+        u_px = GSFS_U_FRACTION * _line_extent(img.shape, angle)
     else:
         u_px = greens._positive("u", u)
-    kernel = ShadingGreen(u_px / step)
-    kw = dict(angle=angle, mode=mode, backend=backend, device=device)
-    bar = np.asarray(green_filter(img, kernel, **kw), np.float64)
-    if scheme == "antisymmetric":
-        bar = 0.5 * (bar - np.asarray(green_filter(img, kernel, anticausal=True, **kw), np.float64))
-    z_unit = u_px * bar                       # eq. 31 with k1 = 1
+    if boundary == "auto":
+        boundary = "background" if has_background(img, m) else "free"
+    flat = flat_background(img, m) if boundary == "background" else None
+    if boundary == "background":
+        # the background's intensity: the flat pixels, else the border band
+        ref = flat if flat.any() else (_border_band(img.shape) & m)
+        k0 = float(np.median(img[ref]))
+    else:
+        k0 = float(img[m].astype(np.float64).mean())
+    centred = (img - np.asarray(k0, img.dtype)).astype(img.dtype, copy=False)
+    bar = green_filter(centred, ShadingGreen(u_px / step), angle=angle, mode="constant", cval=0.0,
+                       backend=backend, device=device)
+    z_unit = u_px * np.asarray(bar, np.float64)      # eq. 31 with k1 = 1, k0 ramp removed
+    line, t = _line_coordinates(img.shape, angle)
+    weights = m.astype(np.float64)
+    if boundary == "background":
+        anchors = (flat | _line_ends(line, t, weights)).astype(np.float64)
+        z_unit = _fix_line_solutions(z_unit, line, t, weights, anchors)
+    else:
+        z_unit = _fix_line_solutions(z_unit, line, t, weights, None)
     z_unit -= z_unit[m].mean()
     if isinstance(k1, str):
         if k1 == "render":

@@ -28,6 +28,9 @@ def add_parser(subparsers):
                    help="light as L1 L2 L3 (x right, y down, z toward the viewer) or TILT SLANT in "
                         "degrees; default: estimated (Zheng & Chellappa 1991)")
     p.add_argument("-u", type=float, default=None, help="GSFS matching constant in pixels (default: rule)")
+    p.add_argument("--boundary", choices=("auto", "background", "free"), default="auto",
+                   help="GSFS line constants: an object on a flat background, a textured surface "
+                        "filling the frame, or chosen from the image border (default)")
     p.add_argument("--direction", type=float, default=None,
                    help="matching/motion direction in degrees from +x toward +y (default: light tilt)")
     p.add_argument("--relief", help="also write a shaded-relief rendering of the depth (PNG)")
@@ -82,7 +85,7 @@ def run(args):
         bar.update(1)
         try:
             if args.method == "gsfs":
-                depth = shape_from_shading(img, u=args.u, direction=direction, **kw)
+                depth = shape_from_shading(img, u=args.u, direction=direction, boundary=args.boundary, **kw)
             else:
                 depth = photometric_motion(img, direction=direction, **kw)
         except ValueError as exc:
