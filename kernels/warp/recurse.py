@@ -133,24 +133,15 @@ def recurse_per_line(
     rev = reverse[i]
     first = (n - 1) * rev
     step = 1 - 2 * rev
-    fr = omega_c[i, 0] * cval
-    fi = omega_c[i, 1] * cval
-    for j in range(init_len):
-        v = src[b, i, first + step * j]
-        fr = fr + omega[i, j, 0] * v
-        fi = fi + omega[i, j, 1] * v
-    lr = lam[i, 0]
-    li = lam[i, 1]
-    kr = kap[i, 0]
-    ki = kap[i, 1]
+    # the per-line arrays are indexed like a plan's sections, by the line instead of s
+    fr, fi = _initial(src, b, i, first, step, omega, omega_c, i, init_len, cval)
+    c = wp.vector(lam[i, 0], lam[i, 1], kap[i, 0], kap[i, 1])
     t = tap[i]
     for k in range(n):
         x = first + step * k
         v = src[b, i, x]
         dst[b, i, x] = t * v + fr
-        nr = lr * fr - li * fi + kr * v
-        fi = lr * fi + li * fr + ki * v
-        fr = nr
+        fr, fi = _advance(fr, fi, c, v)
 
 
 @wp.kernel
