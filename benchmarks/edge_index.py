@@ -11,7 +11,7 @@ Usage:  python benchmarks/edge_index.py
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from gfgpu import edge_criteria as ec
+from gfgpu.edges import criteria as ec
 
 
 def main():

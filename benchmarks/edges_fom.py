@@ -76,7 +76,8 @@ import numpy as np
 from scipy import ndimage
 
 import gfgpu
-from gfgpu.edges import hysteresis, suppress_nonmaxima_reference
+from gfgpu.backends.specs import suppress_nonmaxima_reference
+from gfgpu.edges import hysteresis
 from gfgpu.greens import EDGE_A, EDGE_ETA
 
 try:

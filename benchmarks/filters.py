@@ -28,7 +28,8 @@ import time
 import numpy as np
 
 import gfgpu
-from gfgpu import greens, recursion
+from gfgpu import greens
+from gfgpu._core import recursion
 from gfgpu.backends import get_backend
 
 U = 3.0

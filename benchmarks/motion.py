@@ -132,7 +132,7 @@ def speed_table(size, repeat, backends):
         rows.append(f"| gfgpu.motion_blur, backend={name} (numpy in, output=) | " + " | ".join(cells) + " |")
 
     def taps(L):
-        lam, kap, tap = greens._shift_coefficients(float(L))
+        lam, kap, tap = greens.shift_coefficients(float(L))
         m = np.arange(1, L + 1)
         k = np.concatenate([[tap], np.real(kap * lam ** (m - 1))])
         return (k / k.sum()).astype(np.float32)

@@ -9,7 +9,7 @@
     Every (size, backend) runs in its own fresh process, so its peak RSS is its own.
 (2) The working-set proof: a ``--large`` ² float32 image (default 20000², 1.49 GiB) is
     written band by band to a temporary ``.npy`` (the generator never holds it), then each
-    backend runs ``gfgpu.strips.filter_npy`` ('shift' (2.5, -1.5) and 'derivative' u = 1,
+    backend runs ``gfgpu.filter_npy`` ('shift' (2.5, -1.5) and 'derivative' u = 1,
     axis 0) with ``--working-set`` (default 256M) in a fresh process whose address space is
     capped by ``RLIMIT_AS`` before gfgpu is imported: ``--cap`` (default 1.5G, about the
     file's size), else the file's size plus ``--cap``, else no cap — each failure is
@@ -121,7 +121,8 @@ def child_size(spec):
 def _primitive(name, img):
     """Seconds of one shift pass (the recursion primitive) along rows and along columns, on
     device-resident arrays: the device's own cost, without host copies and allocations."""
-    from gfgpu import greens, recursion
+    from gfgpu import greens
+    from gfgpu._core import recursion
     from gfgpu.backends import get_backend
     be = get_backend(name)
     n = img.shape[0]
@@ -144,7 +145,7 @@ def child_large(spec):
     if spec.get("cap"):
         resource.setrlimit(resource.RLIMIT_AS, (spec["cap"], spec["cap"]))
     import gfgpu
-    from gfgpu.strips import filter_npy
+    from gfgpu import filter_npy
     gfgpu.shift(np.ones((64, 64), np.float32), SHIFT, backend=spec["backend"])   # kernels built
     t0 = time.perf_counter()
     info = filter_npy(spec["op"], spec["src"], spec["dst"], working_set=spec["working_set"],
@@ -160,7 +161,7 @@ def child_profile(spec):
     import io
     import pstats
 
-    from gfgpu.strips import filter_npy
+    from gfgpu import filter_npy
     prof = cProfile.Profile()
     t0 = time.perf_counter()
     prof.runcall(filter_npy, spec["op"], spec["src"], spec["dst"], working_set=spec["working_set"],
@@ -342,7 +343,7 @@ def _signal_name(error):
 def part_large(n, backends, working_set, cap, tmp, profile):
     """filter_npy runs on a large .npy under address-space caps: ``cap``, then file size + ``cap``
     (a cap the one-piece call, which holds input and output, still cannot meet), then none."""
-    from gfgpu.strips import parse_bytes
+    from gfgpu._core.strips import parse_bytes
     src = os.path.join(tmp, "large.npy")
     t0 = time.perf_counter()
     write_large(src, n)
@@ -629,7 +630,7 @@ def main(argv=None):
     if rows:
         print(table_sizes(rows, args.op, skipped, args.peer_max))
     if large:
-        print(f"## Larger than the working set: gfgpu.strips.filter_npy on a {large['n']}² image\n")
+        print(f"## Larger than the working set: gfgpu.filter_npy on a {large['n']}² image\n")
         print(f"Load average {load[1]:.1f} → {load[2]:.1f}.\n")
         print(table_large(large))
         if large["profile"]:

@@ -31,6 +31,7 @@ import time
 import numpy as np
 
 from gfgpu.stereo import disparity, fill_holes, random_dot_stereogram
+from gfgpu.stereo import kernels as stereo_kernels
 
 DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "stereo")
 SCENES = ("tsukuba", "venus", "teddy", "cones")
@@ -125,7 +126,7 @@ def stage_times(scene_images, d_max, backend, repeat):
     from gfgpu.backends import resolve_backend
     from gfgpu.filters import shift
     be = resolve_backend(backend, None)
-    left, right = (stereo._grey(img, name) for img, name in zip(scene_images, ("left", "right")))
+    left, right = (stereo.matching.grey_image(img, name) for img, name in zip(scene_images, ("left", "right")))
     h, w = left.shape
     steps, radius, block = 2, 3, 3
     n = d_max * steps + 1
@@ -133,23 +134,23 @@ def stage_times(scene_images, d_max, backend, repeat):
 
     def census():
         state["cl"] = be.empty((1, h, w), np.uint64)
-        be.stereo_census(be.asarray(left), state["cl"], 0, radius)
+        stereo_kernels.census(be, be.asarray(left), state["cl"], 0, radius)
         state["cr"] = be.empty((steps, h, w), np.uint64)
         rgt = be.asarray(right)
         for f in range(steps):
             moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
-            be.stereo_census(moved, state["cr"], f, radius)
+            stereo_kernels.census(be, moved, state["cr"], f, radius)
 
     def cost():
         state["cost"] = be.empty((h, w, n), np.int16)
-        be.stereo_cost(state["cl"], state["cr"], state["cost"], 0, steps, block, (2 * radius + 1) ** 2 - 1)
+        stereo_kernels.cost(be, state["cl"], state["cr"], state["cost"], 0, steps, block, (2 * radius + 1) ** 2 - 1)
 
     def aggregate():
         state["agg"] = be.empty((h, w, n), np.int16)
-        be.stereo_sgm(state["cost"], state["agg"], 6 * block**2, 64 * block**2, 8)
+        stereo_kernels.sgm(be, state["cost"], state["agg"], 6 * block**2, 64 * block**2, 8)
 
     def select():
-        be.stereo_select(state["agg"], be.empty((h, w), np.float32), be.empty((h, w), np.int32), 0, steps, 10)
+        stereo_kernels.select(be, state["agg"], be.empty((h, w), np.float32), be.empty((h, w), np.int32), 0, steps, 10)
 
     times = {}
     for name, fn in (("census + Green shift", census), ("matching cost", cost),

@@ -26,7 +26,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .files import save_npy, save_png, to_display_8bit, write_atomic
+from .edges import canny
+from .filters import gradient, shift
+from .io import gradient_to_rgb, read_image, save_npy, save_png, to_display_8bit, write_atomic
+from .motion import motion_blur
 
 __all__ = ["IMAGE_EXTENSIONS", "FORMATS", "OPS", "Job", "Result", "discover_inputs", "check_parameters",
            "plan_jobs", "process_file", "run_batch", "summarize"]
@@ -229,8 +232,7 @@ def plan_jobs(inputs, outdir, op, params=None, *, fmt="png", mode="reflect", bac
 # one file (runs in a worker process)
 # --------------------------------------------------------------------------------------
 def _read(path):
-    import imageio.v3 as iio
-    img = np.asarray(iio.imread(path))
+    img = np.asarray(read_image(path))
     if not (img.dtype.kind in "biu" or img.dtype in (np.float16, np.float32, np.float64)):
         raise TypeError(f"unsupported pixel type {img.dtype} (expected bool, integer or float32/float64 "
                         f"samples)")
@@ -249,23 +251,19 @@ def _working(img):
 
 
 def _op_shift(img, p, kw):
-    from .filters import shift
     dx, dy = p["by"]
     raw = shift(_working(img), (dy, dx), axes=(0, 1), **kw)   # colour: per channel
     return raw, lambda: to_display_8bit(raw, img)
 
 
 def _op_gradient(img, p, kw):
-    from .cli import _gradient_png
-    from .filters import gradient
     work = _working(img)
     grey = work.mean(axis=-1) if work.ndim == 3 else work   # one gradient per pixel
     gy, gx = gradient(grey, p.get("u", 1.0), **kw)
-    return np.stack([gy, gx]), lambda: _gradient_png(gy, gx)
+    return np.stack([gy, gx]), lambda: gradient_to_rgb(gy, gx)
 
 
 def _op_canny(img, p, kw):
-    from .edges import canny
     work = img
     if img.dtype.kind in "iu":   # canny's convention: integers scaled to [0, 1] by the dtype's maximum
         work = img.astype(np.float32) / np.iinfo(img.dtype).max
@@ -276,7 +274,6 @@ def _op_canny(img, p, kw):
 
 
 def _op_blur(img, p, kw):
-    from .motion import motion_blur
     if p.get("zoom") is not None:
         how = dict(kind="zoom", center=p.get("center"))
         velocity = p["zoom"]

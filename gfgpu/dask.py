@@ -2,7 +2,7 @@
 
 Each wrapper takes a :class:`dask.array.Array` and returns one (lazy) with the same chunks.
 A step along an axis that is cut into several chunks runs the recursion of every chunk on its
-device and carries the state between chunks exactly (:mod:`gfgpu.carry`):
+device and carries the state between chunks exactly (:mod:`gfgpu._core.carry`):
 
 1. per chunk: the contribution of its last samples to the state leaving it, and of its first
    samples to the boundary mode's initial state (small host products, no device work);
@@ -47,8 +47,17 @@ import dask
 import dask.array as da
 import numpy as np
 
-from . import carry, filters, greens
-from .recursion import check_mode, plan_pass
+from . import filters, greens
+from ._core import carry
+from ._core.program import axes_list, run_steps
+from ._core.recursion import check_mode, plan_pass
+from ._core.validation import finite_cval, work_dtype
+from .backends import Backend, backend_request, check_backend_name, resolve_backend
+from .edges import canny as canny_2d
+from .motion import motion_blur as motion_blur_2d
+from .motion import uniform_motion_program
+from .motion.params import KINDS, zoom_factors
+from .motion.rotation import rotation_angle
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "motion_blur", "canny",
            "run_program"]
@@ -65,26 +74,23 @@ def _check_array(x):
         raise ValueError(f"input is empty (shape {x.shape})")
     if any(np.isnan(c) for chunks in x.chunks for c in chunks):
         raise ValueError("input has unknown chunk sizes; call x.compute_chunk_sizes() first")
-    return filters._work_dtype(x.dtype)
+    return work_dtype(x.dtype)
 
 
 def _backend_spec(backend, device):
     """``(name, device)`` of a backend: tasks carry this and each worker rebuilds the backend."""
-    from .backends import Backend
     if isinstance(backend, Backend):
         if device is not None:
             raise ValueError("device= cannot be combined with a Backend object (it has its device)")
-        return backend.__reduce__()[1]
+        return backend_request(backend)
     if backend is not None:
-        from .backends import _check_name
-        _check_name(backend)
+        check_backend_name(backend)
     elif device is not None:
         raise ValueError("device= needs backend= as well (e.g. backend='warp', device='cuda:0')")
     return backend, None if device is None else str(device)
 
 
 def _backend(spec):
-    from .backends import resolve_backend
     return resolve_backend(*spec)
 
 
@@ -112,7 +118,7 @@ def _local_task(block, steps, plane, mode, cval, spec, dtype):
     be = _backend(spec)
     host = _host_block(block, dtype)
     with _device_section(be):
-        return be.to_host(filters._run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane))
+        return be.to_host(run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane))
 
 
 def _segment(lp, n, mode, dtype, start, stop):
@@ -206,7 +212,7 @@ def run_program(x, program, mode="reflect", cval=0.0, *, backend=None, device=No
     """Run a :class:`gfgpu.filters.Program` on a dask array (the wrappers' common engine)."""
     dtype = _check_array(x)
     check_mode(mode)
-    cval = filters._finite_cval(cval)
+    cval = finite_cval(cval)
     spec = _backend_spec(backend, device)
     x = x.astype(dtype) if x.dtype != dtype else x
     for passes, axis, angle in program.steps:
@@ -295,7 +301,7 @@ def gradient(x, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=
     tuple of dask.array.Array
     """
     _check_array(x)
-    ax = filters._axes_list(axes, x.ndim)
+    ax = axes_list(axes, x.ndim)
     return tuple(derivative(x, u, d, mode, cval, axes=ax, a=a, eta=eta, single_scale=single_scale,
                             projection_scale=projection_scale, backend=backend, device=device) for d in ax)
 
@@ -311,18 +317,22 @@ def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode
     -------
     dask.array.Array
     """
-    from . import motion
     dtype = _check_array(x)
     if kind == "uniform":
-        program = motion.uniform_motion_program(x.ndim, velocity, bool(displace))
+        program = uniform_motion_program(x.ndim, velocity, bool(displace))
         return run_program(x, program, mode, cval, backend=backend, device=device)
-    if kind not in motion.KINDS:
-        raise ValueError(f"kind must be one of {', '.join(motion.KINDS)}; got {kind!r}")
-    motion._zoom_factors(velocity)
+    if kind not in KINDS:
+        raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    # validate here, before any task is built (the workers would raise the same error later)
+    if kind == "zoom":
+        zoom_factors(velocity)
+    else:
+        rotation_angle(velocity)
     spec = _backend_spec(backend, device)
-    return _whole_planes(x).map_blocks(_plane_task, motion.motion_blur, spec, dtype,
-                                       dict(velocity=velocity, kind=kind, center=center, mode=mode, cval=cval),
-                                       dtype=dtype)
+    kw = dict(velocity=velocity, kind=kind, center=center, mode=mode, cval=cval)
+    if kind == "rotation":
+        kw["displace"] = bool(displace)
+    return _whole_planes(x).map_blocks(_plane_task, motion_blur_2d, spec, dtype, kw, dtype=dtype)
 
 
 def _plane_task(block, function, spec, dtype, kwargs):
@@ -332,7 +342,6 @@ def _plane_task(block, function, spec, dtype, kwargs):
 
 
 def _canny_task(block, spec, kwargs):
-    from .edges import canny as canny_2d
     backend, device = spec
     flat = block.reshape((-1,) + block.shape[-2:])
     with _device_section(_backend(spec)):

@@ -12,269 +12,21 @@ same kind on the same device.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import NamedTuple
-
-import numpy as np
-
 from . import greens
+from ._core.job import Job, apply_program
+from ._core.lines import normalize_axis
+from ._core.program import Program, axes_list, direction_steps, per_axis
+from ._core.recursion import check_mode
+from ._core.validation import finite_cval, positive
 from .backends import resolve_backend
-from .lines import axis_view_shape, direction, normalize_axis, oblique_maps
-from .recursion import check_mode, plan_pass
 
-__all__ = ["green_filter", "shift", "derivative", "projection", "gradient"]
-
-
-# --------------------------------------------------------------------------------------
-# argument handling
-# --------------------------------------------------------------------------------------
-def _work_dtype(dtype, name="input"):
-    dtype = np.dtype(dtype)
-    if dtype in (np.float32, np.float64):
-        return dtype
-    if dtype.kind in "biu" or dtype == np.float16:
-        return np.dtype(np.float32)
-    raise TypeError(f"{name} must have a real numeric dtype (float32/float64, or integer/bool "
-                    f"converted to float32); got {dtype}")
+__all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "make_job",
+           "green_filter_program", "shift_program", "derivative_program", "projection_program"]
 
 
-def _host_all_finite(arr, block=1 << 22):
-    """``np.isfinite(arr).all()`` without a full-size temporary (large and memory-mapped images)."""
-    if arr.dtype.kind in "biu":
-        return True
-    flat = arr.reshape(-1) if arr.flags.c_contiguous else None
-    if flat is None:
-        return bool(np.isfinite(arr).all())
-    return all(np.isfinite(flat[i:i + block]).all() for i in range(0, flat.size, block))
-
-
-def _finite_cval(cval):
-    return greens._finite_scalar("cval", cval)
-
-
-class Program(NamedTuple):
-    """What an operator computes, independent of arrays and devices.
-
-    ``steps`` is a list of ``(passes, axis, angle)`` applied in turn; the passes of one step
-    run along the same lines and are summed.  ``axis`` is an array axis (``angle`` None) or
-    None for the image-plane direction ``angle`` (the plane is ``plane``, the last two axes).
-    The in-memory operators (:func:`_apply_sequence`), the strip executor
-    (:mod:`gfgpu.strips`) and the Dask wrappers (:mod:`gfgpu.dask`) all run programs.
-    """
-
-    steps: list
-    plane: tuple | None = None
-
-
-class _Job:
-    """Input validation, device placement and output handling shared by every operator."""
-
-    def __init__(self, input, output, backend, device, min_ndim=1):
-        be = resolve_backend(backend, device, input)
-        self.backend = be
-        self.host_input = be.name == "numpy" or not be.owns(input)
-        if self.host_input:
-            arr = np.asarray(input)
-            if arr.dtype == object:
-                raise TypeError("input must be a numeric array, got dtype object")
-        else:
-            arr = input
-        if arr.ndim < min_ndim:
-            raise ValueError(f"input must have at least {min_ndim} dimension(s), got shape {arr.shape}")
-        if arr.size == 0:
-            raise ValueError(f"input is empty (shape {arr.shape})")
-        self.shape = tuple(int(s) for s in arr.shape)
-        self.ndim = len(self.shape)
-        self.dtype = _work_dtype(arr.dtype if self.host_input else be.dtype_of(arr))
-        if self.dtype == np.float64 and not be.supports_float64:
-            raise TypeError(f"input is float64 but {be!r} has no float64 support; pass a float32 "
-                            f"array or choose another device (no silent downcast)")
-        self.output = output
-        out_dtype = self.dtype
-        if output is not None and isinstance(output, (type, np.dtype, str)):
-            out_dtype = np.dtype(output)
-            if out_dtype not in (np.float32, np.float64):
-                raise TypeError(f"output dtype must be float32 or float64, got {out_dtype}")
-            if out_dtype.itemsize < self.dtype.itemsize:
-                raise TypeError(f"output dtype {out_dtype} would downcast the {self.dtype} result")
-            self.dtype = out_dtype
-            self.output = None
-        if self.host_input:
-            if not _host_all_finite(arr):
-                raise ValueError("input contains NaN or infinite values")
-            self.source = arr           # converted and placed on the device when first used
-            self._data = None
-        else:
-            if _work_dtype(be.dtype_of(arr)) != self.dtype:
-                raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
-            if not be.all_finite(arr):
-                raise ValueError("input contains NaN or infinite values")
-            self.source = self._data = arr
-        if self.output is not None:
-            self._check_output(self.output)
-
-    @property
-    def data(self):
-        """The input as a device array of the work dtype (host images: uploaded on first use)."""
-        if self._data is None:
-            self._data = self.backend.host_view(np.ascontiguousarray(self.source, dtype=self.dtype))
-        return self._data
-
-    @property
-    def nbytes(self):
-        return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
-
-    def _check_output(self, output):
-        if tuple(output.shape) != self.shape:
-            raise ValueError(f"output must have the input's shape {self.shape}, got {tuple(output.shape)}")
-        odt = np.dtype(output.dtype) if isinstance(output, np.ndarray) else self.backend.dtype_of(output)
-        if odt not in (np.float32, np.float64):
-            raise TypeError(f"output must be float32 or float64, got {odt}")
-        if odt.itemsize < self.dtype.itemsize:
-            raise TypeError(f"output dtype {odt} would downcast the {self.dtype} result")
-        if isinstance(output, np.ndarray) != self.host_input:
-            raise TypeError("output must be the same kind of array as input (numpy or device array)")
-
-    def empty(self):
-        return self.backend.empty(self.shape, self.dtype)
-
-    def result_buffer(self):
-        """The buffer of the final result: the caller's ``output`` itself where it can be
-        written in place, host-shared when a numpy result is returned, else a new array."""
-        be, out = self.backend, self.output
-        if self.host_input:
-            if out is None:
-                return be.host_result(self.shape, self.dtype)
-            direct = (out.dtype == self.dtype and out.flags.c_contiguous and out.flags.writeable
-                      and not np.may_share_memory(out, self.source))
-            return be.host_result(self.shape, self.dtype, into=out) if direct else self.empty()
-        if (out is not None and be.dtype_of(out) == self.dtype and be.is_contiguous(out)
-                and not be.may_share_memory(out, self.source)):
-            return out
-        return self.empty()
-
-    def finish(self, result):
-        """Return ``result`` (a device array of self.shape) in the caller's array kind."""
-        be = self.backend
-        if self.host_input:
-            host = be.to_host(result)
-            if self.output is not None:
-                if host is not self.output:
-                    self.output[...] = host
-                return self.output
-            return host
-        if self.output is not None:
-            if self.backend.dtype_of(self.output) != self.dtype:
-                raise TypeError("device output must have the computation's dtype")
-            if result is not self.output:
-                be.copy(result, self.output)
-            return self.output
-        return result
-
-
-def _run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, plane=None):
-    """Apply ``passes`` (summed: the first writes, the rest accumulate) along an axis or direction.
-
-    ``src`` and ``dst`` are distinct device arrays of the same shape; ``src`` is not modified.
-    """
-    shape = tuple(src.shape)
-    if angle is None:
-        view, line_axis = axis_view_shape(shape, axis)
-        n = view[line_axis]
-        s3, d3 = be.reshape(src, view), be.reshape(dst, view)
-        for i, lp in enumerate(passes):
-            be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
-        return dst
-    ya, xa = plane
-    if (ya, xa) != (len(shape) - 2, len(shape) - 1):
-        raise ValueError("oblique filtering needs the image plane on the last two axes of the "
-                         "working array")
-    height, width = shape[-2], shape[-1]
-    batch = int(np.prod(shape[:-2], dtype=np.int64))
-    _, reverse, _ = direction(angle)
-    shear, unshear, lines, steps = oblique_maps(height, width, batch, float(angle), mode)
-    rows_in = be.empty((batch, lines, steps), dtype)
-    rows_out = be.empty((batch, lines, steps), dtype)
-    be.gather(be.reshape(src, (-1,)), shear, cval, be.reshape(rows_in, (-1,)))
-    for i, lp in enumerate(passes):
-        lp = greens.LinePass(lp.sections, lp.tap, lp.reverse != reverse)
-        be.recurse(rows_in, rows_out, 2, plan_pass(lp, steps, mode, dtype), cval, accumulate=i > 0)
-    be.gather(be.reshape(rows_out, (-1,)), unshear, 0.0, be.reshape(dst, (-1,)))
-    return dst
-
-
-def _run_steps(be, data, dtype, steps, mode, cval, plane=None):
-    """Apply ``steps`` in turn to the device array ``data`` (kept); the last result is returned.
-
-    The strip executor and the Dask tasks run their in-block steps with this.
-    """
-    cur = data
-    for passes, axis, angle in steps:
-        nxt = be.empty(tuple(data.shape), dtype)
-        _run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
-        cur = nxt
-    return cur
-
-
-def _is_axis_angle(angle):
-    steep, _, gamma = direction(angle)
-    return abs(gamma) < 1e-12
-
-
-def _apply_sequence(job, program, mode, cval):
-    """Run a :class:`Program` with ping-pong buffers; never touch the input.
-
-    Host images whose working memory exceeds :func:`gfgpu.strips.get_working_set` are
-    streamed through the device in strips (exact, :mod:`gfgpu.strips`).
-    """
-    from . import strips
-    if job.host_input and strips.needs_strips(job):
-        return strips.run_job(job, program, mode, cval)
-    steps = program.steps
-    if not steps:
-        return job.finish(_copy_of_input(job))
-    bufs = [job.empty() for _ in range(min(2, len(steps)))]
-    bufs[(len(steps) - 1) % 2] = job.result_buffer()
-    cur = job.data
-    for i, (passes, axis, angle) in enumerate(steps):
-        nxt = bufs[i % 2]
-        _run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle,
-                    plane=program.plane)
-        cur = nxt
-    return job.finish(cur)
-
-
-def _copy_of_input(job):
-    if job.host_input:
-        return job.backend.asarray(np.array(job.backend.to_host(job.data), copy=True))
-    out = job.empty()
-    job.backend.copy(job.data, out)
-    return out
-
-
-def _plane_axes(axes, ndim):
-    if axes is None:
-        axes = (-2, -1)
-    if len(axes) != 2:
-        raise ValueError(f"axes must name two axes (rows, columns) of the image plane, got {axes!r}")
-    ya, xa = (normalize_axis(a, ndim, "axes") for a in axes)
-    if ya == xa:
-        raise ValueError(f"axes must name two different axes, got {axes!r}")
-    return ya, xa
-
-
-def _direction_steps(ndim, passes, angle, axes):
-    """(steps, plane) for filtering along ``angle`` in the plane ``axes``: an axis pass when aligned."""
-    ya, xa = _plane_axes(axes, ndim)
-    steep, reverse, gamma = direction(angle)
-    if abs(gamma) < 1e-12:
-        axis = ya if steep else xa
-        flipped = [greens.LinePass(p.sections, p.tap, p.reverse != reverse) for p in passes]
-        return [(flipped, axis, None)], None
-    if (ya, xa) != (ndim - 2, ndim - 1):
-        raise ValueError("oblique directions need the image plane on the last two axes; move the "
-                         "channel axis first (e.g. numpy.moveaxis(image, -1, 0)) and pass axes=(-2, -1)")
-    return [(passes, None, angle)], (ya, xa)
+def make_job(input, output=None, backend=None, device=None, min_ndim=1):
+    """The :class:`~gfgpu._core.job.Job` of one call: the backend resolved with the input array."""
+    return Job(input, output, resolve_backend(backend, device, input), min_ndim)
 
 
 # --------------------------------------------------------------------------------------
@@ -353,10 +105,10 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
     0.982
     """
     check_mode(mode)
-    cval = _finite_cval(cval)
-    job = _Job(input, output, backend, device)
+    cval = finite_cval(cval)
+    job = make_job(input, output, backend, device)
     program = green_filter_program(job.ndim, kernel, axis, angle=angle, axes=axes, anticausal=anticausal)
-    return _apply_sequence(job, program, mode, cval)
+    return apply_program(job, program, mode, cval)
 
 
 def green_filter_program(ndim, kernel, axis=-1, *, angle=None, axes=(-2, -1), anticausal=False):
@@ -367,25 +119,7 @@ def green_filter_program(ndim, kernel, axis=-1, *, angle=None, axes=(-2, -1), an
     passes = [kernel.line_pass(reverse=bool(anticausal))]
     if angle is None:
         return Program([(passes, normalize_axis(axis, ndim), None)])
-    return Program(*_direction_steps(ndim, passes, angle, axes))
-
-
-def _per_axis(value, axes, name):
-    if isinstance(value, (Sequence, np.ndarray)) and not isinstance(value, str):
-        vals = [float(v) for v in value]
-        if len(vals) != len(axes):
-            raise ValueError(f"{name} must have one value per axis ({len(axes)}), got {len(vals)}")
-        return vals
-    return [float(value)] * len(axes)
-
-
-def _axes_list(axes, ndim):
-    if axes is None:
-        return list(range(ndim))
-    axes = [normalize_axis(a, ndim, "axes") for a in np.atleast_1d(axes)]
-    if len(set(axes)) != len(axes):
-        raise ValueError(f"axes must not repeat, got {axes!r}")
-    return axes
+    return Program(*direction_steps(ndim, passes, angle, axes))
 
 
 def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, backend=None,
@@ -418,7 +152,7 @@ def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, bac
     ``w[0] = t`` and ``w[m] = Re(K λ^{m-1})``, ``λ = e^{(-1+i)/u}`` (two poles, numerator of
     degree two), with ``(t, K)`` fitted in float64 so that ``Σ w = 1`` and ``Σ m w = u``
     exactly, the variance equals that of the pixel-integrated kernel (1/12) and the taps stay
-    closest to the cell integrals ``∫_{m-1/2}^{m+1/2} G_u`` (see ``greens._shift_coefficients``).
+    closest to the cell integrals ``∫_{m-1/2}^{m+1/2} G_u`` (see ``greens.shift_coefficients``).
 
     Examples
     --------
@@ -429,28 +163,28 @@ def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, bac
     12.5
     """
     check_mode(mode)
-    cval = _finite_cval(cval)
-    job = _Job(input, output, backend, device)
-    return _apply_sequence(job, shift_program(job.ndim, shift, axes), mode, cval)
+    cval = finite_cval(cval)
+    job = make_job(input, output, backend, device)
+    return apply_program(job, shift_program(job.ndim, shift, axes), mode, cval)
 
 
 def shift_program(ndim, shift, axes=None):
     """The :class:`Program` of :func:`shift` on ``ndim``-dimensional arrays."""
-    ax = _axes_list(axes, ndim)
-    amounts = _per_axis(shift, ax, "shift")
+    ax = axes_list(axes, ndim)
+    amounts = per_axis(shift, ax, "shift")
     return Program([([greens.shift_pass(s)], a, None) for a, s in zip(ax, amounts) if s != 0.0])
 
 
 def derivative_program(ndim, u, axis=-1, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
                        single_scale=False, projection_scale=1.0):
     """The :class:`Program` of :func:`derivative`: P along the other axes, then D along ``axis``."""
-    ax = _axes_list(axes, ndim)
+    ax = axes_list(axes, ndim)
     d_axis = normalize_axis(axis, ndim)
     if d_axis not in ax:
         raise ValueError(f"axis {axis} must be one of axes {ax}")
-    ratio = greens._positive("projection_scale", projection_scale)
+    ratio = positive("projection_scale", projection_scale)
     d_passes = list(greens.derivative_passes(u, a, eta, single_scale))
-    p_passes = list(greens.projection_passes(greens._positive("u", u) * ratio, a, eta, single_scale))
+    p_passes = list(greens.projection_passes(positive("u", u) * ratio, a, eta, single_scale))
     steps = [(p_passes, other, None) for other in ax if other != d_axis]
     steps.append((d_passes, d_axis, None))
     return Program(steps)
@@ -511,10 +245,10 @@ def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes
     1.0
     """
     check_mode(mode)
-    cval = _finite_cval(cval)
-    job = _Job(input, output, backend, device)
+    cval = finite_cval(cval)
+    job = make_job(input, output, backend, device)
     program = derivative_program(job.ndim, u, axis, axes, a, eta, single_scale, projection_scale)
-    return _apply_sequence(job, program, mode, cval)
+    return apply_program(job, program, mode, cval)
 
 
 def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=greens.EDGE_A,
@@ -524,9 +258,9 @@ def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=gr
     Parameters as in :func:`derivative`; P is even with unit sum (two recursive passes).
     """
     check_mode(mode)
-    cval = _finite_cval(cval)
-    job = _Job(input, output, backend, device)
-    return _apply_sequence(job, projection_program(job.ndim, u, axis, a, eta, single_scale), mode, cval)
+    cval = finite_cval(cval)
+    job = make_job(input, output, backend, device)
+    return apply_program(job, projection_program(job.ndim, u, axis, a, eta, single_scale), mode, cval)
 
 
 def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
@@ -550,8 +284,8 @@ def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, 
     (2.0, 3.0)
     """
     check_mode(mode)
-    cval = _finite_cval(cval)
-    job = _Job(input, None, backend, device)
-    ax = _axes_list(axes, job.ndim)
-    return tuple(_apply_sequence(job, derivative_program(job.ndim, u, d, ax, a, eta, single_scale, projection_scale),
+    cval = finite_cval(cval)
+    job = make_job(input, None, backend, device)
+    ax = axes_list(axes, job.ndim)
+    return tuple(apply_program(job, derivative_program(job.ndim, u, d, ax, a, eta, single_scale, projection_scale),
                                  mode, cval) for d in ax)

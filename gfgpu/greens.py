@@ -28,6 +28,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from ._core.passes import LinePass, Section
+from ._core.validation import finite_scalar, positive
+
 __all__ = [
     "g_uniform", "h_homogeneous", "g_affine", "g_affine_approx", "d_uniform",
     "edge_derivative", "edge_projection",
@@ -45,25 +48,8 @@ EDGE_ETA = 3.5
 # --------------------------------------------------------------------------------------
 # parameter validation
 # --------------------------------------------------------------------------------------
-def _finite_scalar(name, value):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a real number, got {value!r}") from None
-    if not math.isfinite(v):
-        raise ValueError(f"{name} must be finite, got {value!r}")
-    return v
-
-
-def _positive(name, value):
-    v = _finite_scalar(name, value)
-    if v <= 0:
-        raise ValueError(f"{name} must be > 0, got {value!r}")
-    return v
-
-
 def _u1_range(u1):
-    v = _finite_scalar("u1", u1)
+    v = finite_scalar("u1", u1)
     if not 0.0 < v < 2.0:
         raise ValueError(f"u1 must lie in (0, 2) for a bounded causal G_U^(1) (eq. 12), got {u1!r}")
     return v
@@ -93,7 +79,7 @@ def g_uniform(x, u):
     >>> float(g_uniform(1.0, 1.0))  # doctest: +ELLIPSIS
     0.6191...
     """
-    u = _positive("u", u)
+    u = positive("u", u)
     x = np.asarray(x, dtype=np.float64)
     t = np.where(x > 0, x, 0.0) / u
     return np.where(x > 0, (2.0 / u) * np.sin(t) * np.exp(-t), 0.0)
@@ -107,7 +93,7 @@ def h_homogeneous(x, u):
     At the jump ``x = 0`` the value is the mean of the one-sided limits, ``1/u`` (the
     trapezoid convention: with it the discrete sum approximates ``∫H_u = 1`` to O(u^-2)).
     """
-    u = _positive("u", u)
+    u = positive("u", u)
     x = np.asarray(x, dtype=np.float64)
     t = np.where(x > 0, x, 0.0) / u
     return np.where(x > 0, (2.0 / u) * np.cos(t) * np.exp(-t), np.where(x == 0, 1.0 / u, 0.0))
@@ -131,7 +117,7 @@ def g_affine(x, x0, u1, x_U):
     ``x <= x0``.  Bounded over ``(x_U, inf)`` for ``0 < u1 < 2``.
     """
     u1 = _u1_range(u1)
-    x_U = _finite_scalar("x_U", x_U)
+    x_U = finite_scalar("x_U", x_U)
     x, x0 = np.broadcast_arrays(np.asarray(x, np.float64), np.asarray(x0, np.float64))
     if np.any((x0 <= x_U) & (x > x0)):
         raise ValueError(f"G_U^(1) is defined for x > x0 > x_U; got x0 <= x_U = {x_U}")
@@ -152,8 +138,8 @@ def g_affine_approx(x, x0, sigma, x_U):
 
     It shifts by about ``sigma^2/|x_U|`` with a gain ramp ``1 - x/|x_U|`` (DESIGN §2).
     """
-    sigma = _positive("sigma", sigma)
-    x_U = _finite_scalar("x_U", x_U)
+    sigma = positive("sigma", sigma)
+    x_U = finite_scalar("x_U", x_U)
     if x_U == 0:
         raise ValueError("x_U must be non-zero for G_U^(2) (the shift is sigma^2/|x_U|)")
     x, x0 = np.broadcast_arrays(np.asarray(x, np.float64), np.asarray(x0, np.float64))
@@ -166,15 +152,15 @@ def g_affine_approx(x, x0, sigma, x_U):
 
 def d_uniform(x, u):
     """Single-scale differentiator D_u (eq. 19): ``-(1/u^2) exp(-|x|/u) sin(x/u)``."""
-    u = _positive("u", u)
+    u = positive("u", u)
     x = np.asarray(x, dtype=np.float64)
     return -(1.0 / u**2) * np.exp(-np.abs(x) / u) * np.sin(x / u)
 
 
-def _edge_weights(u, a, eta):
-    u = _positive("u", u)
-    a = _positive("a", a)
-    eta = _positive("eta", eta)
+def edge_weights(u, a, eta):
+    u = positive("u", u)
+    a = positive("a", a)
+    eta = positive("eta", eta)
     big_a = 2.0 / (u * eta**2 * (1.0 + a))
     big_k = a * eta**2  # DESIGN §2: the fine scale carries weight a (reproduces 3.547)
     return u, a, eta, big_a, big_k
@@ -189,7 +175,7 @@ def edge_derivative(x, u, a=EDGE_A, eta=EDGE_ETA):
 
     ``A = 2/(u eta^2 (1+a))``.  Continuous unit ramp response: ``-∫ x D = 1``.
     """
-    u, a, eta, big_a, big_k = _edge_weights(u, a, eta)
+    u, a, eta, big_a, big_k = edge_weights(u, a, eta)
     x = np.asarray(x, dtype=np.float64)
     t = np.abs(x)
     f = big_a * (np.exp(-t / (eta * u)) * np.sin(t / (eta * u)) + big_k * np.exp(-t / u) * np.sin(t / u))
@@ -203,7 +189,7 @@ def edge_projection(x, u, a=EDGE_A, eta=EDGE_ETA):
         P(x) = \\frac{A}{4u}\\big[\\eta u\\, e^{-|x|/\\eta u}(\\sin + \\cos)(|x|/\\eta u)
         + K u\\, e^{-|x|/u}(\\sin + \\cos)(|x|/u)\\big],\\quad ∫P = 1.
     """
-    u, a, eta, big_a, big_k = _edge_weights(u, a, eta)
+    u, a, eta, big_a, big_k = edge_weights(u, a, eta)
     t = np.abs(np.asarray(x, dtype=np.float64))
     v1, v2 = eta * u, u
     return (big_a / (4 * u)) * (v1 * np.exp(-t / v1) * (np.sin(t / v1) + np.cos(t / v1))
@@ -223,65 +209,6 @@ def _check_fixed_point(name, x_U, n, reverse):
 # --------------------------------------------------------------------------------------
 # recursions
 # --------------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class Section:
-    """One first-order complex recursion ``F[x+1] = lam(x) F[x] + kap(x) I[x]``, ``y = Re F``.
-
-    Either shift invariant (``lam``, ``kap`` complex scalars) or given by a kernel whose
-    ``coefficients(positions)`` returns per-position arrays.  ``x_min`` is the left end of
-    the kernel's domain: sources must satisfy ``x0 > x_min``.
-    """
-
-    lam: complex | None = None
-    kap: complex | None = None
-    kernel: GreenKernel | None = None
-
-    @property
-    def shift_invariant(self):
-        return self.kernel is None
-
-    @property
-    def x_min(self):
-        return -math.inf if self.kernel is None else self.kernel.x_min
-
-    def coefficients(self, positions):
-        """(lam, kap) as complex128 arrays at integer ``positions`` (float64)."""
-        positions = np.asarray(positions, dtype=np.float64)
-        if self.kernel is None:
-            return (np.full(positions.shape, self.lam, np.complex128),
-                    np.full(positions.shape, self.kap, np.complex128))
-        return self.kernel.coefficients(positions)
-
-    def taps(self, m):
-        """Impulse response ``Re(kap lam^(m-1))`` for integer offsets ``m >= 1`` (shift-invariant)."""
-        m = np.asarray(m)
-        out = np.real(self.kap * np.power(self.lam, np.maximum(m - 1, 0).astype(np.float64)))
-        return np.where(m >= 1, out, 0.0)
-
-
-@dataclass(frozen=True)
-class LinePass:
-    """One pass of recursions along a line: ``sections`` summed, plus ``tap * I[x]``.
-
-    ``reverse=True`` runs it anticausally (right to left).
-    """
-
-    sections: tuple
-    tap: float = 0.0
-    reverse: bool = False
-
-    @property
-    def shift_invariant(self):
-        return all(s.shift_invariant for s in self.sections)
-
-    def mirrored(self, n):
-        """The pass in traversal coordinates of a reversed line of length ``n``."""
-        if not self.reverse or self.shift_invariant:
-            return self
-        return LinePass(tuple(s if s.kernel is None else Section(kernel=s.kernel.mirrored(n))
-                              for s in self.sections), self.tap, self.reverse)
-
-
 class GreenKernel:
     """Base class of the chapter's Green's functions as line filters.
 
@@ -318,7 +245,7 @@ class UniformGreen(GreenKernel):
     u: float
 
     def __post_init__(self):
-        object.__setattr__(self, "u", _positive("u", self.u))
+        object.__setattr__(self, "u", positive("u", self.u))
 
     shift_invariant = True
 
@@ -337,7 +264,7 @@ class HomogeneousGreen(GreenKernel):
     u: float
 
     def __post_init__(self):
-        object.__setattr__(self, "u", _positive("u", self.u))
+        object.__setattr__(self, "u", positive("u", self.u))
 
     shift_invariant = True
 
@@ -369,7 +296,7 @@ class AffineGreen(GreenKernel):
 
     def __post_init__(self):
         object.__setattr__(self, "u1", _u1_range(self.u1))
-        object.__setattr__(self, "x_U", _finite_scalar("x_U", self.x_U))
+        object.__setattr__(self, "x_U", finite_scalar("x_U", self.x_U))
 
     @property
     def x_min(self):
@@ -405,8 +332,8 @@ class AffineGreenApprox(GreenKernel):
     x_U: float
 
     def __post_init__(self):
-        object.__setattr__(self, "sigma", _positive("sigma", self.sigma))
-        object.__setattr__(self, "x_U", _finite_scalar("x_U", self.x_U))
+        object.__setattr__(self, "sigma", positive("sigma", self.sigma))
+        object.__setattr__(self, "x_U", finite_scalar("x_U", self.x_U))
 
     @property
     def x_min(self):
@@ -440,7 +367,7 @@ def _geometric_moments(lam):
 
 
 @lru_cache(maxsize=256)
-def _shift_coefficients(u):
+def shift_coefficients(u):
     """Taps ``w[0] = tap``, ``w[m] = Re(K lam^(m-1))`` of the discrete shift by ``u``.
 
     Chosen in the family of G_u's two poles (numerator of degree 2) as the member closest
@@ -477,12 +404,12 @@ def shift_pass(u):
     """The discrete sub-pixel shift by ``u`` (``u > 0`` toward +x, ``u < 0`` anticausal).
 
     Unit DC gain and first moment exactly ``u`` (to float64 rounding); poles
-    ``exp((-1 ± i)/|u|)`` of G_u; see :func:`_shift_coefficients` for the numerator.
+    ``exp((-1 ± i)/|u|)`` of G_u; see :func:`shift_coefficients` for the numerator.
     """
-    v = _finite_scalar("shift", u)
+    v = finite_scalar("shift", u)
     if v == 0:
         raise ValueError("shift must be non-zero here; callers skip zero shifts")
-    lam, kap, tap = _shift_coefficients(abs(v))
+    lam, kap, tap = shift_coefficients(abs(v))
     return LinePass((Section(lam=lam, kap=kap),), tap, reverse=v < 0)
 
 
@@ -499,10 +426,10 @@ def derivative_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
     (point-sampled), normalised so that ``-Σ m D[m] = 1`` (unit ramp response).
     """
     if single_scale:
-        u = _positive("u", u)
+        u = positive("u", u)
         scales = ((u, 1.0),)
     else:
-        u, a, eta, _, big_k = _edge_weights(u, a, eta)
+        u, a, eta, _, big_k = edge_weights(u, a, eta)
         scales = ((eta * u, 1.0), (u, big_k))
     norm = 2.0 * sum(w * _damped_sine_moment(v) for v, w in scales)
     passes = []
@@ -523,10 +450,10 @@ def projection_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
     ``q_u`` alone.
     """
     if single_scale:
-        u = _positive("u", u)
+        u = positive("u", u)
         scales = ((u, u),)
     else:
-        u, a, eta, _, big_k = _edge_weights(u, a, eta)
+        u, a, eta, _, big_k = edge_weights(u, a, eta)
         scales = ((eta * u, eta * u), (u, big_k * u))
     total = 0.0
     for v, w in scales:

@@ -13,7 +13,8 @@ def _available(name):
     try:
         be = get_backend(name)
         # one tiny call proves the device really works (driver, compiler)
-        from gfgpu import greens, recursion
+        from gfgpu import greens
+        from gfgpu._core import recursion
         plan = recursion.plan_pass(greens.UniformGreen(1.0).line_pass(), 4, "nearest", np.float32)
         src = be.asarray(np.ones((1, 1, 4), np.float32))
         be.recurse(src, be.empty((1, 1, 4), np.float32), 2, plan)

@@ -133,9 +133,9 @@ def test_import_is_lazy():
 
 
 def test_kernels_ship_with_the_package():
-    cl = importlib.resources.files("gfgpu.kernels.opencl").joinpath("recurse.cl")
-    assert cl.is_file() and "__kernel" in cl.read_text()
-    from gfgpu.kernels.warp import recurse  # noqa: F401
+    for name in ("recurse.cl", "recurse_lines.cl", "edges.cl", "stereo.cl"):
+        cl = importlib.resources.files("gfgpu.backends.opencl").joinpath(name)
+        assert cl.is_file() and "__kernel" in cl.read_text()
 
 
 @pytest.mark.skipif(os.environ.get("GFGPU_SKIP_WHEEL") == "1", reason="GFGPU_SKIP_WHEEL=1")
@@ -147,13 +147,16 @@ def test_wheel_contains_the_kernels(tmp_path):
                    check=True, capture_output=True)
     wheel = next(tmp_path.glob("gfgpu-*.whl"))
     names = zipfile.ZipFile(wheel).namelist()
-    assert "gfgpu/kernels/opencl/recurse.cl" in names
-    assert "gfgpu/kernels/warp/recurse.py" in names
+    for name in ("recurse.cl", "recurse_lines.cl", "edges.cl", "stereo.cl"):
+        assert f"gfgpu/backends/opencl/{name}" in names
+    for name in ("recurse.py", "edges.py", "stereo.py"):
+        assert f"gfgpu/backends/warp/{name}" in names
+    assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     assert "gfgpu/data/camera.png" in names
 
 
 def test_float64_on_a_device_without_fp64_is_an_error_not_a_downcast():
-    from gfgpu.backends.numpy_backend import NumpyBackend
+    from gfgpu.backends.numpy import NumpyBackend
     no_fp64 = NumpyBackend()
     no_fp64.supports_float64 = False      # stands in for a GPU without cl_khr_fp64
     with pytest.raises(TypeError, match="no float64 support"):
@@ -178,7 +181,7 @@ def test_cli_outputs_are_written_atomically_with_normal_permissions(tmp_path):
 def test_host_views_outlive_the_callers_reference(backend, rng):
     """A device that reads host memory in place keeps it until its kernels have run."""
     from gfgpu import greens
-    from gfgpu.recursion import plan_pass
+    from gfgpu._core.recursion import plan_pass
     plan = plan_pass(greens.UniformGreen(3.0).line_pass(), 512, "reflect", np.float32)
     expect, outs = [], []
     for _ in range(8):

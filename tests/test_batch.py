@@ -1,25 +1,30 @@
 """``gfgpu batch`` (gfgpu.batch, gfgpu.batch_cli): outputs, resume, atomicity, bad files, Dask."""
 
-import argparse
 import hashlib
 import os
+import re
 
 import imageio.v3 as iio
 import numpy as np
 import pytest
 
 import gfgpu
-from gfgpu import batch, batch_cli
-from gfgpu.cli import _gradient_png
-from gfgpu.files import to_display_8bit
+from gfgpu import batch
+from gfgpu.cli import main
+from gfgpu.io import gradient_to_rgb as _gradient_png
+from gfgpu.io import to_display_8bit
 
 
 def run_cli(*argv):
-    """``gfgpu batch ...`` through a parser holding only the batch subcommand; the exit code."""
-    parser = argparse.ArgumentParser(prog="gfgpu")
-    batch_cli.add_parser(parser.add_subparsers(dest="command", required=True))
-    args = parser.parse_args(["batch", *map(str, argv)])
-    return args.func(args)
+    """``gfgpu batch ...`` as the command runs it; the exit code."""
+    return main(["batch", *map(str, argv), "--quiet"])
+
+
+def fails_with(capsys, message, *argv):
+    """The command exits with status 2 and the one-line message ``gfgpu batch OP: ...``."""
+    assert run_cli(*argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("gfgpu batch ") and "\n" not in err and re.search(message, err), err
 
 
 def sha256(path):
@@ -232,10 +237,9 @@ def test_process_file_never_raises(tmp_path):
 # --------------------------------------------------------------------------------------
 # planning errors: before any work
 # --------------------------------------------------------------------------------------
-def test_refuses_to_overwrite_an_input(images):
+def test_refuses_to_overwrite_an_input(images, capsys):
     before = tree_digest(images)
-    with pytest.raises(SystemExit, match="overwrite an input"):
-        run_cli("shift", images, "-o", images, "--by", 1, 1, "--backend", "numpy")
+    fails_with(capsys, "overwrite an input", "shift", images, "-o", images, "--by", 1, 1, "--backend", "numpy")
     os.link(images / "g.png", images.parent / "g.npy")       # a hard link is the same file
     with pytest.raises(ValueError, match="overwrite an input"):
         batch.plan_jobs([str(images / "g.png")], str(images.parent), "shift", {"by": (1, 1)}, fmt="npy")
@@ -246,15 +250,14 @@ def test_refuses_to_overwrite_an_input(images):
     assert tree_digest(images) == before
 
 
-def test_same_stem_is_an_error_before_any_work(images, tmp_path):
+def test_same_stem_is_an_error_before_any_work(images, tmp_path, capsys):
     (images / "sub").mkdir()
     (images / "sub" / "g.jpg").write_bytes((images / "g.png").read_bytes())
-    with pytest.raises(SystemExit, match="same name stem 'g'"):
-        run_cli("shift", images, images / "sub", "-o", tmp_path / "out", "--by", 1, 1)
+    fails_with(capsys, "same name stem 'g'", "shift", images, images / "sub", "-o", tmp_path / "out", "--by", 1, 1)
     assert not (tmp_path / "out").exists()
 
 
-def test_discovery(images, tmp_path):
+def test_discovery(images, tmp_path, capsys):
     (images / "UPPER.PNG").write_bytes((images / "g.png").read_bytes())
     (images / "x.JpEg").write_bytes(b"")
     (images / "readme.txt").write_text("")
@@ -269,8 +272,7 @@ def test_discovery(images, tmp_path):
     with pytest.raises(ValueError, match=r"\*\.bmp.*matches no file"):
         batch.discover_inputs([str(images / "*.bmp")])
     (tmp_path / "empty").mkdir()
-    with pytest.raises(SystemExit, match="holds no image file"):
-        run_cli("gradient", tmp_path / "empty", "-o", tmp_path / "out")
+    fails_with(capsys, "holds no image file", "gradient", tmp_path / "empty", "-o", tmp_path / "out")
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -280,9 +282,8 @@ def test_discovery(images, tmp_path):
     (("blur", "--zoom", 3), "u1.* got 3"),
     (("blur", "--velocity", 1, 1, "--center", 3, 3), "--center"),
 ])
-def test_bad_parameters_fail_once_before_any_work(images, tmp_path, argv, message):
-    with pytest.raises(SystemExit, match=message):
-        run_cli(argv[0], images, "-o", tmp_path / "out", *argv[1:], "--backend", "numpy")
+def test_bad_parameters_fail_once_before_any_work(images, tmp_path, capsys, argv, message):
+    fails_with(capsys, message, argv[0], images, "-o", tmp_path / "out", *argv[1:], "--backend", "numpy")
     assert not (tmp_path / "out").exists()
 
 

@@ -3,8 +3,9 @@ import numpy as np
 import pytest
 from oracle import direct_axis
 
-from gfgpu import carry, greens
-from gfgpu.recursion import MODES, plan_pass, run_reference
+from gfgpu import greens
+from gfgpu._core import carry
+from gfgpu._core.recursion import MODES, plan_pass, run_reference
 
 PASSES = {
     "G_u(3)": greens.UniformGreen(3.0).line_pass(),

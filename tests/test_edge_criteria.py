@@ -2,8 +2,8 @@ import numpy as np
 import pytest
 from scipy import integrate
 
-from gfgpu import edge_criteria as ec
 from gfgpu import greens
+from gfgpu.edges import criteria as ec
 
 
 def test_chapter_index_3547():

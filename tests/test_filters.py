@@ -5,7 +5,7 @@ from oracle import TapKernel, direct_axis, direct_oblique, relerr
 
 import gfgpu
 from gfgpu import greens
-from gfgpu.recursion import MODES
+from gfgpu._core.recursion import MODES
 
 TOL = {np.float32: 1e-5, np.float64: 1e-12}
 ANGLES = {"0deg": 0.0, "90deg": np.pi / 2, "30deg": np.pi / 6, "135deg": 3 * np.pi / 4}

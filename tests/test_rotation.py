@@ -4,8 +4,10 @@ import math
 import numpy as np
 import pytest
 
-from gfgpu import greens, recursion
-from gfgpu.motion import motion_blur, rotation_shears, synthesize_motion
+from gfgpu import greens
+from gfgpu._core import recursion
+from gfgpu.motion import motion_blur, synthesize_motion
+from gfgpu.motion.rotation import rotation_shears
 
 MODES = ("constant", "nearest", "reflect", "mirror", "wrap")
 
@@ -82,7 +84,7 @@ def _shear_oracle(img, rate, axis, centre):
         if abs(d) <= 1e-9:
             res[i] = line
             continue
-        lam, kap, tap = greens._shift_coefficients(abs(d))
+        lam, kap, tap = greens.shift_coefficients(abs(d))
         w = np.concatenate([[tap], np.real(kap * lam ** (m - 1))])
         full = np.convolve(line if d > 0 else line[::-1], w)[:n]
         res[i] = full if d > 0 else full[::-1]

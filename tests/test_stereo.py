@@ -5,6 +5,8 @@ import pytest
 from scipy import ndimage
 
 from gfgpu import stereo
+from gfgpu.backends import specs
+from gfgpu.stereo import kernels as stereo_kernels
 
 
 def random_dot_pair(disp_fn, shape=(64, 112), seed=0):
@@ -82,22 +84,22 @@ def test_kernels_match_reference(backend):
     h, w, n = 23, 37, 9
     img_l, img_r = (rng.random((h, w)).astype(np.float32) for _ in range(2))
     cl, cr = backend.empty((1, h, w), np.uint64), backend.empty((2, h, w), np.uint64)
-    backend.stereo_census(backend.asarray(img_l), cl, 0, 2)
-    backend.stereo_census(backend.asarray(img_r), cr, 0, 2)
-    backend.stereo_census(backend.asarray(img_r[::-1].copy()), cr, 1, 2)
-    ref_l = stereo.census_transform_reference(img_l, 2)
+    stereo_kernels.census(backend, backend.asarray(img_l), cl, 0, 2)
+    stereo_kernels.census(backend, backend.asarray(img_r), cr, 0, 2)
+    stereo_kernels.census(backend, backend.asarray(img_r[::-1].copy()), cr, 1, 2)
+    ref_l = specs.census_transform_reference(img_l, 2)
     np.testing.assert_array_equal(backend.to_host(cl)[0], ref_l)
     cost = backend.empty((h, w, n), np.int16)
-    backend.stereo_cost(cl, cr, cost, -3, 2, 3, 24)
-    ref_cost = stereo.census_cost_reference(ref_l, backend.to_host(cr), -3, n, 2, 3, 24)
+    stereo_kernels.cost(backend, cl, cr, cost, -3, 2, 3, 24)
+    ref_cost = specs.census_cost_reference(ref_l, backend.to_host(cr), -3, n, 2, 3, 24)
     np.testing.assert_array_equal(backend.to_host(cost), ref_cost)
     agg = backend.empty((h, w, n), np.int16)
-    backend.stereo_sgm(cost, agg, 20, 150, 8)
-    ref_agg = stereo.sgm_aggregate_reference(ref_cost, 20, 150, 8)
+    stereo_kernels.sgm(backend, cost, agg, 20, 150, 8)
+    ref_agg = specs.sgm_aggregate_reference(ref_cost, 20, 150, 8)
     np.testing.assert_array_equal(backend.to_host(agg), ref_agg)
     disp, right = backend.empty((h, w), np.float32), backend.empty((h, w), np.int32)
-    backend.stereo_select(agg, disp, right, -2, 2, 5)
-    ref_d, ref_r = stereo.select_disparity_reference(ref_agg, -2, 2, 5)
+    stereo_kernels.select(backend, agg, disp, right, -2, 2, 5)
+    ref_d, ref_r = specs.select_disparity_reference(ref_agg, -2, 2, 5)
     np.testing.assert_allclose(backend.to_host(disp), ref_d, atol=1e-5)
     np.testing.assert_array_equal(backend.to_host(right), ref_r)
 
@@ -120,11 +122,11 @@ def _census_pair(backend, h, w, steps, radius, seed):
     img_l = rng.random((h, w)).astype(np.float32)
     img_r = [rng.random((h, w)).astype(np.float32) for _ in range(steps)]
     cl, cr = backend.empty((1, h, w), np.uint64), backend.empty((steps, h, w), np.uint64)
-    backend.stereo_census(backend.asarray(img_l), cl, 0, radius)
+    stereo_kernels.census(backend, backend.asarray(img_l), cl, 0, radius)
     for f in range(steps):
-        backend.stereo_census(backend.asarray(img_r[f]), cr, f, radius)
-    ref_l = stereo.census_transform_reference(img_l, radius)
-    ref_r = np.stack([stereo.census_transform_reference(im, radius) for im in img_r])
+        stereo_kernels.census(backend, backend.asarray(img_r[f]), cr, f, radius)
+    ref_l = specs.census_transform_reference(img_l, radius)
+    ref_r = np.stack([specs.census_transform_reference(im, radius) for im in img_r])
     return cl, cr, ref_l, ref_r
 
 
@@ -138,14 +140,14 @@ def test_cost_and_aggregation_match_reference(backend, case):
     np.testing.assert_array_equal(backend.to_host(cr), ref_r)
     bits = (2 * radius + 1) ** 2 - 1
     cost = backend.empty((h, w, n), np.int16)
-    backend.stereo_cost(cl, cr, cost, first, steps, block, bits)
-    ref_cost = stereo.census_cost_reference(ref_l, ref_r, first, n, steps, block, bits)
+    stereo_kernels.cost(backend, cl, cr, cost, first, steps, block, bits)
+    ref_cost = specs.census_cost_reference(ref_l, ref_r, first, n, steps, block, bits)
     np.testing.assert_array_equal(backend.to_host(cost), ref_cost)
     for p1, p2 in ((10, 100), (0, 0), (7, 7)):
         agg = backend.empty((h, w, n), np.int16)
-        backend.stereo_sgm(cost, agg, p1, p2, paths)
+        stereo_kernels.sgm(backend, cost, agg, p1, p2, paths)
         np.testing.assert_array_equal(backend.to_host(agg),
-                                      stereo.sgm_aggregate_reference(ref_cost, p1, p2, paths))
+                                      specs.sgm_aggregate_reference(ref_cost, p1, p2, paths))
 
 
 @pytest.mark.parametrize("n,steps,d_min", [(5, 1, 0), (17, 2, -3), (33, 3, 2), (40, 4, -1), (48, 2, 9)])
@@ -154,8 +156,8 @@ def test_select_matches_reference_with_ties(backend, n, steps, d_min):
     h, w = 6, 37
     agg = np.random.default_rng(n).integers(0, 12, (h, w, n)).astype(np.int16)
     disp, right = backend.empty((h, w), np.float32), backend.empty((h, w), np.int32)
-    backend.stereo_select(backend.asarray(agg), disp, right, d_min, steps, 5)
-    ref_d, ref_r = stereo.select_disparity_reference(agg, d_min, steps, 5)
+    stereo_kernels.select(backend, backend.asarray(agg), disp, right, d_min, steps, 5)
+    ref_d, ref_r = specs.select_disparity_reference(agg, d_min, steps, 5)
     np.testing.assert_allclose(backend.to_host(disp), ref_d, atol=1e-5)
     np.testing.assert_array_equal(backend.to_host(right), ref_r)
 
@@ -172,14 +174,14 @@ def test_opencl_line_aggregation_matches_reference(monkeypatch):
     for h, w, n, *_, paths in KERNEL_CASES[2:5]:
         cost = np.random.default_rng(n).integers(0, 60, (h, w, n)).astype(np.int16)
         agg = be.empty((h, w, n), np.int16)
-        be.stereo_sgm(be.asarray(cost), agg, 9, 70, paths)
-        np.testing.assert_array_equal(be.to_host(agg), stereo.sgm_aggregate_reference(cost, 9, 70, paths))
+        stereo_kernels.sgm(be, be.asarray(cost), agg, 9, 70, paths)
+        np.testing.assert_array_equal(be.to_host(agg), specs.sgm_aggregate_reference(cost, 9, 70, paths))
 
 
 def test_sgm_reference_single_path():
     # one horizontal path by hand: L = C + min(prev, prev±1 + P1, min + P2) - min
     cost = np.array([[[0, 5, 5], [5, 0, 5], [5, 5, 0]]], np.int16)
-    total = stereo.sgm_aggregate_reference(cost, 1, 3, paths=1)
+    total = specs.sgm_aggregate_reference(cost, 1, 3, paths=1)
     np.testing.assert_array_equal(total[0, 0], [0, 5, 5])
     np.testing.assert_array_equal(total[0, 1], [5 + 0, 0 + 1, 5 + 3])
     np.testing.assert_array_equal(total[0, 2], [5 + 2 - 1, 5 + 1 - 1, 0 + 2 - 1])
@@ -202,8 +204,8 @@ def test_lr_check_and_colour():
 def test_lr_check_rule():
     # left pixel x with d = 2 points at right pixel x - 2, whose own winner must be within 1 px
     disp = np.full((1, 6), 2.0, np.float32)
-    right = np.array([[2, 2, 2, 5, 2, stereo.NO_MATCH]], np.int32)
-    out = stereo._lr_check(disp, right, 1, 1.0)
+    right = np.array([[2, 2, 2, 5, 2, specs.NO_MATCH]], np.int32)
+    out = stereo.matching.left_right_check(disp, right, 1, 1.0)
     np.testing.assert_array_equal(np.isnan(out[0]), [True, True, False, False, False, True])
 
 
@@ -240,19 +242,20 @@ def test_bad_inputs():
 
 def test_cli_writes_png(tmp_path):
     pytest.importorskip("imageio")
-    from gfgpu import stereo_cli
+    from gfgpu import io
+    from gfgpu.cli import main
     left, right, _ = random_dot_pair(square)
     import imageio.v3 as iio
     iio.imwrite(tmp_path / "l.png", left.astype(np.uint8))
     iio.imwrite(tmp_path / "r.png", right.astype(np.uint8))
     out = tmp_path / "d.png"
-    rc = stereo_cli.main([str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(out),
-                          "--max-disparity", "16", "--npy", str(tmp_path / "d.npy"),
-                          "--pfm", str(tmp_path / "d.pfm"), "--backend", "numpy"])
+    rc = main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(out),
+               "--max-disparity", "16", "--npy", str(tmp_path / "d.npy"),
+               "--pfm", str(tmp_path / "d.pfm"), "--backend", "numpy"])
     assert rc == 0
     png = iio.imread(out)
     assert png.shape == left.shape + (3,) and png.dtype == np.uint8
     raw = np.load(tmp_path / "d.npy")
     assert raw.shape == left.shape and np.nanmedian(raw) == pytest.approx(4.0, abs=0.25)
-    pfm = stereo_cli.read_pfm(tmp_path / "d.pfm")
+    pfm = io.read_pfm(tmp_path / "d.pfm")
     np.testing.assert_array_equal(np.isnan(pfm), np.isnan(raw))

@@ -5,9 +5,10 @@ import numpy as np
 import pytest
 
 import gfgpu
-from gfgpu import strips
+from gfgpu import filter_npy
+from gfgpu._core import strips
+from gfgpu._core.recursion import MODES
 from gfgpu.greens import AffineGreen, UniformGreen
-from gfgpu.recursion import MODES
 
 SMALL = 150_000   # bytes: a 400 x 300 float32 image (480 kB) runs in 10-row strips
 
@@ -120,7 +121,7 @@ def test_filter_npy_equals_in_memory(backend, op, params, tmp_path, rng):
     src, dst = tmp_path / "in.npy", tmp_path / "out.npy"
     np.save(src, img)
     before = src.read_bytes()
-    info = strips.filter_npy(op, src, dst, working_set="60K", backend=backend.name, **params)
+    info = filter_npy(op, src, dst, working_set="60K", backend=backend.name, **params)
     assert info["strips"] > 5
     ref = getattr(gfgpu, op)(img, backend=backend, **params)
     out = np.load(dst)
@@ -133,7 +134,7 @@ def test_filter_npy_large_strips(backend, tmp_path, rng):
     """Strips above the OpenCL CPU zero-copy size: the device reads freshly read host buffers."""
     img = rng.random((900, 700)).astype(np.float32)
     np.save(tmp_path / "in.npy", img)
-    info = strips.filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(2.5, -1.5),
+    info = filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(2.5, -1.5),
                              working_set="4M", backend=backend.name)
     assert info["strips"] >= 3 and info["strip_rows"] * 700 * 4 > 1 << 16
     ref = gfgpu.shift(img, (2.5, -1.5), backend=backend)
@@ -145,34 +146,34 @@ def test_filter_npy_errors_leave_no_output(tmp_path, rng):
     img[90, 3] = np.nan
     np.save(tmp_path / "nan.npy", img)
     with pytest.raises(ValueError, match="NaN"):
-        strips.filter_npy("shift", tmp_path / "nan.npy", tmp_path / "out.npy", shift=(1.0, 0.0),
+        filter_npy("shift", tmp_path / "nan.npy", tmp_path / "out.npy", shift=(1.0, 0.0),
                           working_set="20K", backend="numpy")
     assert sorted(os.listdir(tmp_path)) == ["nan.npy"]
     good = tmp_path / "good.npy"
     np.save(good, rng.random((100, 50)))
     with pytest.raises(ValueError, match="source"):
-        strips.filter_npy("shift", good, good, shift=(1.0, 0.0), backend="numpy")
+        filter_npy("shift", good, good, shift=(1.0, 0.0), backend="numpy")
     with pytest.raises(ValueError, match="operator"):
-        strips.filter_npy("sharpen", good, tmp_path / "o.npy", backend="numpy")
+        filter_npy("sharpen", good, tmp_path / "o.npy", backend="numpy")
     truncated = tmp_path / "short.npy"
     truncated.write_bytes(good.read_bytes()[:-800])
     with pytest.raises(ValueError, match="truncated"):
-        strips.filter_npy("shift", truncated, tmp_path / "o.npy", shift=(1.0, 0.0), backend="numpy")
+        filter_npy("shift", truncated, tmp_path / "o.npy", shift=(1.0, 0.0), backend="numpy")
     np.save(tmp_path / "fortran.npy", np.asfortranarray(rng.random((20, 30))))
     with pytest.raises(ValueError, match="Fortran"):
-        strips.filter_npy("shift", tmp_path / "fortran.npy", tmp_path / "o.npy", shift=(1.0, 0.0), backend="numpy")
+        filter_npy("shift", tmp_path / "fortran.npy", tmp_path / "o.npy", shift=(1.0, 0.0), backend="numpy")
     (tmp_path / "text.npy").write_text("not an array")
     with pytest.raises(ValueError, match="npy"):
-        strips.filter_npy("shift", tmp_path / "text.npy", tmp_path / "o.npy", shift=(1.0, 0.0), backend="numpy")
+        filter_npy("shift", tmp_path / "text.npy", tmp_path / "o.npy", shift=(1.0, 0.0), backend="numpy")
     with pytest.raises(TypeError, match="downcast"):
-        strips.filter_npy("shift", good, tmp_path / "o.npy", shift=(1.0, 0.0), dtype="float32", backend="numpy")
+        filter_npy("shift", good, tmp_path / "o.npy", shift=(1.0, 0.0), dtype="float32", backend="numpy")
     assert not (tmp_path / "o.npy").exists()
 
 
 def test_filter_npy_integer_input_gives_float32(tmp_path, rng):
     img = rng.integers(0, 4000, (64, 80), dtype=np.uint16)
     np.save(tmp_path / "in.npy", img)
-    strips.filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(0.0, 3.0), backend="numpy")
+    filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(0.0, 3.0), backend="numpy")
     out = np.load(tmp_path / "out.npy")
     assert out.dtype == np.float32
     assert np.abs(out - gfgpu.shift(img, (0.0, 3.0), backend="numpy")).max() <= 1e-3

@@ -1,4 +1,4 @@
-"""Backend registry and the one device-resolution rule (DESIGN §4).
+"""Backend registry and the one device-resolution rule.
 
 Resolution, first match wins:
 
@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import copyreg
 import os
 from dataclasses import dataclass
 from functools import cache, lru_cache
@@ -23,14 +24,15 @@ from functools import cache, lru_cache
 from .base import Backend, BackendUnavailable
 
 __all__ = ["Backend", "BackendUnavailable", "BACKENDS", "get_backend", "resolve_backend",
-           "use_backend", "devices", "DeviceInfo"]
+           "use_backend", "devices", "DeviceInfo", "backend_request", "check_backend_name"]
 
 BACKENDS = ("numpy", "warp", "opencl")
 
 _current = contextvars.ContextVar("gfgpu_backend", default=None)
 
 
-def _check_name(name):
+def check_backend_name(name):
+    """``name`` if it is a backend name; ``ValueError`` listing the names otherwise."""
     if name not in BACKENDS:
         raise ValueError(f"backend must be one of {', '.join(BACKENDS)}; got {name!r}")
     return name
@@ -49,7 +51,21 @@ def _make(name, device_key, device):
     be = _construct(name, device_key, device)
     if device is None or isinstance(device, (str, int)):
         be._requested = device   # pickles as get_backend(name, device): same request elsewhere
+    copyreg.pickle(type(be), _reduce)
     return be
+
+
+def backend_request(be):
+    """``(name, device)`` such that ``get_backend(name, device)`` builds ``be``'s equivalent in
+    another process: the request that made it where there was one, else its device spec."""
+    requested = getattr(be, "_requested", False)
+    return (be.name, requested) if requested is not False else be.spec
+
+
+def _reduce(be):
+    # backends pickle by name and device, rebuilt by get_backend in the receiving process
+    # (device contexts and queues do not pickle)
+    return (get_backend, backend_request(be))
 
 
 @cache
@@ -57,18 +73,18 @@ def _construct(name, device_key, device):
     if name == "numpy":
         if device not in (None, "host", "cpu"):
             raise BackendUnavailable(f"the numpy backend runs on the host only; got device={device!r}")
-        from .numpy_backend import NumpyBackend
+        from .numpy import NumpyBackend
         return NumpyBackend()
     if name == "warp":
-        from .warp_backend import WarpBackend
+        from .warp import WarpBackend
         return WarpBackend(device)
-    from .opencl_backend import OpenCLBackend
+    from .opencl import OpenCLBackend
     return OpenCLBackend(device)
 
 
 def get_backend(name, device=None) -> Backend:
     """The (cached) backend ``name`` on ``device``; raises BackendUnavailable with the reason."""
-    _check_name(name)
+    check_backend_name(name)
     if isinstance(device, str) and device.isdigit():
         device = int(device)
     try:
@@ -92,12 +108,12 @@ def _automatic():
     for name, want in (("warp", "cuda"), ("opencl", "gpu"), ("opencl", "cpu"), ("warp", "cpu")):
         try:
             if name == "warp":
-                from .warp_backend import warp_devices
+                from .warp import warp_devices
                 devs = [d for d in warp_devices() if d.startswith(want)]
                 if devs:
                     return get_backend("warp", devs[0])
             else:
-                from .opencl_backend import opencl_devices
+                from .opencl import opencl_devices
                 devs = [i for i, _, kind in opencl_devices() if kind == want]
                 if devs:
                     return get_backend("opencl", devs[0])
@@ -112,7 +128,7 @@ def array_backend(array):
     if mod.startswith("warp"):
         return get_backend("warp", str(array.device))
     if mod.startswith("pyopencl"):
-        from .opencl_backend import backend_for_queue
+        from .opencl import backend_for_queue
         return backend_for_queue(array.queue)
     return None
 
@@ -122,7 +138,7 @@ def resolve_backend(backend=None, device=None, array=None) -> Backend:
     if isinstance(backend, Backend):
         return backend
     if backend is not None:
-        return get_backend(_check_name(backend), device)
+        return get_backend(check_backend_name(backend), device)
     if device is not None:
         raise ValueError("device= needs backend= as well (e.g. backend='warp', device='cuda:0')")
     if array is not None:
@@ -148,7 +164,7 @@ def use_backend(backend, device=None):
     >>> with gfgpu.use_backend("numpy"):
     ...     out = gfgpu.shift(np.eye(8), (0.0, 1.5))
     """
-    be = _parse_spec(backend) if device is None else get_backend(_check_name(backend), device)
+    be = _parse_spec(backend) if device is None else get_backend(check_backend_name(backend), device)
     token = _current.set(be)
     try:
         yield be
@@ -173,7 +189,7 @@ def devices():
     """Every backend/device gfgpu can see, usable or not (with the reason)."""
     out = [DeviceInfo("numpy", "host", "cpu", True, "float64 reference, vectorised over lines")]
     try:
-        from .warp_backend import unavailable_reason, warp_devices
+        from .warp import unavailable_reason, warp_devices
         why = unavailable_reason()
         if why:
             out.append(DeviceInfo("warp", "-", "-", False, why))
@@ -185,8 +201,8 @@ def devices():
     except Exception as exc:
         out.append(DeviceInfo("warp", "-", "-", False, str(exc)))
     try:
-        from .opencl_backend import opencl_devices
-        from .opencl_backend import unavailable_reason as ocl_reason
+        from .opencl import opencl_devices
+        from .opencl import unavailable_reason as ocl_reason
         why = ocl_reason()
         if why:
             out.append(DeviceInfo("opencl", "-", "-", False, why))

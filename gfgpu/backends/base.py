@@ -1,9 +1,11 @@
 """The contract every backend implements.
 
 A backend owns a kind of array (numpy, ``warp.array``, ``pyopencl.array.Array``) on one
-device and runs the single recursion primitive of :mod:`gfgpu.recursion` on it, plus a
+device and runs the single recursion primitive of :mod:`gfgpu._core.recursion` on it, plus a
 gather used to lay oblique lines out as rows.  Everything else is host composition
-(:mod:`gfgpu.filters`).
+(:mod:`gfgpu.filters`), except the fused kernels that applications register
+(:mod:`gfgpu.backends.fused`).  Backends pickle by name and device (see
+:mod:`gfgpu.backends`).
 """
 
 from __future__ import annotations
@@ -99,29 +101,29 @@ class Backend:
 
     @property
     def memory_budget(self):
-        """Default working set in bytes (:mod:`gfgpu.strips`): None where device memory is
+        """Default working set in bytes (:mod:`gfgpu._core.strips`): None where device memory is
         host memory (CPU devices), half the device's memory on a GPU."""
         return None
 
     # ---- the primitive --------------------------------------------------------------
     def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
-        """Run one pass of :func:`gfgpu.recursion.run_reference` on every line.
+        """Run one pass of :func:`gfgpu._core.recursion.run_reference` on every line.
 
         ``src`` and ``dst`` are C-contiguous device arrays of shape ``(B, N, M)`` and the
         same dtype; ``axis`` is 1 (lines along N: ``B*M`` lines, lanes contiguous) or 2 (lines
-        along M: ``B*N`` contiguous lines).  ``plan`` is a :class:`gfgpu.recursion.PassPlan`
+        along M: ``B*N`` contiguous lines).  ``plan`` is a :class:`gfgpu._core.recursion.PassPlan`
         with ``plan.n`` equal to the line length.  ``dst`` may be ``src`` unless
         ``accumulate`` is true.
         """
         raise NotImplementedError
 
-
     def recurse_lines(self, src, dst, axis, plans, cval=0.0):
         """Per-line variant of :meth:`recurse`: line ``i`` (index along the other image
-        axis) runs its own pass of ``plans`` (:class:`gfgpu.recursion.LinePlans`, spec
-        :func:`gfgpu.recursion.run_reference_lines`); the batch axis 0 shares the plans.
+        axis) runs its own pass of ``plans`` (:class:`gfgpu._core.recursion.LinePlans`, spec
+        :func:`gfgpu._core.recursion.run_reference_lines`); the batch axis 0 shares the plans.
         ``dst`` may be ``src``."""
         raise NotImplementedError
+
     def gather(self, src, index, cval, out):
         """``out.flat[i] = src.flat[index[i]]`` or ``cval`` where ``index[i] < 0``.
 
@@ -130,55 +132,12 @@ class Backend:
         """
         raise NotImplementedError
 
-    def suppress_nonmaxima(self, gy, gx, out):
-        """Interpolated non-maximum suppression of the gradient ``(gy, gx)`` (2-D arrays).
-
-        See :func:`gfgpu.edges.suppress_nonmaxima_reference` for the exact rule.
-        """
-        raise NotImplementedError
-
-    # ---- stereo (gfgpu.stereo; numpy specifications: the *_reference functions there) ------
-    def stereo_census(self, image, out, plane, radius):
-        """``out[plane] = census_transform_reference(image, radius)``.
-
-        ``image`` (H, W) float32, ``out`` (S, H, W) uint64 device arrays.
-        """
-        raise NotImplementedError
-
-    def stereo_cost(self, census_left, census_right, out, first_step, steps, block, invalid):
-        """``out = census_cost_reference(census_left[0], census_right, first_step / steps, ...)``.
-
-        ``census_left`` (1, H, W) and ``census_right`` (steps, H, W) uint64; ``out``
-        (H, W, D) int16; ``first_step = d_min * steps``.
-        """
-        raise NotImplementedError
-
-    def stereo_sgm(self, cost, out, p1, p2, paths):
-        """``out = sgm_aggregate_reference(cost, p1, p2, paths)`` ((H, W, D) int16 arrays)."""
-        raise NotImplementedError
-
-    def stereo_select(self, aggregated, disp, disp_right, d_min, steps, uniqueness):
-        """``disp, disp_right = select_disparity_reference(aggregated, d_min, steps, uniqueness)``.
-
-        ``disp`` (H, W) float32, ``disp_right`` (H, W) int32 device arrays, written.
-        """
-        raise NotImplementedError
-
-    def stereo_sweep(self, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
-        """``sweep_update_reference(state, ...)`` in place on device arrays (float32)."""
-        raise NotImplementedError
-
     # ---- pickling: by name, rebuilt in the receiving process ----------------------------
     @property
     def spec(self):
         """``(name, device)`` such that ``gfgpu.get_backend(*spec)`` builds this backend's
         equivalent in another process (device contexts and queues do not pickle)."""
         return (self.name, None)
-
-    def __reduce__(self):
-        from . import get_backend
-        requested = getattr(self, "_requested", False)
-        return (get_backend, (self.name, requested) if requested is not False else self.spec)
 
     def __repr__(self):
         return f"<gfgpu backend {self.name!r} on {self.device}>"

@@ -1,0 +1,7 @@
+"""``python -m gfgpu``: the ``gfgpu`` command."""
+
+import sys
+
+from .cli import main
+
+sys.exit(main())

@@ -1,0 +1,157 @@
+"""One operator call: input validation, device placement, output handling and the run.
+
+:class:`Job` turns the caller's ``input``/``output`` into device arrays on an already
+resolved backend (``numpy in, numpy out``; a device array stays on its device) and
+:func:`apply_program` runs a :class:`~gfgpu._core.program.Program` on it, in strips when a
+host image exceeds the working set (:mod:`gfgpu._core.strips`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import strips
+from .program import run_passes
+from .validation import host_all_finite, work_dtype
+
+__all__ = ["Job", "apply_program", "copy_of_input"]
+
+
+class Job:
+    """Input validation, device placement and output handling shared by every operator.
+
+    ``backend`` is a resolved :class:`gfgpu.backends.Backend` (the caller applies the
+    resolution rule with the input array, so that device arrays stay where they are).
+    """
+
+    def __init__(self, input, output, backend, min_ndim=1):
+        be = backend
+        self.backend = be
+        self.host_input = be.name == "numpy" or not be.owns(input)
+        if self.host_input:
+            arr = np.asarray(input)
+            if arr.dtype == object:
+                raise TypeError("input must be a numeric array, got dtype object")
+        else:
+            arr = input
+        if arr.ndim < min_ndim:
+            raise ValueError(f"input must have at least {min_ndim} dimension(s), got shape {arr.shape}")
+        if arr.size == 0:
+            raise ValueError(f"input is empty (shape {arr.shape})")
+        self.shape = tuple(int(s) for s in arr.shape)
+        self.ndim = len(self.shape)
+        self.dtype = work_dtype(arr.dtype if self.host_input else be.dtype_of(arr))
+        if self.dtype == np.float64 and not be.supports_float64:
+            raise TypeError(f"input is float64 but {be!r} has no float64 support; pass a float32 "
+                            f"array or choose another device (no silent downcast)")
+        self.output = output
+        if output is not None and isinstance(output, (type, np.dtype, str)):
+            out_dtype = np.dtype(output)
+            if out_dtype not in (np.float32, np.float64):
+                raise TypeError(f"output dtype must be float32 or float64, got {out_dtype}")
+            if out_dtype.itemsize < self.dtype.itemsize:
+                raise TypeError(f"output dtype {out_dtype} would downcast the {self.dtype} result")
+            self.dtype = out_dtype
+            self.output = None
+        if self.host_input:
+            if not host_all_finite(arr):
+                raise ValueError("input contains NaN or infinite values")
+            self.source = arr           # converted and placed on the device when first used
+            self._data = None
+        else:
+            if work_dtype(be.dtype_of(arr)) != self.dtype:
+                raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
+            if not be.all_finite(arr):
+                raise ValueError("input contains NaN or infinite values")
+            self.source = self._data = arr
+        if self.output is not None:
+            self._check_output(self.output)
+
+    @property
+    def data(self):
+        """The input as a device array of the work dtype (host images: uploaded on first use)."""
+        if self._data is None:
+            self._data = self.backend.host_view(np.ascontiguousarray(self.source, dtype=self.dtype))
+        return self._data
+
+    @property
+    def nbytes(self):
+        return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
+
+    def _check_output(self, output):
+        if tuple(output.shape) != self.shape:
+            raise ValueError(f"output must have the input's shape {self.shape}, got {tuple(output.shape)}")
+        odt = np.dtype(output.dtype) if isinstance(output, np.ndarray) else self.backend.dtype_of(output)
+        if odt not in (np.float32, np.float64):
+            raise TypeError(f"output must be float32 or float64, got {odt}")
+        if odt.itemsize < self.dtype.itemsize:
+            raise TypeError(f"output dtype {odt} would downcast the {self.dtype} result")
+        if isinstance(output, np.ndarray) != self.host_input:
+            raise TypeError("output must be the same kind of array as input (numpy or device array)")
+
+    def empty(self):
+        return self.backend.empty(self.shape, self.dtype)
+
+    def result_buffer(self):
+        """The buffer of the final result: the caller's ``output`` itself where it can be
+        written in place, host-shared when a numpy result is returned, else a new array."""
+        be, out = self.backend, self.output
+        if self.host_input:
+            if out is None:
+                return be.host_result(self.shape, self.dtype)
+            direct = (out.dtype == self.dtype and out.flags.c_contiguous and out.flags.writeable
+                      and not np.may_share_memory(out, self.source))
+            return be.host_result(self.shape, self.dtype, into=out) if direct else self.empty()
+        if (out is not None and be.dtype_of(out) == self.dtype and be.is_contiguous(out)
+                and not be.may_share_memory(out, self.source)):
+            return out
+        return self.empty()
+
+    def finish(self, result):
+        """Return ``result`` (a device array of self.shape) in the caller's array kind."""
+        be = self.backend
+        if self.host_input:
+            host = be.to_host(result)
+            if self.output is not None:
+                if host is not self.output:
+                    self.output[...] = host
+                return self.output
+            return host
+        if self.output is not None:
+            if self.backend.dtype_of(self.output) != self.dtype:
+                raise TypeError("device output must have the computation's dtype")
+            if result is not self.output:
+                be.copy(result, self.output)
+            return self.output
+        return result
+
+
+def apply_program(job, program, mode, cval):
+    """Run a :class:`~gfgpu._core.program.Program` with ping-pong buffers; never touch the input.
+
+    Host images whose working memory exceeds the working set are streamed through the device
+    in strips (exact, :mod:`gfgpu._core.strips`).
+    """
+    if job.host_input and strips.needs_strips(job):
+        return strips.run_job(job, program, mode, cval)
+    steps = program.steps
+    if not steps:
+        return job.finish(copy_of_input(job))
+    bufs = [job.empty() for _ in range(min(2, len(steps)))]
+    bufs[(len(steps) - 1) % 2] = job.result_buffer()
+    cur = job.data
+    for i, (passes, axis, angle) in enumerate(steps):
+        nxt = bufs[i % 2]
+        run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle,
+                   plane=program.plane)
+        cur = nxt
+    return job.finish(cur)
+
+
+def copy_of_input(job):
+    """A device copy of the job's input (the result of an empty program)."""
+    if job.host_input:
+        return job.backend.asarray(np.array(job.backend.to_host(job.data), copy=True))
+    out = job.empty()
+    job.backend.copy(job.data, out)
+    return out

@@ -1,0 +1,129 @@
+"""Programs: what an operator computes, as passes along axes or directions, and how to run one.
+
+A :class:`Program` is independent of arrays and devices.  The in-memory operators
+(:func:`gfgpu._core.job.apply_program`), the strip executor (:mod:`gfgpu._core.strips`) and the
+Dask wrappers (:mod:`gfgpu.dask`) all run programs with :func:`run_steps`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import NamedTuple
+
+import numpy as np
+
+from .lines import axis_view_shape, direction, normalize_axis, oblique_maps
+from .passes import LinePass
+from .recursion import plan_pass
+from .validation import finite_scalar
+
+__all__ = ["Program", "run_passes", "run_steps", "direction_steps", "plane_axes", "axes_list",
+           "per_axis", "is_axis_angle"]
+
+
+class Program(NamedTuple):
+    """What an operator computes, independent of arrays and devices.
+
+    ``steps`` is a list of ``(passes, axis, angle)`` applied in turn; the passes of one step
+    run along the same lines and are summed.  ``axis`` is an array axis (``angle`` None) or
+    None for the image-plane direction ``angle`` (the plane is ``plane``, the last two axes).
+    """
+
+    steps: list
+    plane: tuple | None = None
+
+
+def run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, plane=None):
+    """Apply ``passes`` (summed: the first writes, the rest accumulate) along an axis or direction.
+
+    ``src`` and ``dst`` are distinct device arrays of the same shape; ``src`` is not modified.
+    """
+    shape = tuple(src.shape)
+    if angle is None:
+        view, line_axis = axis_view_shape(shape, axis)
+        n = view[line_axis]
+        s3, d3 = be.reshape(src, view), be.reshape(dst, view)
+        for i, lp in enumerate(passes):
+            be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
+        return dst
+    ya, xa = plane
+    if (ya, xa) != (len(shape) - 2, len(shape) - 1):
+        raise ValueError("oblique filtering needs the image plane on the last two axes of the "
+                         "working array")
+    height, width = shape[-2], shape[-1]
+    batch = int(np.prod(shape[:-2], dtype=np.int64))
+    _, reverse, _ = direction(angle)
+    shear, unshear, lines, steps = oblique_maps(height, width, batch, float(angle), mode)
+    rows_in = be.empty((batch, lines, steps), dtype)
+    rows_out = be.empty((batch, lines, steps), dtype)
+    be.gather(be.reshape(src, (-1,)), shear, cval, be.reshape(rows_in, (-1,)))
+    for i, lp in enumerate(passes):
+        lp = LinePass(lp.sections, lp.tap, lp.reverse != reverse)
+        be.recurse(rows_in, rows_out, 2, plan_pass(lp, steps, mode, dtype), cval, accumulate=i > 0)
+    be.gather(be.reshape(rows_out, (-1,)), unshear, 0.0, be.reshape(dst, (-1,)))
+    return dst
+
+
+def run_steps(be, data, dtype, steps, mode, cval, plane=None):
+    """Apply ``steps`` in turn to the device array ``data`` (kept); the last result is returned.
+
+    The strip executor and the Dask tasks run their in-block steps with this.
+    """
+    cur = data
+    for passes, axis, angle in steps:
+        nxt = be.empty(tuple(data.shape), dtype)
+        run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
+        cur = nxt
+    return cur
+
+
+def is_axis_angle(angle):
+    """True when the direction ``angle`` (radians) is one of the array axes."""
+    _, _, gamma = direction(angle)
+    return abs(gamma) < 1e-12
+
+
+def plane_axes(axes, ndim):
+    """The (row, column) axes of the image plane, normalised; default the last two."""
+    if axes is None:
+        axes = (-2, -1)
+    if len(axes) != 2:
+        raise ValueError(f"axes must name two axes (rows, columns) of the image plane, got {axes!r}")
+    ya, xa = (normalize_axis(a, ndim, "axes") for a in axes)
+    if ya == xa:
+        raise ValueError(f"axes must name two different axes, got {axes!r}")
+    return ya, xa
+
+
+def direction_steps(ndim, passes, angle, axes):
+    """(steps, plane) for filtering along ``angle`` in the plane ``axes``: an axis pass when aligned."""
+    ya, xa = plane_axes(axes, ndim)
+    steep, reverse, gamma = direction(angle)
+    if abs(gamma) < 1e-12:
+        axis = ya if steep else xa
+        flipped = [LinePass(p.sections, p.tap, p.reverse != reverse) for p in passes]
+        return [(flipped, axis, None)], None
+    if (ya, xa) != (ndim - 2, ndim - 1):
+        raise ValueError("oblique directions need the image plane on the last two axes; move the "
+                         "channel axis first (e.g. numpy.moveaxis(image, -1, 0)) or pass channel_axis")
+    return [(passes, None, angle)], (ya, xa)
+
+
+def per_axis(value, axes, name):
+    """One float per axis in ``axes`` from a scalar or a sequence (array-axis order)."""
+    if isinstance(value, (Sequence, np.ndarray)) and not isinstance(value, str):
+        vals = [finite_scalar(name, v) for v in value]
+        if len(vals) != len(axes):
+            raise ValueError(f"{name} must have one value per axis ({len(axes)}), got {len(vals)}")
+        return vals
+    return [finite_scalar(name, value)] * len(axes)
+
+
+def axes_list(axes, ndim):
+    """Normalised, distinct axes; None means all ``ndim`` axes."""
+    if axes is None:
+        return list(range(ndim))
+    axes = [normalize_axis(a, ndim, "axes") for a in np.atleast_1d(axes)]
+    if len(set(axes)) != len(axes):
+        raise ValueError(f"axes must not repeat, got {axes!r}")
+    return axes

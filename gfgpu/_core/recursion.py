@@ -1,0 +1,302 @@
+"""The one recursion primitive: its host-side plan and its executable specification.
+
+Every backend implements :func:`run_reference` (below, in numpy) on its device.  A *plan*
+(:class:`PassPlan`) holds everything a kernel needs for one pass over lines of ``n``
+samples, in traversal order (reversed lines for anticausal passes):
+
+* ``lam[s, k]``, ``kap[s, k]``  complex recursion coefficients of section ``s`` at step ``k``
+  (``constant=True``: every column equals column 0, kernels may read ``[s, 0]`` once);
+* ``omega[s, j]`` (``j < L``) and ``omega_c[s]``: the initial state, the boundary mode realised
+  exactly as ``F_s[0] = Σ_j omega[s, j] I[j] + omega_c[s] cval`` (DESIGN §5);
+* ``tap``: direct term.
+
+For each line ``I[0..n-1]`` (traversal order) a kernel computes::
+
+    F_s = Σ_{j<L} omega[s, j] I[j] + omega_c[s] * cval           (complex)
+    for k in 0..n-1:
+        y = Σ_s Re F_s + tap * I[k]
+        out[k] = y            (or out[k] += y when accumulating)
+        F_s = lam[s, k] F_s + kap[s, k] I[k]
+
+Boundary modes (scipy.ndimage names) extend the line beyond its first sample:
+
+=========  ==========================  =======================
+mode       extension                   left of ``a b c d``
+=========  ==========================  =======================
+constant   ``cval``                    ``k k k k | a b c d``
+nearest    edge value                  ``a a a a | a b c d``
+reflect    half-sample symmetric       ``d c b a | a b c d``
+mirror     whole-sample symmetric      ``d c b | a b c d``
+wrap       periodic                    ``a b c d | a b c d``
+=========  ==========================  =======================
+
+The infinite sum over the extension is folded into ``omega`` exactly (geometric series
+summed in float64; terms below ``tol`` relative to the largest are dropped, ``tol`` = 1e-18
+for float64 and 1e-10 for float32, i.e. far below each type's rounding).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from .passes import LinePass
+
+MODES = ("constant", "nearest", "reflect", "mirror", "wrap")
+
+TOL = {np.dtype(np.float32): 1e-10, np.dtype(np.float64): 1e-18}
+_MAX_EXTENSION = 50_000_000
+
+
+def check_mode(mode):
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+    return mode
+
+
+def extension_index(x0, n, mode):
+    """Index into a line of ``n`` samples of the extension sample at ``x0 < 0`` (-1: cval)."""
+    x0 = np.asarray(x0, dtype=np.int64)
+    if mode == "constant":
+        return np.full(x0.shape, -1, np.int64)
+    if mode == "nearest":
+        return np.zeros(x0.shape, np.int64)
+    if mode == "wrap":
+        return np.mod(x0, n)
+    if mode == "reflect":
+        i = np.mod(x0, 2 * n)
+        return np.where(i >= n, 2 * n - 1 - i, i)
+    if mode == "mirror":
+        if n == 1:
+            return np.zeros(x0.shape, np.int64)
+        i = np.mod(x0, 2 * n - 2)
+        return np.where(i >= n, 2 * n - 2 - i, i)
+    raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
+
+
+@dataclass(frozen=True, eq=False)
+class PassPlan:
+    lam: np.ndarray      # (S, n) complex128
+    kap: np.ndarray      # (S, n) complex128
+    omega: np.ndarray    # (S, L) complex128
+    omega_c: np.ndarray  # (S,)   complex128
+    tap: float
+    reverse: bool
+    constant: bool
+
+    @property
+    def n(self):
+        return self.lam.shape[1]
+
+    @property
+    def sections(self):
+        return self.lam.shape[0]
+
+    def packed(self, dtype):
+        """Real arrays for device kernels: (S, n, 2) lam and kap, (S, L, 2) omega, (S, 2) omega_c."""
+        def split(z):
+            return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-1).astype(dtype))
+        return split(self.lam), split(self.kap), split(self.omega), split(self.omega_c)
+
+
+def _initial_weights(section, n, mode, tol):
+    """omega (length <= n) and omega_c for one section, by summing the kernel over x0 < 0."""
+    if section.shift_invariant:
+        lam, kap = complex(section.lam), complex(section.kap)
+        mag = abs(lam)
+        if mode in ("constant", "nearest"):
+            total = kap / (1 - lam)
+            return (np.zeros(0, np.complex128), total) if mode == "constant" else \
+                (np.array([total]), 0j)
+        # Kc(0, -m) = kap lam^(m-1), m >= 1; sum one period at a time is not needed: the
+        # terms decay geometrically, so sum until below tol (at most a few periods).
+        m_max = 1 if mag == 0 else int(min(_MAX_EXTENSION, math.ceil(math.log(tol) / math.log(mag)) + 1))
+        m = np.arange(1, m_max + 1)
+        weights = kap * np.power(lam, (m - 1).astype(np.float64))
+        idx = extension_index(-m, n, mode)
+        omega = np.bincount(idx, weights.real, minlength=n) + 1j * np.bincount(idx, weights.imag, minlength=n)
+        return omega, 0j
+    # shift-variant: Kc(0, x0) = (Π_{x0<x<0} lam[x]) kap[x0], over the domain x0 > x_min
+    lo = section.x_min
+    count = _MAX_EXTENSION if not math.isfinite(lo) else int(math.ceil(-lo)) - 1
+    if count > _MAX_EXTENSION:
+        raise ValueError(f"the kernel's domain extends {count} samples beyond the line; "
+                         f"at most {_MAX_EXTENSION} are summed for the boundary condition")
+    if count <= 0:
+        return np.zeros(0, np.complex128), 0j
+    x0 = -np.arange(1, count + 1, dtype=np.float64)          # -1, -2, ...
+    lam, kap = section.coefficients(x0)
+    # log of the product of lam over (x0, 0): cumulative from the right
+    log_prod = np.concatenate([[0.0 + 0j], np.cumsum(np.log(lam[:-1]))])
+    weights = np.exp(log_prod) * kap
+    if mode == "constant":
+        return np.zeros(0, np.complex128), weights.sum()
+    idx = extension_index(x0.astype(np.int64), n, mode)
+    omega = np.bincount(idx, weights.real, minlength=n) + 1j * np.bincount(idx, weights.imag, minlength=n)
+    return omega, 0j
+
+
+@lru_cache(maxsize=512)
+def _plan_cached(line_pass, n, mode, dtype_str):
+    tol = TOL[np.dtype(dtype_str)]
+    lp = line_pass.mirrored(n)
+    positions = np.arange(n, dtype=np.float64)
+    lams, kaps, omegas, omega_cs = [], [], [], []
+    for sec in lp.sections:
+        lam, kap = sec.coefficients(positions)
+        lams.append(lam)
+        kaps.append(kap)
+        om, oc = _initial_weights(sec, n, mode, tol)
+        omegas.append(om)
+        omega_cs.append(oc)
+    length = max(len(o) for o in omegas)
+    omega = np.zeros((len(omegas), length), np.complex128)
+    for s, o in enumerate(omegas):
+        omega[s, :len(o)] = o
+    if length:
+        big = np.abs(omega).max(axis=0)
+        keep = np.nonzero(big > tol * max(big.max(), 1e-300))[0]
+        omega = omega[:, : (keep[-1] + 1 if keep.size else 0)]
+    plan = PassPlan(np.array(lams), np.array(kaps), omega, np.array(omega_cs, np.complex128),
+                    float(lp.tap), bool(lp.reverse), lp.shift_invariant)
+    for arr in (plan.lam, plan.kap, plan.omega, plan.omega_c):
+        arr.setflags(write=False)
+    return plan
+
+
+def plan_pass(line_pass: LinePass, n: int, mode: str, dtype) -> PassPlan:
+    """Build (and cache) the :class:`PassPlan` of ``line_pass`` on lines of ``n`` samples."""
+    check_mode(mode)
+    for sec in line_pass.sections:
+        if sec.kernel is not None:
+            sec.kernel.validate_line(n, line_pass.reverse)
+    return _plan_cached(line_pass, int(n), mode, np.dtype(dtype).str)
+
+
+def run_reference(lines, plan: PassPlan, cval=0.0, out=None, accumulate=False):
+    """Executable specification of the primitive (numpy, vectorised over lines).
+
+    ``lines`` has shape ``(n, m)``: ``m`` independent lines of ``n`` samples, in natural
+    order (the plan's ``reverse`` flag is applied here).  Computation in the input's dtype
+    (complex64 state for float32, complex128 for float64).
+    """
+    lines = np.asarray(lines)
+    dtype = lines.dtype
+    cdt = np.complex64 if dtype == np.float32 else np.complex128
+    n = lines.shape[0]
+    if out is None:
+        out = np.empty_like(lines)
+    src = lines[::-1] if plan.reverse else lines
+    dst = out[::-1] if plan.reverse else out
+    lam = plan.lam.astype(cdt)
+    kap = plan.kap.astype(cdt)
+    L = plan.omega.shape[1]
+    state = (plan.omega.astype(cdt) @ src[:L].astype(cdt)) if L else \
+        np.zeros((plan.sections, lines.shape[1]), cdt)
+    state += (plan.omega_c.astype(cdt) * dtype.type(cval))[:, None]
+    tap = dtype.type(plan.tap)
+    tmp = np.empty_like(state)
+    for k in range(n):
+        v = src[k]
+        y = state.real.sum(axis=0, dtype=dtype) + tap * v
+        if accumulate:
+            dst[k] += y
+        else:
+            dst[k] = y
+        np.multiply(lam[:, k, None], state, out=tmp)
+        tmp += kap[:, k, None] * v
+        state, tmp = tmp, state
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# per-line plans: one shift-invariant single-section pass per line (e.g. a shear's shifts)
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True, eq=False)
+class LinePlans:
+    """One shift-invariant, single-section pass per line, for lines of ``n`` samples.
+
+    Line ``i`` runs ``run_reference`` with ``lam[i]``, ``kap[i]`` at every step, direct term
+    ``tap[i]``, initial state ``Σ_j omega[i, j] I[j] + omega_c[i] cval`` and traversal
+    reversed where ``reverse[i]``.  Lines whose pass is the identity have ``tap = 1`` and
+    zero coefficients.  Used where the amount varies from line to line (the shears of
+    :func:`gfgpu.motion.motion_blur`'s rotation), which one :class:`PassPlan` cannot express.
+    """
+
+    lam: np.ndarray      # (m,) complex128
+    kap: np.ndarray      # (m,) complex128
+    tap: np.ndarray      # (m,) float64
+    reverse: np.ndarray  # (m,) bool
+    omega: np.ndarray    # (m, L) complex128
+    omega_c: np.ndarray  # (m,) complex128
+    n: int
+
+    @property
+    def lines(self):
+        return len(self.lam)
+
+    def packed(self, dtype):
+        """Real arrays for kernels: lam, kap (m, 2), tap (m,), reverse (m,) int32,
+        omega (m, L, 2), omega_c (m, 2)."""
+        def split(z):
+            return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-1).astype(dtype))
+        return (split(self.lam), split(self.kap), np.ascontiguousarray(self.tap, dtype),
+                self.reverse.astype(np.int32), split(self.omega), split(self.omega_c))
+
+
+def plan_lines(line_passes, n, mode, dtype):
+    """:class:`LinePlans` from one :class:`~gfgpu._core.passes.LinePass` per line (None: identity).
+
+    Each pass must have one shift-invariant section; boundary modes as in :func:`plan_pass`.
+    """
+    check_mode(mode)
+    m = len(line_passes)
+    lam = np.zeros(m, np.complex128)
+    kap = np.zeros(m, np.complex128)
+    tap = np.ones(m)
+    reverse = np.zeros(m, bool)
+    omega_c = np.zeros(m, np.complex128)
+    omegas = [np.zeros(0, np.complex128)] * m
+    for i, lp in enumerate(line_passes):
+        if lp is None:
+            continue
+        if len(lp.sections) != 1 or not lp.sections[0].shift_invariant:
+            raise ValueError("per-line plans take passes of one shift-invariant section")
+        plan = plan_pass(lp, n, mode, dtype)     # cached: lines with equal passes share it
+        lam[i], kap[i], tap[i], reverse[i] = plan.lam[0, 0], plan.kap[0, 0], plan.tap, plan.reverse
+        omegas[i], omega_c[i] = plan.omega[0], plan.omega_c[0]
+    length = max((len(o) for o in omegas), default=0)
+    omega = np.zeros((m, length), np.complex128)
+    for i, o in enumerate(omegas):
+        omega[i, :len(o)] = o
+    return LinePlans(lam, kap, tap, reverse, omega, omega_c, int(n))
+
+
+def run_reference_lines(lines, plans: LinePlans, cval=0.0, out=None):
+    """Executable specification of the per-line primitive (numpy, vectorised over lines).
+
+    ``lines`` has shape ``(n, m)``: line ``i`` is column ``i``, in natural order (reversed
+    lines are traversed from the end).  Computation in the input's dtype.
+    """
+    lines = np.asarray(lines)
+    dtype = lines.dtype
+    cdt = np.complex64 if dtype == np.float32 else np.complex128
+    n, m = lines.shape
+    if out is None:
+        out = np.empty_like(lines)
+    rev = plans.reverse
+    src = np.where(rev, lines[::-1], lines)     # traversal order per line
+    L = plans.omega.shape[1]
+    state = np.einsum("ij,ji->i", plans.omega.astype(cdt), src[:L].astype(cdt)) if L else np.zeros(m, cdt)
+    state = state + plans.omega_c.astype(cdt) * dtype.type(cval)
+    lam, kap, tap = plans.lam.astype(cdt), plans.kap.astype(cdt), plans.tap.astype(dtype)
+    res = np.empty_like(lines)
+    for k in range(n):
+        v = src[k]
+        res[k] = state.real + tap * v
+        state = lam * state + kap * v
+    out[...] = np.where(rev, res[::-1], res)
+    return out

@@ -1,0 +1,40 @@
+"""numpy launchers of the fused kernels: the specifications themselves, written into ``out``.
+
+Registered by the applications that need them (:mod:`gfgpu.stereo.kernels`,
+:mod:`gfgpu.edges.kernels`).
+"""
+
+from __future__ import annotations
+
+from .. import specs
+
+
+def launch_suppress_nonmaxima(be, gy, gx, out):
+    out[...] = specs.suppress_nonmaxima_reference(gy, gx)
+    return out
+
+
+def launch_census(be, image, out, plane, radius):
+    out[plane] = specs.census_transform_reference(image, radius)
+    return out
+
+
+def launch_cost(be, census_left, census_right, out, first_step, steps, block, invalid):
+    out[...] = specs.census_cost_reference(census_left[0], census_right, first_step, out.shape[2], steps,
+                                           block, invalid)
+    return out
+
+
+def launch_sgm(be, cost, out, p1, p2, paths):
+    out[...] = specs.sgm_aggregate_reference(cost, p1, p2, paths)
+    return out
+
+
+def launch_select(be, aggregated, disp, disp_right, d_min, steps, uniqueness):
+    disp[...], disp_right[...] = specs.select_disparity_reference(aggregated, d_min, steps, uniqueness)
+    return disp, disp_right
+
+
+def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
+    return specs.sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_right, offset,
+                                        d, radius)

@@ -1,0 +1,544 @@
+"""The OpenCL backend: ``pyopencl.array.Array`` data on any OpenCL device (PoCL on the CPU, GPUs).
+
+PyOpenCL is imported lazily: importing this module neither imports PyOpenCL nor creates a
+context.  The device sources (``gfgpu/backends/opencl/recurse.cl``: the recursion primitive,
+gather and the non-finite check; ``edges.cl``: non-maximum suppression) are built on first
+use, specialised by ``-D`` defines (real type, sections, constant coefficients, lanes,
+layout), and cached per (context, source, defines).  PyOpenCL caches the binaries on disk by source and
+options (``PYOPENCL_CACHE_DIR``) and PoCL keeps its own cache (``POCL_CACHE_DIR``), so only
+the first process on a machine pays the compile time.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+from functools import cache
+
+import numpy as np
+
+from ..base import Backend, BackendUnavailable, check_line_plans
+
+REALS = (np.dtype(np.float32), np.dtype(np.float64))
+_PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
+_INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
+GPU_GROUP = 64            # work-group size on non-CPU devices (a multiple of warp/wavefront)
+_CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
+
+_programs = {}             # (context, source, defines) -> built pyopencl.Program
+_kernels = {}              # (context, source, defines, name) -> pyopencl.Kernel (one per kernel)
+_queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
+
+
+def _import_cl():
+    try:
+        import pyopencl as cl
+        import pyopencl.array  # registers cl.array
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise BackendUnavailable(f"pyopencl not installed ({exc})") from exc
+    return cl
+
+
+def _kind(device):
+    import pyopencl as cl
+    if device.type & cl.device_type.GPU:
+        return "gpu"
+    if device.type & cl.device_type.CPU:
+        return "cpu"
+    return "accelerator"
+
+
+def opencl_devices():
+    """Every OpenCL device of every platform, in one flat list.
+
+    Returns
+    -------
+    list of (int, pyopencl.Device, str)
+        ``(index, device, kind)`` with ``kind`` one of ``"gpu"``, ``"cpu"``,
+        ``"accelerator"``; ``index`` is what :class:`OpenCLBackend` accepts.  Empty when
+        PyOpenCL or an OpenCL platform is missing.
+    """
+    try:
+        cl = _import_cl()
+    except BackendUnavailable:
+        return []
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:  # no platform: nothing to list (unavailable_reason says why)
+        return []
+    devs = []
+    for platform in platforms:
+        try:
+            devs.extend(platform.get_devices())
+        except cl.Error:  # a platform without devices raises DEVICE_NOT_FOUND
+            pass
+    return [(i, d, _kind(d)) for i, d in enumerate(devs)]
+
+
+def unavailable_reason():
+    """Why the OpenCL backend cannot be used here, or None if it can.
+
+    Returns
+    -------
+    str or None
+        For example ``"pyopencl not installed"`` or ``"no OpenCL platform found: install
+        pocl-binary-distribution"``.
+    """
+    try:
+        cl = _import_cl()
+    except BackendUnavailable as exc:
+        return str(exc)
+    try:
+        platforms = cl.get_platforms()
+    except cl.Error:  # PLATFORM_NOT_FOUND_KHR from the ICD loader
+        platforms = []
+    if not platforms:
+        return "no OpenCL platform found: install pocl-binary-distribution (CPU) or a GPU driver's ICD"
+    if not opencl_devices():
+        return "no OpenCL device found on platforms " + ", ".join(p.name.strip() for p in platforms)
+    return None
+
+
+@cache
+def _source(name):
+    from importlib.resources import files
+    return files(__package__).joinpath(name).read_text()
+
+
+def _program(context, source, defines):
+    """The program of ``source`` built with ``defines`` (sorted (name, value) pairs), cached."""
+    key = (context, source, defines)
+    prog = _programs.get(key)
+    if prog is None:
+        import pyopencl as cl
+        # no fast-math: accuracy relies on IEEE arithmetic.  -w: PoCL warns on every 512-bit
+        # vector argument (an x86 ABI note), which PyOpenCL would surface as CompilerWarning.
+        # PyOpenCL's binary cache is keyed by source + options + device: later processes
+        # skip the compiler.
+        options = [f"-D{k}={v}" for k, v in defines] + ["-w"]
+        prog = cl.Program(context, _source(source)).build(options=options)
+        _programs[key] = prog
+    return prog
+
+
+def backend_for_queue(queue):
+    """The (cached) :class:`OpenCLBackend` that runs on ``queue``, for arrays found there.
+
+    Parameters
+    ----------
+    queue : pyopencl.CommandQueue
+
+    Returns
+    -------
+    OpenCLBackend
+    """
+    be = _queue_backends.get(queue)
+    if be is None:
+        be = _queue_backends[queue] = OpenCLBackend(queue)
+    return be
+
+
+#: host arrays at least this large are shared with CPU devices instead of copied
+_ZERO_COPY_BYTES = 1 << 16
+_IN_FLIGHT_MAX = 32           # wrapped host arrays kept alive before the queue is drained
+
+
+def _aligned_empty(shape, dtype, align):
+    """``np.empty`` whose data starts on an ``align``-byte boundary."""
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    raw = np.empty(nbytes + align, np.uint8)
+    start = -raw.ctypes.data % align
+    return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+class OpenCLBackend(Backend):
+    """Run the recursion primitive with OpenCL kernels on ``pyopencl.array.Array`` data.
+
+    Parameters
+    ----------
+    device : int, str, pyopencl.Device, pyopencl.Context or pyopencl.CommandQueue, optional
+        An index into :func:`opencl_devices`, a substring of a device name
+        (case-insensitive), a device, or a context/queue whose arrays should be processed
+        in place.  Default: the first GPU, else the first device.
+
+    Raises
+    ------
+    BackendUnavailable
+        If PyOpenCL or an OpenCL platform is missing, or ``device`` matches no device.
+
+    Notes
+    -----
+    One source, ``gfgpu/backends/opencl/recurse.cl``, specialised by defines.  On a CPU a work-item
+    runs ``64 / itemsize`` lines (16 float32, 8 float64) in the lanes of a vector, so each
+    step moves one cache line: columns load adjacent samples directly, rows load a square
+    tile and transpose it in registers.  Work-groups are one work-item so that PoCL spreads
+    lines over all cores.  On a GPU a work-item runs one line, work-groups hold 64.
+    float64 needs a device with fp64 (``supports_float64``); otherwise a ``TypeError``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gfgpu.backends.opencl import OpenCLBackend
+    >>> be = OpenCLBackend()
+    >>> a = be.asarray(np.ones((1, 4, 5), np.float32))
+    >>> be.to_host(a).shape
+    (1, 4, 5)
+    """
+
+    name = "opencl"
+
+    def __init__(self, device=None):
+        cl = _import_cl()
+        self._cl = cl
+        self._array = cl.array
+        if isinstance(device, cl.CommandQueue):
+            self.queue = device
+            self.context = device.context
+            self._device = device.device
+        else:
+            if isinstance(device, cl.Context):
+                self.context = device
+                self._device = device.devices[0]
+            else:
+                self._device = self._find_device(device)
+                self.context = cl.Context([self._device])
+            self.queue = cl.CommandQueue(self.context, self._device)
+        dev = self._device
+        self.device = f"{dev.name.strip()} ({dev.platform.name.strip()})"
+        self.kind = _kind(dev)
+        self._host_align = max(64, dev.mem_base_addr_align // 8)
+        try:
+            fp64 = bool(dev.double_fp_config)
+        except cl.Error:  # devices without fp64 may reject the query
+            fp64 = False
+        self.supports_float64 = fp64 or "cl_khr_fp64" in dev.extensions
+        # temporaries (ping-pong buffers, outputs) come from a pool: a fresh buffer of a large
+        # image costs a first-touch page fault per page on CPU devices, as much as a pass
+        import pyopencl.tools as cl_tools
+        self._pool = cl_tools.MemoryPool(cl_tools.ImmediateAllocator(self.queue))
+        self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
+        self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
+        self._in_flight = []           # host arrays wrapped for the device, kept until the queue drains
+
+    def _find_device(self, device):
+        devs = opencl_devices()
+        if not devs:
+            raise BackendUnavailable(unavailable_reason() or "no OpenCL device found")
+        listing = "; ".join(f"{i}: {d.name.strip()} ({k})" for i, d, k in devs)
+        if device is None:
+            gpus = [d for _, d, k in devs if k == "gpu"]
+            return gpus[0] if gpus else devs[0][1]
+        if isinstance(device, self._cl.Device):
+            return device
+        if isinstance(device, (int, np.integer)):
+            if not 0 <= device < len(devs):
+                raise BackendUnavailable(f"OpenCL device index {device} out of range (devices: {listing})")
+            return devs[device][1]
+        if isinstance(device, str):
+            if device.strip().isdigit():
+                return self._find_device(int(device))
+            want = device.strip().lower()
+            for _, d, k in devs:
+                if want in d.name.lower() or want == k:
+                    return d
+            raise BackendUnavailable(f"no OpenCL device matches {device!r} (devices: {listing})")
+        raise TypeError(f"device must be an index, a name, a pyopencl Device, Context or "
+                        f"CommandQueue; got {type(device).__name__}")
+
+    # ---- arrays -------------------------------------------------------------------
+    def _check_dtype(self, dtype):
+        dtype = np.dtype(dtype)
+        if dtype == np.float64 and not self.supports_float64:
+            raise TypeError(f"float64 is not supported by OpenCL device {self.device} (no cl_khr_fp64); "
+                            f"convert the input to float32 or choose another device")
+        return dtype
+
+    def owns(self, array):
+        return isinstance(array, self._array.Array) and array.context == self.context
+
+    def asarray(self, host):
+        host = np.ascontiguousarray(host)
+        self._check_dtype(host.dtype)
+        return self._array.to_device(self.queue, host)
+
+    def to_host(self, array):
+        host = getattr(array, "gfgpu_host", None)
+        if host is not None:
+            # a host_result array: its memory is the numpy array; mapping it (no copy on a CPU
+            # device) is what makes the kernels' writes visible to the host, per the spec
+            mapped, _ = self._cl.enqueue_map_buffer(self.queue, array.base_data, self._cl.map_flags.READ,
+                                                    0, host.shape, host.dtype, is_blocking=True)
+            mapped.base.release(self.queue)
+            self._in_flight.clear()   # the queue is in order: every earlier command is done
+            return host
+        out = array.get(queue=self.queue)
+        self._in_flight.clear()
+        return out
+
+    def _wrap_host(self, host, flags):
+        buf = self._cl.Buffer(self.context, flags | self._cl.mem_flags.USE_HOST_PTR, hostbuf=host)
+        arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf)
+        arr.gfgpu_host = host       # keeps the memory alive as long as the device array
+        # ... and until queued kernels have read it, even if the caller drops the array first
+        if len(self._in_flight) >= _IN_FLIGHT_MAX:
+            self.queue.finish()
+            self._in_flight.clear()
+        self._in_flight.append(host)
+        return arr
+
+    def host_view(self, host):
+        # a CPU device reads the numpy array in place: the upload would cost more than a pass
+        host = np.ascontiguousarray(host)
+        self._check_dtype(host.dtype)
+        if self.kind != "cpu" or host.nbytes < _ZERO_COPY_BYTES:
+            return self.asarray(host)
+        return self._wrap_host(host, self._cl.mem_flags.READ_ONLY)
+
+    def host_result(self, shape, dtype, into=None):
+        dtype = self._check_dtype(dtype)
+        if self.kind != "cpu" or int(np.prod(shape)) * dtype.itemsize < _ZERO_COPY_BYTES:
+            return self.empty(shape, dtype)
+        # a CPU device uses host memory in place only when it is aligned to its base-address
+        # alignment (PoCL: 128 bytes; numpy gives 16): otherwise it copies at every map
+        host = _aligned_empty(shape, dtype, self._host_align) if into is None else into
+        return self._wrap_host(host, self._cl.mem_flags.READ_WRITE)
+
+    def copy(self, src, dst):
+        if src.nbytes:
+            wait = [e for a in (src, dst) for e in a.events]
+            evt = self._cl.enqueue_copy(self.queue, dst.base_data, src.base_data, byte_count=src.nbytes,
+                                        src_offset=src.offset, dst_offset=dst.offset, wait_for=wait or None)
+            dst.add_event(evt)
+        return dst
+
+    def is_contiguous(self, array):
+        return bool(array.flags.c_contiguous)
+
+    def may_share_memory(self, a, b):
+        if a.base_data is None or b.base_data is None or a.base_data != b.base_data:
+            return False
+        return a.offset < b.offset + b.nbytes and b.offset < a.offset + a.nbytes
+
+    def empty(self, shape, dtype):
+        shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(shape)
+        return self._array.empty(self.queue, shape, self._check_dtype(dtype), allocator=self._pool)
+
+    def reshape(self, array, shape):
+        return array.reshape(tuple(shape))
+
+    def all_finite(self, array):
+        dtype = np.dtype(array.dtype)
+        if dtype not in REALS or array.size == 0:
+            return True   # integer arrays hold no NaN or infinity
+        if not array.flags.c_contiguous:
+            return bool(np.isfinite(array.get(queue=self.queue)).all())
+        size = array.size
+        if self.kind == "cpu":
+            # a few contiguous chunks per core
+            items = min(size, 8 * self._device.max_compute_units)
+            chunk = -(-size // items)
+            first, stride, count, group = chunk, 1, chunk, 1
+        else:
+            # grid-stride loop: adjacent work-items read adjacent elements
+            group = self._group()
+            items = min(-(-size // group), 256 * self._device.max_compute_units) * group
+            first, stride, count = 1, items, -(-size // items)
+        mf = self._cl.mem_flags
+        flag = np.zeros(1, np.int32)
+        flag_buf = self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+        knl = self._kernel("any_nonfinite", dtype)
+        args = (array.base_data, np.int64(array.offset // dtype.itemsize), np.int64(size),
+                np.int64(first), np.int64(stride), np.int64(count), flag_buf)
+        gsize = -(-items // group) * group
+        evt = knl(self.queue, (gsize,), (group,), *args, wait_for=array.events or None)
+        self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
+        return int(flag[0]) == 0
+
+    def synchronize(self):
+        self.queue.finish()
+        self._in_flight.clear()
+
+    @property
+    def spec(self):
+        # the device's index in opencl_devices(): the same machine layout is assumed elsewhere
+        for index, dev, _ in opencl_devices():
+            if dev == self._device:
+                return ("opencl", index)
+        return ("opencl", self._device.name.strip())
+
+    @property
+    def memory_budget(self):
+        # one buffer may not exceed max_mem_alloc_size either; strips keep buffers below both
+        if self.kind == "cpu":
+            return None
+        return int(min(self._device.global_mem_size // 2, 4 * self._device.max_mem_alloc_size))
+
+    # ---- kernels --------------------------------------------------------------------
+    def _lanes(self, dtype):
+        # CPU: one cache line per step; GPU: one line per work-item (coalesced columns)
+        return _CACHE_LINE // dtype.itemsize if self.kind == "cpu" else 1
+
+    def _group(self):
+        return 1 if self.kind == "cpu" else min(GPU_GROUP, self._device.max_work_group_size)
+
+    def _kernel(self, name, dtype, source="recurse.cl", **defines):
+        real = "double" if dtype == np.float64 else "float"
+        defines = tuple(sorted(dict(REAL=real, **defines).items()))
+        key = (self.context, source, defines, name)
+        knl = _kernels.get(key)
+        if knl is None:
+            # each attribute access would create a new kernel object: keep one
+            knl = _kernels[key] = getattr(_program(self.context, source, defines), name)
+        return knl
+
+    def recurse_lines(self, src, dst, axis, plans, cval=0.0):
+        check_line_plans(src, dst, axis, plans)
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or not a.flags.c_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous pyopencl.array.Array in the context of "
+                                f"{self.device}")
+        dtype = self._check_dtype(src.dtype)
+        if src.size == 0:
+            return dst
+        mf = self._cl.mem_flags
+        buffers = []
+        for a in plans.packed(dtype):
+            a = a if a.size else np.zeros(2, a.dtype)     # OpenCL has no empty buffers
+            buffers.append(self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a))
+        lam, kap, tap, reverse, omega, omega_c = buffers
+        b, rows, cols = src.shape
+        n, lines = (cols, rows) if axis == 2 else (rows, cols)
+        line_stride, step = (cols, 1) if axis == 2 else (1, cols)
+        item = dtype.itemsize
+        knl = self._kernel("recurse_lines", dtype, source="recurse_lines.cl")
+        args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                lam, kap, tap, reverse, omega, omega_c, np.int32(plans.omega.shape[1]), np.int32(n),
+                np.int32(lines), np.int64(line_stride), np.int64(step), np.int64(rows * cols), dtype.type(cval))
+        group = 1 if self.kind == "cpu" else self._group()
+        gsize = (-(-lines // group) * group, b)
+        self._launch(knl, gsize, (group, 1), [src], [dst], args)
+        return dst
+
+    def _plan_buffers(self, plan, dtype):
+        """Upload ``plan.packed(dtype)`` once; plans are immutable, so id(plan) is a key."""
+        key = (id(plan), dtype)
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plan:
+            self._plans.move_to_end(key)
+            return hit[1]
+        mf = self._cl.mem_flags
+        buffers = []
+        for a in plan.packed(dtype):
+            if a.size == 0:
+                a = np.zeros(2, dtype)   # L = 0 (constant mode): OpenCL has no empty buffers
+            buffers.append(self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a))
+        self._plans[key] = (plan, tuple(buffers))   # keeping the plan keeps its id unique
+        if len(self._plans) > _PLAN_CACHE_SIZE:
+            self._plans.popitem(last=False)
+        return self._plans[key][1]
+
+    def _launch(self, knl, gsize, lsize, arrays_in, arrays_out, args):
+        wait = [e for a in arrays_in + arrays_out for e in a.events]
+        evt = knl(self.queue, gsize, lsize, *args, wait_for=wait or None)
+        for a in arrays_out:
+            a.add_event(evt)
+        return evt
+
+    # ---- the primitive --------------------------------------------------------------
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+        if axis not in (1, 2):
+            raise ValueError(f"axis must be 1 or 2, got {axis}")
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a):
+                raise TypeError(f"{arg} must be a pyopencl.array.Array in the context of {self.device}, "
+                                f"got {type(a).__name__}")
+            if a.ndim != 3 or not a.flags.c_contiguous:
+                raise ValueError(f"{arg} must be a C-contiguous 3-D array, got shape {a.shape}")
+        if src.shape != dst.shape or src.dtype != dst.dtype:
+            raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
+        dtype = np.dtype(src.dtype)
+        if dtype not in REALS:
+            raise TypeError(f"src must be float32 or float64, got {dtype}")
+        self._check_dtype(dtype)
+        if plan.n != src.shape[axis]:
+            raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {src.shape[axis]}")
+        same = src.base_data == dst.base_data and src.offset == dst.offset
+        if accumulate and same:
+            raise ValueError("dst may not be src when accumulating")
+        b, n, m = src.shape
+        if src.size == 0:
+            return dst
+        lanes = self._lanes(dtype)
+        group = self._group()
+        knl = self._kernel("recurse", dtype, SECTIONS=plan.sections, CONSTANT_COEF=int(plan.constant),
+                           LANES=lanes, ROWS=int(axis == 2))
+        lam, kap, omega, omega_c = self._plan_buffers(plan, dtype)
+        if axis == 2:
+            items = -(-(b * n) // lanes)
+            gsize, lsize = (-(-items // group) * group,), (group,)
+        else:
+            items = -(-m // lanes)
+            gsize, lsize = (-(-items // group) * group, b), (group, 1)
+        real = dtype.type
+        item = dtype.itemsize
+        args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                lam, kap, omega, omega_c, np.int32(plan.omega.shape[1]), np.int32(plan.n),
+                real(cval), real(plan.tap), np.int32(plan.reverse), np.int32(bool(accumulate)),
+                np.int32(b), np.int32(n), np.int32(m))
+        self._launch(knl, gsize, lsize, [src], [dst], args)
+        return dst
+
+    def _index_array(self, index, size):
+        """Upload a gather index once per identity, as int32 (the kernel's index type).
+
+        Returns the device array (None when empty) and its element count.
+        """
+        key = id(index)
+        hit = self._indices.get(key)
+        if hit is not None and hit[0] is index:
+            self._indices.move_to_end(key)
+        else:
+            idx = np.asarray(index).reshape(-1)
+            if idx.dtype.kind not in "iu":
+                raise TypeError(f"index must be an integer array, got {idx.dtype}")
+            top = int(idx.max()) if idx.size else -1
+            if top >= 2**31:
+                raise ValueError(f"index holds {top}: the OpenCL gather takes int32 indices "
+                                 f"(sources of at most 2**31 elements)")
+            # every negative index means cval: clamping keeps int64 values in int32 range
+            idx = np.ascontiguousarray(np.maximum(idx, -1) if idx.dtype.kind == "i" else idx, np.int32)
+            dev = self._array.to_device(self.queue, idx) if idx.size else None
+            hit = self._indices[key] = (index, dev, top, idx.size)   # keeping index keeps its id unique
+            if len(self._indices) > _INDEX_CACHE_SIZE:
+                self._indices.popitem(last=False)
+        _, dev, top, count = hit
+        if top >= size:
+            raise ValueError(f"index holds {top}, beyond the source's {size} elements")
+        return dev, count
+
+    def gather(self, src, index, cval, out):
+        for arg, a in (("src", src), ("out", out)):
+            if not self.owns(a):
+                raise TypeError(f"{arg} must be a pyopencl.array.Array in the context of {self.device}, "
+                                f"got {type(a).__name__}")
+            if not a.flags.c_contiguous:
+                raise ValueError(f"{arg} must be C-contiguous")
+        if src.dtype != out.dtype:
+            raise ValueError(f"src and out must have one dtype, got {src.dtype} and {out.dtype}")
+        dtype = self._check_dtype(src.dtype)
+        if dtype not in REALS:
+            raise TypeError(f"src must be float32 or float64, got {dtype}")
+        dev_index, count = self._index_array(index, src.size)
+        if count != out.size:
+            raise ValueError(f"index has {count} elements, out has {out.size}")
+        if out.size == 0:
+            return out
+        knl = self._kernel("gather", dtype)
+        item = dtype.itemsize
+        # on a CPU, PoCL vectorises the loop over a group's work-items: 64 per group, not 1
+        group = 64 if self.kind == "cpu" else self._group()
+        gsize = (-(-out.size // group) * group,)
+        args = (src.base_data, np.int64(src.offset // item), dev_index.data, out.base_data,
+                np.int64(out.offset // item), dtype.type(cval), np.int64(out.size))
+        self._launch(knl, gsize, (group,), [src, dev_index], [out], args)
+        return out

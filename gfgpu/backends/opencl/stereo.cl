@@ -1,0 +1,533 @@
+// Stereo kernels of gfgpu.stereo (float32 images; integer costs).
+// Executable specification: the *_reference functions of gfgpu/backends/specs.py.
+// size_t indices: cost volumes exceed 2^31 entries on large images.
+
+#define NO_MATCH (-2147483647 - 1)
+
+static inline int floor_div(const int a, const int b)
+{
+    return a >= 0 ? a / b : -((-a + b - 1) / b);
+}
+
+#define CLAMPI(v, lo, hi) ((v) < (lo) ? (lo) : (v) > (hi) ? (hi) : (v))   // not clamp(): see VMIN
+
+// Census transform: bit b of out[plane][y][x] is set where neighbour b of the (2r+1)^2 window
+// (row-major, centre skipped, edge pixels repeated) is darker than the centre.  Built with
+// -D CENSUS_RADIUS=r the loops unroll (the bit positions become constants).
+__kernel void census(__global const float *img, __global ulong *out, const long plane_offset,
+                     const int h, const int w, const int radius)
+{
+#ifdef CENSUS_RADIUS
+#define R_ CENSUS_RADIUS
+#else
+#define R_ radius
+#endif
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const float c = img[(size_t)y * w + x];
+    ulong code = 0;
+    int bit = 0;
+    #pragma unroll
+    for (int dy = -R_; dy <= R_; ++dy) {
+        __global const float *row = img + (size_t)CLAMPI(y + dy, 0, h - 1) * w;
+        #pragma unroll
+        for (int dx = -R_; dx <= R_; ++dx) {
+            if (dy == 0 && dx == 0)
+                continue;
+            code |= (ulong)(row[CLAMPI(x + dx, 0, w - 1)] < c) << bit;
+            ++bit;
+        }
+    }
+    out[plane_offset + (size_t)y * w + x] = code;
+#undef R_
+}
+
+// ---- matching cost and aggregation, vectorised over the disparity axis -------------------
+// Built with -D N_DISP=n (the disparity samples per pixel, the innermost axis of the int16 cost
+// volumes): a pixel's n values are NV short16 vectors, the last one holding TAIL lanes; the
+// loops over the vectors unroll and PoCL (or any OpenCL C compiler) emits SIMD for them.
+#ifdef N_DISP
+#define NV ((N_DISP + 15) / 16)
+#define TAIL (N_DISP - 16 * (NV - 1))      // lanes of the last vector that are disparities, 1..16
+#define PAD_COST 16384                     // path cost of the padding lanes: never a minimum
+#define NP (16 * NV)                       // padded disparities of a state vector
+
+// Vector loads and stores at element alignment, and the elementwise minimum, as operators: PoCL
+// calls (does not inline) vloadn/vstoren/min, which would dominate the loops.
+#ifdef __clang__
+typedef short16 short16_u __attribute__((aligned(2)));
+typedef short8 short8_u __attribute__((aligned(2)));
+typedef short4 short4_u __attribute__((aligned(2)));
+typedef short2 short2_u __attribute__((aligned(2)));
+typedef uchar16 uchar16_u __attribute__((aligned(1)));
+typedef uchar8 uchar8_u __attribute__((aligned(1)));
+typedef uchar4 uchar4_u __attribute__((aligned(1)));
+typedef uchar2 uchar2_u __attribute__((aligned(1)));
+#define VLOAD(T, N, p) (*(const __global T##N##_u *)(p))
+#define VSTORE(T, N, v, p) (*(__global T##N##_u *)(p) = (v))
+#define TO_USHORT16(v) __builtin_convertvector((v), ushort16)
+#define POPCOUNT(v) __builtin_popcountl(v)         // long is 64-bit in OpenCL C
+#define ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define VLOAD(T, N, p) vload##N(0, p)
+#define VSTORE(T, N, v, p) vstore##N((v), 0, p)
+#define TO_USHORT16(v) convert_ushort16(v)
+#define POPCOUNT(v) popcount(v)
+#define ALWAYS_INLINE inline
+#endif
+#define VMIN(a, b) ((a) < (b) ? (a) : (b))
+
+// The last vector of a pixel: TAIL values, the other lanes PAD; loads and stores of the tail are
+// split into 8/4/2/1-lane parts so that no neighbouring pixel is read or written (the
+// neighbour may belong to another work-item).
+#define TAIL_LOAD(NAME, T, PAD)                                                                \
+static inline T##16 NAME(__global const T *p)                                                 \
+{                                                                                             \
+    if (TAIL == 16) return VLOAD(T, 16, p);                                                   \
+    T##16 v = (T##16)(PAD);                                                                   \
+    __private T *b = (__private T *)&v;                                                       \
+    if (TAIL & 8) *(__private T##8 *)b = VLOAD(T, 8, p);                                      \
+    if (TAIL & 4) *(__private T##4 *)(b + (TAIL & 8)) = VLOAD(T, 4, p + (TAIL & 8));          \
+    if (TAIL & 2) *(__private T##2 *)(b + (TAIL & 12)) = VLOAD(T, 2, p + (TAIL & 12));        \
+    if (TAIL & 1) b[TAIL - 1] = p[TAIL - 1];                                                  \
+    return v;                                                                                 \
+}
+TAIL_LOAD(load_last_short, short, PAD_COST)
+TAIL_LOAD(load_last_short_max, short, SHRT_MAX)
+TAIL_LOAD(load_last_uchar, uchar, 0)
+
+static inline void store_last_short(short16 v, __global short *p)
+{
+    if (TAIL == 16) {
+        VSTORE(short, 16, v, p);
+        return;
+    }
+    __private short *b = (__private short *)&v;
+    if (TAIL & 8) VSTORE(short, 8, *(__private short8 *)b, p);
+    if (TAIL & 4) VSTORE(short, 4, *(__private short4 *)(b + (TAIL & 8)), p + (TAIL & 8));
+    if (TAIL & 2) VSTORE(short, 2, *(__private short2 *)(b + (TAIL & 12)), p + (TAIL & 12));
+    if (TAIL & 1) p[TAIL - 1] = b[TAIL - 1];
+}
+
+#define LOAD_S(p, j) ((j) < NV - 1 ? VLOAD(short, 16, (p) + 16 * (j)) : load_last_short((p) + 16 * (j)))
+#define LOAD_SMAX(p, j) ((j) < NV - 1 ? VLOAD(short, 16, (p) + 16 * (j)) : load_last_short_max((p) + 16 * (j)))
+#define LOAD_UC(p, j) ((j) < NV - 1 ? VLOAD(uchar, 16, (p) + 16 * (j)) : load_last_uchar((p) + 16 * (j)))
+#define STORE_S(v, p, j) do { if ((j) < NV - 1) VSTORE(short, 16, (v), (p) + 16 * (j));             \
+                              else store_last_short((v), (p) + 16 * (j)); } while (0)
+
+// Right census codes interleaved along the row with the sub-pixel planes in reverse order,
+// out[y][x*steps + steps-1-f] = cr[f][y][x]: the right pixel of disparity sample t = n*steps + f
+// at left column x is then index x*steps + steps-1 - t, consecutive (decreasing) in t.
+__kernel void census_interleave(__global const ulong *cr, __global ulong *out, const int h, const int w,
+                                const int steps)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const size_t plane = (size_t)h * w;
+    __global ulong *dst = out + ((size_t)y * w + x) * steps + steps - 1;
+    for (int f = 0; f < steps; ++f)
+        dst[-f] = cr[f * plane + (size_t)y * w + x];
+}
+
+// Hamming distances of the census codes, ham[y][x][k] = popcount(L[y][x] ^ R_f[y][x - n]) for the
+// disparity sample t = first_step + k = n*steps + f, or `invalid` where x - n is outside (uchar:
+// the distances of 48-bit codes and `invalid` are at most 255).
+__kernel void census_hamming(__global const ulong *cl, __global const ulong *ri, __global uchar *ham,
+                             const int h, const int w, const int first_step, const int steps,
+                             const int invalid)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const int ws = w * steps;
+    const ulong c = cl[(size_t)y * w + x];
+    __global const ulong *row = ri + (size_t)y * ws;
+    __global uchar *dst = ham + ((size_t)y * w + x) * N_DISP;
+    const int j0 = x * steps + steps - 1 - first_step;          // right index of sample k is j0 - k
+    const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
+    int k = 0;
+    for (; k < k_lo; ++k)
+        dst[k] = (uchar)invalid;
+    for (; k < k_hi; ++k)
+        dst[k] = (uchar)POPCOUNT(c ^ row[j0 - k]);
+    for (; k < N_DISP; ++k)
+        dst[k] = (uchar)invalid;
+}
+
+// The block sum of the Hamming distances over the block x block window (clamped at the border):
+// one work-item per row, a running sum along the row of the window's column sums (streaming
+// through memory).  Exact integer sums, wrapped to int16 like the specification's astype
+// (ushort arithmetic wraps).
+static inline ushort16 window_column(__global const uchar *ham, const int y, const int x, const int h,
+                                     const int w, const int r, const int j)
+{
+    ushort16 s = (ushort16)(0);
+    for (int v = -r; v <= r; ++v) {
+        __global const uchar *p = ham + ((size_t)CLAMPI(y + v, 0, h - 1) * w + x) * N_DISP;
+        s += TO_USHORT16(LOAD_UC(p, j));
+    }
+    return s;
+}
+
+__kernel void block_sum(__global const uchar *ham, __global short *out, const int h, const int w,
+                        const int block)
+{
+    const int y = get_global_id(0);
+    if (y >= h)
+        return;
+    const int r = block / 2;
+    ushort16 sum[NV];
+    #pragma unroll
+    for (int j = 0; j < NV; ++j) {
+        sum[j] = (ushort16)(0);
+        for (int u = -r; u <= r; ++u)
+            sum[j] += window_column(ham, y, CLAMPI(u, 0, w - 1), h, w, r, j);
+    }
+    __global short *dst = out + (size_t)y * w * N_DISP;
+    for (int x = 0; x < w; ++x, dst += N_DISP) {
+        const int add = min(x + r, w - 1), sub = max(x - 1 - r, 0);
+        const int moved = x > 0 && add != sub;     // the window moved to columns [x-r, x+r] (clamped)
+        #pragma unroll
+        for (int j = 0; j < NV; ++j) {
+            if (moved)
+                sum[j] += window_column(ham, y, add, h, w, r, j) - window_column(ham, y, sub, h, w, r, j);
+            STORE_S(as_short16(sum[j]), dst, j);
+        }
+    }
+}
+
+static inline short hmin16(const short16 v)
+{
+    const short8 a = VMIN(v.lo, v.hi);
+    const short4 b = VMIN(a.lo, a.hi);
+    const short2 c = VMIN(b.lo, b.hi);
+    return VMIN(c.x, c.y);
+}
+
+// One sweep of the path recursion along a line of `len` pixels starting at element `base`,
+// `stride` elements per pixel; total = L_r (accumulate = 0) or total + L_r.
+static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *total, long base,
+                                     const long stride, const int len, const short p1, const short p2,
+                                     const int accumulate)
+{
+    const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1);
+    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const short16 is_pad = lane >= (short16)(TAIL);
+    short16 prev[NV];
+    short m = PAD_COST;
+    for (int t = 0; t < len; ++t, base += stride) {
+        __global const short *c = cost + base;
+        __global short *tot = total + base;
+        const short16 vm = (short16)(m), jump = (short16)(m + p2);
+        short16 before = pad, mv = pad;
+        #pragma unroll
+        for (int j = 0; j < NV; ++j) {
+            short16 cur = LOAD_S(c, j);
+            if (t > 0) {
+                // L(d) = C(d) + min(L'(d), L'(d-1) + P1, L'(d+1) + P1, m' + P2) - m'
+                const short16 old = prev[j];
+                const short16 next = j + 1 < NV ? prev[j + 1] : pad;
+                const short16 lower = (short16)(before.sf, old.s0123, old.s4567, old.s89ab, old.scde);
+                const short16 upper = (short16)(old.s1234, old.s5678, old.s9abc, old.sdef, next.s0);
+                const short16 step = VMIN(lower, upper) + vp1;
+                const short16 stay = VMIN(old, step);
+                cur += VMIN(stay, jump) - vm;
+                before = old;
+            }
+            if (j == NV - 1)
+                cur = is_pad ? pad : cur;
+            prev[j] = cur;
+            mv = VMIN(mv, cur);
+            STORE_S(accumulate ? LOAD_S(tot, j) + cur : cur, tot, j);
+        }
+        m = hmin16(mv);
+    }
+}
+
+// Semi-global aggregation along direction (dy, dx) and its opposite: one work-item per line of
+// pixels entering the image where (x - dx, y - dy) is outside; the line is swept forward, then
+// backward while it is still in cache.  total = L_r + L_-r (accumulate = 0) or total + both.
+__kernel void sgm_line_pair(__global const short *cost, __global short *total, const int h, const int w,
+                            const int dy, const int dx, const short p1, const short p2,
+                            const int accumulate)
+{
+    const int i = get_global_id(0);
+    int x, y;
+    if (dx == 0) {                      // vertical: one line per column
+        if (i >= w) return;
+        x = i;
+        y = dy > 0 ? 0 : h - 1;
+    } else if (dy == 0) {               // horizontal: one line per row
+        if (i >= h) return;
+        x = dx > 0 ? 0 : w - 1;
+        y = i;
+    } else if (i < h) {                 // diagonal, entering through the first column
+        x = dx > 0 ? 0 : w - 1;
+        y = i;
+    } else {                            // diagonal, entering through the first row
+        if (i >= h + w - 1) return;
+        x = dx > 0 ? i - h + 1 : w - 2 - (i - h);
+        y = dy > 0 ? 0 : h - 1;
+    }
+    const int len_x = dx > 0 ? w - x : dx < 0 ? x + 1 : INT_MAX;
+    const int len_y = dy > 0 ? h - y : dy < 0 ? y + 1 : INT_MAX;
+    const int len = min(len_x, len_y);
+    const long stride = ((long)dy * w + dx) * N_DISP;
+    const long first = ((long)y * w + x) * N_DISP;
+    sgm_sweep(cost, total, first, stride, len, p1, p2, accumulate);
+    sgm_sweep(cost, total, first + (len - 1) * stride, -stride, len, p1, p2, 1);
+}
+
+#define CELL (NP + 16)                     // a state cell: NP values, then a gap of PAD_COST
+
+// One pixel of one path: the predecessor's NV vectors at `in` (a state cell, PAD_COST before
+// and after it, so d - 1 and d + 1 are unaligned loads, no shuffles), its minimum `m_in`:
+// L = C + min(L', L'(d-1) + P1, L'(d+1) + P1, m' + P2) - m' = C + min(min(L', ...) - m', P2);
+// a predecessor of zeros (m' = 0) gives L = C, a path's first pixel.  The new vectors go to
+// `out` after all reads (in and out may be one cell), are added to sum[]; returns their minimum.
+static ALWAYS_INLINE short
+path_pixel(__global const short *in, const short m_in, __global short *out, const short16 *cv,
+           short16 *sum, const short p1, const short p2)
+{
+    const short16 pad = (short16)(PAD_COST), vm = (short16)(m_in);
+    const short16 vp1 = (short16)(p1), vp2 = (short16)(p2);
+    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    short16 cur[NV], run = pad;
+    #pragma unroll
+    for (int j = 0; j < NV; ++j) {
+        const short16 old = VLOAD(short, 16, in + 16 * j);
+        const short16 lower = VLOAD(short, 16, in + 16 * j - 1);
+        const short16 upper = VLOAD(short, 16, in + 16 * j + 1);
+        const short16 stay = VMIN(old, VMIN(lower, upper) + vp1);
+        short16 v = cv[j] + VMIN(stay - vm, vp2);
+        if (j == NV - 1)
+            v = lane >= (short16)(TAIL) ? pad : v;
+        cur[j] = v;
+        run = VMIN(run, v);
+        sum[j] += v;
+    }
+    #pragma unroll
+    for (int j = 0; j < NV; ++j)
+        VSTORE(short, 16, cur[j], out + 16 * j);
+    return hmin16(run);
+}
+
+// Semi-global aggregation in two sweeps over the image (for CPUs, as OpenCV's SGBM): work-item 0
+// goes down the rows, each left to right, with the paths (0,1), (1,0) [, (1,1), (1,-1)]; work-item
+// 1 goes up, right to left, with the opposite paths; each writes the sum of its paths (out_fwd,
+// out_bwd).  The path costs of the previous pixels live in `state` (per work-item 5 rows of
+// w + 2 cells: horizontal, vertical, diagonal from x + s, and the diagonal from x - s
+// double-buffered; guard cells of zeros at both ends) and their minima in `state_min` (4
+// rows); reading a guard or the initial zeros is a path's first pixel.  The cost volume is read
+// once per sweep.
+__kernel void sgm_two_sweeps(__global const short *cost, __global short *out_fwd, __global short *out_bwd,
+                             __global short *state, __global short *state_min, const int h,
+                             const int w, const short p1, const short p2, const int diagonals)
+{
+    const int pass = get_global_id(0);
+    if (pass > 1)
+        return;
+    const int s = pass == 0 ? 1 : -1;
+    __global short *out = pass == 0 ? out_fwd : out_bwd;
+    const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
+    __global short *st = state + (size_t)pass * 5 * row;
+    __global short *mins = state_min + (size_t)pass * 4 * cells;
+    for (size_t r = 0; r < 5; ++r) {
+        __global short *p = st + r * row;
+        for (int i = 0; i < 16; ++i)
+            p[i] = PAD_COST;
+        for (size_t c = 0; c < cells; ++c) {
+            for (int i = 0; i < NP; ++i)
+                p[16 + c * CELL + i] = 0;
+            for (int i = NP; i < CELL; ++i)
+                p[16 + c * CELL + i] = PAD_COST;
+        }
+    }
+    for (size_t i = 0; i < 4 * cells; ++i)
+        mins[i] = 0;
+    __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
+    __global short *mv = mins, *me = mv + cells;
+    for (int yi = 0; yi < h; ++yi) {
+        const int y = pass == 0 ? yi : h - 1 - yi;
+        // the diagonal from x - s: read the previous row's buffer, write this row's
+        __global short *sd_in = se + (1 + (yi & 1)) * row, *sd_out = se + (2 - (yi & 1)) * row;
+        __global short *md_in = me + (1 + (yi & 1)) * cells, *md_out = me + (2 - (yi & 1)) * cells;
+        short mh = 0;
+        for (int xi = 0; xi < w; ++xi) {
+            const int x = pass == 0 ? xi : w - 1 - xi, cell = x + 1;
+            __global const short *c = cost + ((size_t)y * w + x) * N_DISP;
+            short16 cv[NV], sum[NV];
+            #pragma unroll
+            for (int j = 0; j < NV; ++j) {
+                cv[j] = LOAD_S(c, j);
+                sum[j] = (short16)(0);
+            }
+            mh = path_pixel(sh + (cell - s) * CELL, mh, sh + cell * CELL, cv, sum, p1, p2);
+            mv[cell] = path_pixel(sv + cell * CELL, mv[cell], sv + cell * CELL, cv, sum, p1, p2);
+            if (diagonals) {
+                me[cell] = path_pixel(se + (cell + s) * CELL, me[cell + s], se + cell * CELL, cv, sum,
+                                      p1, p2);
+                md_out[cell] = path_pixel(sd_in + (cell - s) * CELL, md_in[cell - s],
+                                          sd_out + cell * CELL, cv, sum, p1, p2);
+            }
+            __global short *o = out + ((size_t)y * w + x) * N_DISP;
+            #pragma unroll
+            for (int j = 0; j < NV; ++j)
+                STORE_S(sum[j], o, j);
+        }
+    }
+}
+
+// out += add, elementwise over one row of pixels per work-item.
+__kernel void add_volume(__global short *out, __global const short *add, const int h, const int w)
+{
+    const int y = get_global_id(0);
+    if (y >= h)
+        return;
+    const size_t len = (size_t)w * N_DISP;
+    __global short *o = out + (size_t)y * len;
+    __global const short *a = add + (size_t)y * len;
+    size_t i = 0;
+    for (; i + 16 <= len; i += 16)
+        VSTORE(short, 16, VLOAD(short, 16, o + i) + VLOAD(short, 16, a + i), o + i);
+    for (; i < len; ++i)
+        o[i] += a[i];
+}
+
+// Lane k of the result takes lane k + 1 of the vectors a[] (fill after the last).
+#define SHIFT_DOWN(a, j, fill) ((short16)(a[j].s1234, a[j].s5678, a[j].s9abc, a[j].sdef,          \
+                                          (j) + 1 < NV ? a[((j) + 1) % NV].s0 : (fill)))
+
+// Winner-take-all for both views, one work-item per row: the left disparity (uniqueness test,
+// parabola vertex; NaN when not unique) and the right view's winner in steps (NO_MATCH if no
+// left pixel can match).  The right view's costs of pixel xr lie on a staircase through the
+// left pixels' entries: sample k at left pixel xr + n(k), n(k) = floor((d_min*steps + k) /
+// steps), `steps` consecutive k per pixel.  Walking the row right to left, E_x[k] = the best
+// (cost, k) of the staircase from entry k of pixel x on: E_x[k] = min(S_x[k], E_x[k + 1]) within
+// a pixel's group of k, min(S_x[k], E_(x+1)[k + 1]) at a group's last k; the winner of right
+// pixel xr is E_(xr + n(0))[0] (ties go to the smaller k, the specification's first minimum).
+__kernel void select_disparity(__global const short *agg, __global float *disp, __global int *right,
+                               const int h, const int w, const int d_min, const int steps,
+                               const int uniqueness)
+{
+    const int y = get_global_id(0);
+    if (y >= h)
+        return;
+    const int t0 = d_min * steps, n0 = floor_div(t0, steps), f0 = t0 - n0 * steps;
+    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const short16 none = (short16)(SHRT_MAX);
+    short16 group_end[NV], ev[NV], ei[NV];      // lanes whose k + 1 is on the next pixel; E_x
+    #pragma unroll
+    for (int j = 0; j < NV; ++j) {
+        const short16 k = lane + (short16)(16 * j);
+        group_end[j] = (k + (short16)(f0)) % (short16)(steps) == (short16)(steps - 1);
+        ev[j] = none;                           // E beyond the right edge: no pixel
+        ei[j] = k;
+    }
+    __global int *rrow = right + (size_t)y * w;
+    __global float *drow = disp + (size_t)y * w;
+    for (int x = 0; x < w; ++x)
+        rrow[x] = NO_MATCH;
+    for (int x = w - 1; x >= 0; --x) {
+        __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
+        short16 sv[NV], vmin = none;
+        #pragma unroll
+        for (int j = 0; j < NV; ++j) {
+            sv[j] = LOAD_SMAX(s, j);
+            vmin = VMIN(vmin, sv[j]);
+        }
+        // ---- left view: the first minimum, the best cost more than one step from it
+        const int best = hmin16(vmin);
+        const short16 vbest = (short16)(best);
+        short16 first = none;
+        #pragma unroll
+        for (int j = 0; j < NV; ++j)
+            first = VMIN(first, sv[j] == vbest ? lane + (short16)(16 * j) : none);
+        const int kb = hmin16(first);
+        const short16 below = (short16)(kb - 1), above = (short16)(kb + 1);
+        short16 far = none;
+        #pragma unroll
+        for (int j = 0; j < NV; ++j) {
+            const short16 k = lane + (short16)(16 * j);
+            far = VMIN(far, (k < below) | (k > above) ? sv[j] : none);
+        }
+        // no k is more than one step away: INT_MAX, as in the specification
+        const int second = (kb >= 2 || kb <= N_DISP - 3) ? hmin16(far) : INT_MAX;
+        const int unique = (long)second * 100 > (long)best * (100 + uniqueness);
+        const int sm = s[kb > 0 ? kb - 1 : 0], sp = s[kb < N_DISP - 1 ? kb + 1 : N_DISP - 1];
+        const float den = (float)(sm - 2 * best + sp);
+        float delta = 0.0f;
+        if (kb > 0 && kb < N_DISP - 1 && den > 0.0f)
+            delta = (float)(sm - sp) / (2.0f * den);
+        drow[x] = unique ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
+        // ---- right view: E_x from E_(x+1) (at group ends), then within the groups
+        #pragma unroll
+        for (int j = 0; j < NV; ++j) {
+            const short16 k = lane + (short16)(16 * j);
+            const short16 cv = SHIFT_DOWN(ev, j, SHRT_MAX), ci = SHIFT_DOWN(ei, j, 0);
+            const short16 take = (sv[j] <= cv) | ~group_end[j];
+            ev[j] = take ? sv[j] : cv;
+            ei[j] = take ? k : ci;
+        }
+        for (int round = 1; round < steps; ++round) {
+            #pragma unroll
+            for (int j = 0; j < NV; ++j) {
+                const short16 cv = SHIFT_DOWN(ev, j, SHRT_MAX), ci = SHIFT_DOWN(ei, j, 0);
+                const short16 take = (ev[j] <= cv) | group_end[j];
+                ev[j] = take ? ev[j] : cv;
+                ei[j] = take ? ei[j] : ci;
+            }
+        }
+        const int xr = x - n0;                  // the right pixel whose staircase starts here
+        if (xr >= 0 && xr < w)
+            rrow[xr] = t0 + ei[0].s0;
+    }
+    // right pixels whose staircase starts left of the image enter it at pixel 0, entry
+    // k = (-xr - n0) * steps - f0 (the first k with n(k) = -xr)
+    const int xr_end = min(w, -n0);
+    if (xr_end > 0) {
+        short idx[NP];
+        #pragma unroll
+        for (int j = 0; j < NV; ++j)
+            *(__private short16 *)(idx + 16 * j) = ei[j];
+        for (int xr = 0; xr < xr_end; ++xr) {
+            const int k = (-xr - n0) * steps - f0;
+            if (k < N_DISP)
+                rrow[xr] = t0 + idx[k];
+        }
+    }
+}
+#endif  // N_DISP
+
+// One step of the running-best sweep: windowed squared difference around (y, x) of the gained,
+// shifted left view at x' and right view at x' - offset, then the update of the 5 state planes (best, its d, before, after, prev).
+__kernel void sweep_update(__global float *state, __global const float *ls, __global const float *rs,
+                           __global const float *gl, __global const float *gr, const int h, const int w,
+                           const int offset, const float d, const int radius)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    float cost = 0.0f;
+    for (int v = -radius; v <= radius; ++v) {
+        const size_t row = (size_t)clamp(y + v, 0, h - 1) * w;
+        for (int u = -radius; u <= radius; ++u) {
+            const int xl = clamp(x + u, 0, w - 1);
+            const int xr = clamp(xl - offset, 0, w - 1);
+            const float a = gl[xl] * ls[row + xl] - gr[xr] * rs[row + xr];
+            cost += a * a;
+        }
+    }
+    const size_t n = (size_t)h * w, p = (size_t)y * w + x;
+    if (cost < state[p]) {
+        state[2 * n + p] = state[4 * n + p];
+        state[3 * n + p] = NAN;
+        state[p] = cost;
+        state[n + p] = d;
+    } else if (isnan(state[3 * n + p])) {
+        state[3 * n + p] = cost;
+    }
+    state[4 * n + p] = cost;
+}

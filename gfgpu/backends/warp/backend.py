@@ -1,0 +1,348 @@
+"""The NVIDIA Warp backend: ``warp.array`` on the CPU (``"cpu"``) or a CUDA GPU (``"cuda:N"``).
+
+Warp is imported lazily: importing this module neither imports nor initialises Warp; the
+first :class:`WarpBackend` does (quietly), and the kernels of :mod:`gfgpu.backends.warp.recurse`
+are compiled once per process on first use, through Warp's kernel cache (``~/.cache/warp``
+or ``WARP_CACHE_PATH``), so later processes only load them.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+
+from ..base import Backend, BackendUnavailable, check_line_plans
+
+_REALS = (np.dtype(np.float32), np.dtype(np.float64))
+_PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
+_INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
+
+
+def _import_warp():
+    """Import and initialise Warp quietly; raise :class:`BackendUnavailable` if it cannot."""
+    try:
+        import warp as wp
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise BackendUnavailable(f"warp-lang not installed ({exc})") from exc
+    # a library should not print Warp's start-up banner and module-load lines: `quiet` in older
+    # Warp, `log_level` in newer (setting the unused one is harmless)
+    wp.config.quiet = True
+    if hasattr(wp, "LOG_WARNING"):
+        wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
+    try:
+        wp.init()
+    except Exception as exc:  # pragma: no cover - depends on the environment
+        raise BackendUnavailable(f"warp-lang failed to initialise: {exc}") from exc
+    return wp
+
+
+def unavailable_reason():
+    """Why the Warp backend cannot be used here, or None if it can.
+
+    Returns
+    -------
+    str or None
+        For example ``"warp-lang not installed"``.  Initialises Warp (quietly) if present.
+    """
+    try:
+        _import_warp()
+    except BackendUnavailable as exc:
+        return str(exc)
+    return None
+
+
+def warp_devices():
+    """Names of the Warp devices usable by :class:`WarpBackend`.
+
+    Returns
+    -------
+    list of str
+        ``"cpu"`` followed by ``"cuda:0"``, ``"cuda:1"``, ... for each CUDA GPU; empty when
+        Warp is unavailable.
+    """
+    try:
+        wp = _import_warp()
+    except BackendUnavailable:
+        return []
+    return [d.alias for d in wp.get_devices()]
+
+
+class WarpBackend(Backend):
+    """Run the recursion primitive with Warp kernels on ``warp.array`` data.
+
+    Parameters
+    ----------
+    device : str or int, optional
+        A Warp device name, ``"cpu"`` or ``"cuda:N"`` (an int ``N`` means ``"cuda:N"``).
+        Default: ``"cuda:0"`` when a CUDA GPU is available, else ``"cpu"``.
+
+    Raises
+    ------
+    BackendUnavailable
+        If warp-lang is not installed, fails to initialise, or ``device`` does not exist.
+
+    Notes
+    -----
+    One Warp thread runs one line (the kernels of :mod:`gfgpu.backends.warp.recurse`).  Columns
+    are processed through a transposed strided view, so both axes share one kernel body.  On
+    a GPU adjacent threads read adjacent columns (coalesced).  Warp's CPU backend runs the
+    threads one after another, so there a thread takes a cache line of adjacent columns at a
+    time (a vector sample: 16 float32 or 8 float64 columns), which keeps column passes
+    sequential in memory.  float32 and float64 are supported on every device.  Uploaded
+    plans and gather indices are cached by identity (both are treated as immutable).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gfgpu.backends.warp import WarpBackend
+    >>> be = WarpBackend("cpu")
+    >>> a = be.asarray(np.ones((1, 4, 5), np.float32))
+    >>> be.to_host(a).shape
+    (1, 4, 5)
+    """
+
+    name = "warp"
+    supports_float64 = True
+
+    def __init__(self, device=None):
+        wp = _import_warp()
+        if device is None:
+            device = "cuda:0" if wp.is_cuda_available() else "cpu"
+        elif isinstance(device, int):
+            device = f"cuda:{device}"   # an ordinal names a GPU, as in Warp's "cuda:N"
+        try:
+            self._device = wp.get_device(device)
+        except Exception as exc:
+            raise BackendUnavailable(f"Warp device {device!r} is not available "
+                                     f"(usable: {', '.join(warp_devices())})") from exc
+        self._wp = wp
+        from . import recurse as kernels
+        self._k = kernels
+        self.device = self._device.alias if self._device.is_cpu else \
+            f"{self._device.alias} ({self._device.name})"
+        self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, arrays)
+        self._indices = OrderedDict()  # id(index) -> (index, device array, max index)
+
+    # ---- arrays -------------------------------------------------------------------
+    def owns(self, array):
+        return isinstance(array, self._wp.array) and array.device == self._device
+
+    def asarray(self, host):
+        host = np.ascontiguousarray(host)
+        return self._wp.array(host, dtype=self._wp.dtype_from_numpy(host.dtype), device=self._device)
+
+    def to_host(self, array):
+        host = getattr(array, "gfgpu_host", None)
+        if host is not None:
+            return host     # a host_result on the CPU: the numpy array is the memory (launches are synchronous)
+        out = array.numpy()
+        # on the CPU .numpy() is a view of the Warp allocation: copy so later kernels can't alter it
+        return out.copy() if self._device.is_cpu else out
+
+    def empty(self, shape, dtype):
+        return self._wp.empty(tuple(shape), dtype=self._wp.dtype_from_numpy(np.dtype(dtype)),
+                              device=self._device)
+
+    def _alias(self, host):
+        # by pointer with canonical strides: numpy calls arrays with odd strides on length-1
+        # axes C-contiguous, Warp does not
+        arr = self._wp.array(ptr=host.ctypes.data, dtype=self._wp.dtype_from_numpy(host.dtype),
+                             shape=host.shape, device=self._device)
+        arr.gfgpu_memory = host     # the numpy array owns the memory: keep it alive
+        return arr
+
+    def host_view(self, host):
+        # Warp's CPU device reads numpy memory in place: no copy, no fresh allocation
+        host = np.ascontiguousarray(host)
+        return self._alias(host) if self._device.is_cpu else self.asarray(host)
+
+    def host_result(self, shape, dtype, into=None):
+        if not self._device.is_cpu:
+            return self.empty(shape, dtype)
+        host = np.empty(shape, dtype) if into is None else into
+        arr = self._alias(host)
+        arr.gfgpu_host = host     # keeps the memory alive; to_host returns it
+        return arr
+
+    def copy(self, src, dst):
+        self._wp.copy(dst, src)
+        return dst
+
+    def is_contiguous(self, array):
+        return bool(array.is_contiguous)
+
+    def may_share_memory(self, a, b):
+        if a.device != b.device or not a.size or not b.size:
+            return False
+        def span(x):
+            item = np.dtype(self._wp.dtype_to_numpy(x.dtype)).itemsize
+            extent = sum((n - 1) * abs(st) for n, st in zip(x.shape, x.strides)) + item
+            return x.ptr, x.ptr + extent
+        (a0, a1), (b0, b1) = span(a), span(b)
+        return a0 < b1 and b0 < a1
+
+    def dtype_of(self, array):
+        return np.dtype(self._wp.dtype_to_numpy(array.dtype))
+
+    def reshape(self, array, shape):
+        return array.reshape(tuple(shape))
+
+    def all_finite(self, array):
+        if np.dtype(self._wp.dtype_to_numpy(array.dtype)) not in _REALS:
+            return True   # integer arrays hold no NaN or infinity
+        wp = self._wp
+        count = wp.zeros(1, dtype=wp.int32, device=self._device)
+        if array.size:
+            flat = (array if array.is_contiguous else array.contiguous()).flatten()
+            wp.launch(self._k.count_nonfinite, dim=array.size, inputs=[flat, count], device=self._device)
+        return int(count.numpy()[0]) == 0
+
+    def synchronize(self):
+        self._wp.synchronize_device(self._device)
+
+    @property
+    def spec(self):
+        return ("warp", self._device.alias)
+
+    @property
+    def memory_budget(self):
+        return None if self._device.is_cpu else int(self._device.total_memory) // 2
+
+    # ---- the primitive --------------------------------------------------------------
+    def _plan_arrays(self, plan, dtype):
+        """Upload ``plan.packed(dtype)`` once; plans are immutable, so id(plan) is a key."""
+        key = (id(plan), dtype)
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plan:
+            self._plans.move_to_end(key)
+            return hit[1]
+        wp = self._wp
+        lam, kap, omega, omega_c = plan.packed(dtype)
+        if omega.shape[1] == 0:
+            # Warp kernels take no empty arrays' data pointers: pass one unused zero column
+            omega = np.zeros((omega.shape[0], 1, 2), dtype)
+        arrays = tuple(wp.array(a, dtype=wp.dtype_from_numpy(dtype), device=self._device)
+                       for a in (lam, kap, omega, omega_c))
+        self._plans[key] = (plan, arrays)   # keeping the plan keeps its id unique
+        if len(self._plans) > _PLAN_CACHE_SIZE:
+            self._plans.popitem(last=False)
+        return arrays
+
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+        wp = self._wp
+        if axis not in (1, 2):
+            raise ValueError(f"axis must be 1 or 2, got {axis}")
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a):
+                raise TypeError(f"{arg} must be a warp.array on {self._device.alias}, got {type(a).__name__}")
+            if a.ndim != 3 or not a.is_contiguous:
+                raise ValueError(f"{arg} must be a C-contiguous 3-D array, got shape {a.shape}")
+        if src.shape != dst.shape or src.dtype != dst.dtype:
+            raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
+        dtype = np.dtype(wp.dtype_to_numpy(src.dtype))
+        if dtype not in _REALS:
+            raise TypeError(f"src must be float32 or float64, got {dtype}")
+        if plan.n != src.shape[axis]:
+            raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {src.shape[axis]}")
+        if plan.sections > self._k.MAX_SECTIONS:
+            raise ValueError(f"plans may have at most {self._k.MAX_SECTIONS} sections, got {plan.sections}")
+        if accumulate and src.ptr == dst.ptr:
+            raise ValueError("dst may not be src when accumulating")
+        if src.size == 0:
+            return dst
+        lam, kap, omega, omega_c = self._plan_arrays(plan, dtype)
+        real = src.dtype
+        scalars = [plan.sections, plan.omega.shape[1], real(cval), real(plan.tap), int(plan.reverse),
+                   int(bool(accumulate)), int(plan.constant)]
+        for lines_src, lines_dst in self._line_views(src, dst, axis):
+            wp.launch(self._k.recurse_lines, dim=lines_src.shape[:2],
+                      inputs=[lines_src, lines_dst, lam, kap, omega, omega_c, *scalars],
+                      device=self._device)
+        return dst
+
+    def recurse_lines(self, src, dst, axis, plans, cval=0.0):
+        wp = self._wp
+        check_line_plans(src, dst, axis, plans)
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or not a.is_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous warp.array on {self._device.alias}")
+        dtype = np.dtype(wp.dtype_to_numpy(src.dtype))
+        if src.size == 0:
+            return dst
+        lam, kap, tap, reverse, omega, omega_c = plans.packed(dtype)
+        init_len = omega.shape[1]
+        if init_len == 0:
+            omega = np.zeros((omega.shape[0], 1, 2), dtype)   # no empty arrays for kernels
+        real = wp.dtype_from_numpy(dtype)
+        dev = [wp.array(a, dtype=real, device=self._device) for a in (lam, kap, tap, omega, omega_c)]
+        rev = wp.array(reverse, dtype=wp.int32, device=self._device)
+        views = (src, dst) if axis == 2 else (src.transpose((0, 2, 1)), dst.transpose((0, 2, 1)))
+        wp.launch(self._k.recurse_per_line, dim=views[0].shape[:2],
+                  inputs=[views[0], views[1], dev[0], dev[1], dev[2], rev, dev[3], dev[4], init_len,
+                          real(cval)], device=self._device)
+        return dst
+
+    def _line_views(self, src, dst, axis):
+        """``(src, dst)`` view pairs ``(B, lines, n)`` whose last axis is the lines' axis.
+
+        Rows are the arrays themselves; columns the transposed ``(B, M, N)`` views.  On the CPU,
+        whose Warp threads run one after another, columns go in groups of adjacent columns
+        (vector samples, ``LANE_TYPES``) so that each thread walks down whole cache lines; the
+        ``M % lanes`` columns left over go one per thread.
+        """
+        if axis == 2:
+            return [(src, dst)]
+        col_src, col_dst = src.transpose((0, 2, 1)), dst.transpose((0, 2, 1))
+        if not self._device.is_cpu:
+            return [(col_src, col_dst)]   # GPU: adjacent threads, adjacent columns (coalesced)
+        lane = self._k.LANE_TYPES[src.dtype]
+        m = src.shape[2]
+        body = m - m % lane._length_
+        views = []
+        if body:
+            views.append((self._lane_view(src, lane, body), self._lane_view(dst, lane, body)))
+        if body < m:
+            views.append((col_src[:, body:, :], col_dst[:, body:, :]))
+        return views
+
+    def _lane_view(self, a, lane, width):
+        """Columns ``[0, width)`` of ``(B, N, M)`` array ``a`` as ``(B, width // L, N)`` L-column vectors."""
+        size = self._wp.types.type_size_in_bytes(lane)
+        return self._wp.array(ptr=a.ptr, dtype=lane, shape=(a.shape[0], width // lane._length_, a.shape[1]),
+                              strides=(a.strides[0], size, a.strides[1]), device=self._device)
+
+    def _index_array(self, index, size):
+        """Upload a gather index once per identity (int32 when the source allows)."""
+        key = id(index)
+        hit = self._indices.get(key)
+        if hit is not None and hit[0] is index:
+            self._indices.move_to_end(key)
+            dev, top = hit[1], hit[2]
+        else:
+            idx = np.asarray(index).reshape(-1)
+            if idx.dtype.kind not in "iu":
+                raise TypeError(f"index must be an integer array, got {idx.dtype}")
+            top = int(idx.max()) if idx.size else -1
+            small = top < 2**31 and (idx.size == 0 or int(idx.min()) >= -2**31)
+            idx = np.ascontiguousarray(idx, np.int32 if small else np.int64)
+            dev = self._wp.array(idx, dtype=self._wp.int32 if small else self._wp.int64, device=self._device)
+            self._indices[key] = (index, dev, top)
+            if len(self._indices) > _INDEX_CACHE_SIZE:
+                self._indices.popitem(last=False)
+        if top >= size:
+            raise ValueError(f"index holds {top}, beyond the source's {size} elements")
+        return dev
+
+    def gather(self, src, index, cval, out):
+        wp = self._wp
+        if src.dtype != out.dtype:
+            raise ValueError(f"src and out must have one dtype, got {src.dtype} and {out.dtype}")
+        dev_index = self._index_array(index, src.size)
+        if dev_index.size != out.size:
+            raise ValueError(f"index has {dev_index.size} elements, out has {out.size}")
+        if out.size:
+            wp.launch(self._k.gather, dim=out.size,
+                      inputs=[src.flatten(), dev_index, src.dtype(cval), out.flatten()],
+                      device=self._device)
+        return out

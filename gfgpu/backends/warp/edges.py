@@ -1,0 +1,72 @@
+"""Warp kernel of the edge detector: interpolated non-maximum suppression.
+
+Executable specification: :func:`gfgpu.backends.specs.suppress_nonmaxima_reference`; the
+launcher at the end is registered by :mod:`gfgpu.edges.kernels`.
+"""
+
+from typing import Any
+
+import warp as wp
+
+wp.set_module_options({"enable_backward": False})
+
+
+@wp.func
+def _magnitude(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), i: int, j: int):
+    return wp.sqrt(gy[i, j] * gy[i, j] + gx[i, j] * gx[i, j])
+
+
+@wp.kernel
+def suppress_nonmaxima(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), out: wp.array2d(dtype=Any)):
+    """``out = |g|`` where it is a maximum along the gradient (interpolated), else 0.
+
+    The two neighbours along ±g are interpolated linearly between the two pixels that
+    straddle the gradient line in the next row (|gy| >= |gx|) or column; a tie with the -g
+    neighbour keeps the pixel, a tie with the +g neighbour does not (one edge pixel per
+    symmetric crest, on the brighter side).  Border pixels are 0.
+    """
+    i, j = wp.tid()
+    h = out.shape[0]
+    w = out.shape[1]
+    zero = type(out[i, j])(0.0)
+    if i == 0 or j == 0 or i == h - 1 or j == w - 1:
+        out[i, j] = zero
+        return
+    ay = wp.abs(gy[i, j])
+    ax = wp.abs(gx[i, j])
+    m = _magnitude(gy, gx, i, j)
+    if m == zero:
+        out[i, j] = zero
+        return
+    s = 1
+    if gy[i, j] * gx[i, j] < zero:
+        s = -1
+    plus = zero
+    minus = zero
+    if ay >= ax:
+        t = ax / ay
+        plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i + 1, j) + t * _magnitude(gy, gx, i + 1, j + s)
+        minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i - 1, j) + t * _magnitude(gy, gx, i - 1, j - s)
+    else:
+        t = ay / ax
+        plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j + 1) + t * _magnitude(gy, gx, i + s, j + 1)
+        minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j - 1) + t * _magnitude(gy, gx, i - s, j - 1)
+    tol = type(m)(1.0e-5) * m   # gfgpu.backends.specs.TIE_RTOL: equal up to rounding is a tie
+    if m > plus + tol and m >= minus - tol:
+        out[i, j] = m
+    else:
+        out[i, j] = zero
+
+
+for _real in (wp.float32, wp.float64):
+    wp.overload(suppress_nonmaxima, {"gy": wp.array2d(dtype=_real), "gx": wp.array2d(dtype=_real),
+                                     "out": wp.array2d(dtype=_real)})
+
+
+def launch_suppress_nonmaxima(be, gy, gx, out):
+    """Launcher of the fused kernel ``edges.nms`` (spec: gfgpu.backends.specs.suppress_nonmaxima_reference)."""
+    if not (gy.shape == gx.shape == out.shape) or len(out.shape) != 2:
+        raise ValueError(f"gy, gx and out must be 2-D arrays of one shape, got {gy.shape}, "
+                         f"{gx.shape}, {out.shape}")
+    be._wp.launch(suppress_nonmaxima, dim=out.shape, inputs=[gy, gx, out], device=be._device)
+    return out

@@ -1,0 +1,181 @@
+"""Warp kernels: the recursion primitive, the gather and the non-finite count.
+
+Each kernel has one generic body (``typing.Any``) overloaded at the bottom of this module;
+the host side is :mod:`gfgpu.backends.warp.backend` and the executable specification is
+:func:`gfgpu._core.recursion.run_reference`.
+
+:func:`recurse_lines` runs one line per thread along the last axis of a 3-D *view*
+``(B, lines, n)`` of the data: the rows of a C-contiguous ``(B, N, M)`` array directly, its
+columns through the transposed, strided view ``(B, M, N)`` (Warp indexes through strides, so
+no copy is made).  The *sample* type is a real (float32/float64) or, for columns on the CPU,
+a vector of adjacent columns (``LANE_TYPES``): one thread then advances that many independent
+lines in lockstep, reading whole cache lines and giving the compiler SIMD work, with the same
+arithmetic (real coefficients times samples).  On a GPU one thread per column is already
+coalesced, so only the real overloads are used there.
+"""
+
+from typing import Any
+
+import warp as wp
+
+# Forward kernels only (no adjoints): less code to generate and compile.
+wp.set_module_options({"enable_backward": False})
+
+#: most sections a plan may have (a pole pair: the derivative and projection passes use two)
+MAX_SECTIONS = 2
+
+#: vector sample type of each real type: one 64-byte cache line of adjacent columns
+LANE_TYPES = {wp.float32: wp.types.vector(length=16, dtype=wp.float32),
+              wp.float64: wp.types.vector(length=8, dtype=wp.float64)}
+
+
+@wp.func
+def _coefficients(lam: wp.array3d(dtype=Any), kap: wp.array3d(dtype=Any), s: int, k: int):
+    """``(Re lam, Im lam, Re kap, Im kap)`` of section ``s`` at step ``k``."""
+    return wp.vector(lam[s, k, 0], lam[s, k, 1], kap[s, k, 0], kap[s, k, 1])
+
+
+@wp.func
+def _advance(fr: Any, fi: Any, c: Any, v: Any):
+    """One step ``F <- lam F + kap v`` of a section, ``F = fr + i fi``, ``c`` from _coefficients."""
+    return c[0] * fr - c[1] * fi + c[2] * v, c[0] * fi + c[1] * fr + c[3] * v
+
+
+@wp.func
+def _initial(src: wp.array3d(dtype=Any), b: int, i: int, first: int, step: int,
+             omega: wp.array3d(dtype=Any), omega_c: wp.array2d(dtype=Any), s: int,
+             init_len: int, cval: Any):
+    """Initial state of section ``s``: the boundary mode, ``Σ_j omega[s, j] I[j] + omega_c[s] cval``."""
+    fr = src.dtype(omega_c[s, 0] * cval)   # a real, or a vector filled with it
+    fi = src.dtype(omega_c[s, 1] * cval)
+    for j in range(init_len):
+        v = src[b, i, first + step * j]
+        fr = fr + omega[s, j, 0] * v
+        fi = fi + omega[s, j, 1] * v
+    return fr, fi
+
+
+@wp.kernel
+def recurse_lines(
+    src: wp.array3d(dtype=Any),
+    dst: wp.array3d(dtype=Any),
+    lam: wp.array3d(dtype=Any),
+    kap: wp.array3d(dtype=Any),
+    omega: wp.array3d(dtype=Any),
+    omega_c: wp.array2d(dtype=Any),
+    sections: int,
+    init_len: int,
+    cval: Any,
+    tap: Any,
+    reverse: int,
+    accumulate: int,
+    constant: int,
+):
+    """One pass over line ``src[b, i, :]`` into ``dst[b, i, :]`` (``run_reference``).
+
+    ``lam``/``kap`` are ``(S, n, 2)``, ``omega`` ``(S, L, 2)``, ``omega_c`` ``(S, 2)``: real
+    and imaginary parts of the plan in the real type; ``init_len`` is L (0: no sample term).
+    Step ``k`` visits sample ``first + step * k``, from the end when ``reverse``.  The state
+    is kept in the samples' precision.  ``dst`` may be ``src`` unless ``accumulate``: each
+    sample is read before it is written.
+    """
+    b, i = wp.tid()
+    n = src.shape[2]
+    first = (n - 1) * reverse   # reverse is 0 or 1
+    step = 1 - 2 * reverse
+    # sections 0 and (when S = 2) 1, written out: their states have the sample type
+    two = sections > 1
+    f0r, f0i = _initial(src, b, i, first, step, omega, omega_c, 0, init_len, cval)
+    f1r = src.dtype(type(cval)(0.0))
+    f1i = f1r
+    c0 = _coefficients(lam, kap, 0, 0)   # constant plans read their coefficients once
+    c1 = c0
+    if two:
+        f1r, f1i = _initial(src, b, i, first, step, omega, omega_c, 1, init_len, cval)
+        c1 = _coefficients(lam, kap, 1, 0)
+
+    for k in range(n):
+        x = first + step * k
+        v = src[b, i, x]
+        y = tap * v + f0r
+        if two:
+            y = y + f1r
+        if accumulate != 0:
+            y = y + dst[b, i, x]
+        dst[b, i, x] = y
+        if constant == 0:
+            c0 = _coefficients(lam, kap, 0, k)
+            if two:
+                c1 = _coefficients(lam, kap, 1, k)
+        f0r, f0i = _advance(f0r, f0i, c0, v)
+        if two:
+            f1r, f1i = _advance(f1r, f1i, c1, v)
+
+
+@wp.kernel
+def recurse_per_line(
+    src: wp.array3d(dtype=Any),
+    dst: wp.array3d(dtype=Any),
+    lam: wp.array2d(dtype=Any),
+    kap: wp.array2d(dtype=Any),
+    tap: wp.array(dtype=Any),
+    reverse: wp.array(dtype=wp.int32),
+    omega: wp.array3d(dtype=Any),
+    omega_c: wp.array2d(dtype=Any),
+    init_len: int,
+    cval: Any,
+):
+    """One pass over line ``src[b, i, :]`` with line ``i``'s own coefficients
+    (``run_reference_lines``): ``lam``, ``kap``, ``omega_c`` ``(m, 2)``, ``tap`` and
+    ``reverse`` ``(m,)``, ``omega`` ``(m, L, 2)``.  ``dst`` may be ``src``."""
+    b, i = wp.tid()
+    n = src.shape[2]
+    rev = reverse[i]
+    first = (n - 1) * rev
+    step = 1 - 2 * rev
+    # the per-line arrays are indexed like a plan's sections, by the line instead of s
+    fr, fi = _initial(src, b, i, first, step, omega, omega_c, i, init_len, cval)
+    c = wp.vector(lam[i, 0], lam[i, 1], kap[i, 0], kap[i, 1])
+    t = tap[i]
+    for k in range(n):
+        x = first + step * k
+        v = src[b, i, x]
+        dst[b, i, x] = t * v + fr
+        fr, fi = _advance(fr, fi, c, v)
+
+
+@wp.kernel
+def gather(src: wp.array(dtype=Any), index: wp.array(dtype=Any), cval: Any, out: wp.array(dtype=Any)):
+    """``out[t] = src[index[t]]``, or ``cval`` where ``index[t] < 0``."""
+    t = wp.tid()
+    j = index[t]
+    if j >= type(j)(0):
+        out[t] = src[j]
+    else:
+        out[t] = cval
+
+
+@wp.kernel
+def count_nonfinite(values: wp.array(dtype=Any), count: wp.array(dtype=wp.int32)):
+    """``count[0] += 1`` for every NaN or infinite element of ``values``."""
+    t = wp.tid()
+    if not wp.isfinite(values[t]):
+        wp.atomic_add(count, 0, 1)
+
+
+for _real in (wp.float32, wp.float64):
+    _plan = {"lam": wp.array3d(dtype=_real), "kap": wp.array3d(dtype=_real),
+             "omega": wp.array3d(dtype=_real), "omega_c": wp.array2d(dtype=_real),
+             "cval": _real, "tap": _real}
+    wp.overload(recurse_per_line, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real),
+                                   "lam": wp.array2d(dtype=_real), "kap": wp.array2d(dtype=_real),
+                                   "tap": wp.array(dtype=_real), "omega": wp.array3d(dtype=_real),
+                                   "omega_c": wp.array2d(dtype=_real), "cval": _real})
+    for _sample in (_real, LANE_TYPES[_real]):
+        wp.overload(recurse_lines, {"src": wp.array3d(dtype=_sample), "dst": wp.array3d(dtype=_sample),
+                                    **_plan})
+    for _index in (wp.int32, wp.int64):
+        wp.overload(gather, {"src": wp.array(dtype=_real), "index": wp.array(dtype=_index),
+                             "cval": _real, "out": wp.array(dtype=_real)})
+    wp.overload(count_nonfinite, {"values": wp.array(dtype=_real)})
+del _real, _plan, _sample, _index

@@ -1,0 +1,254 @@
+"""Warp kernels of the stereo matcher (float32 images, integer costs).
+
+Executable specification: the ``*_reference`` functions of :mod:`gfgpu.backends.specs`; the
+OpenCL twins are in ``backends/opencl/stereo.cl``.  The ``launch_*`` functions at the end are
+the launchers that :mod:`gfgpu.stereo.kernels` registers.
+"""
+
+# ruff: noqa: UP018 - int(0) / float(0.0) declare Warp's dynamic (mutable-in-loop) variables
+
+import warp as wp
+
+from ..specs import SGM_PATHS
+
+wp.set_module_options({"enable_backward": False})
+
+NO_MATCH = -2147483647 - 1
+_INT_MAX = 2147483647
+
+
+@wp.func
+def _popcount(v: wp.uint64):
+    # SWAR bit count of a 64-bit word
+    x = v - ((v >> wp.uint64(1)) & wp.uint64(0x5555555555555555))
+    x = (x & wp.uint64(0x3333333333333333)) + ((x >> wp.uint64(2)) & wp.uint64(0x3333333333333333))
+    x = (x + (x >> wp.uint64(4))) & wp.uint64(0x0F0F0F0F0F0F0F0F)
+    return int((x * wp.uint64(0x0101010101010101)) >> wp.uint64(56))
+
+
+@wp.func
+def _floor_div(a: int, b: int):
+    if a >= 0:
+        return a / b
+    return -((-a + b - 1) / b)
+
+
+@wp.kernel
+def census(img: wp.array2d(dtype=wp.float32), out: wp.array3d(dtype=wp.uint64), plane: int, radius: int):
+    """Census transform into ``out[plane]`` (row-major window bits, centre skipped, edges repeated)."""
+    y, x = wp.tid()
+    h = img.shape[0]
+    w = img.shape[1]
+    c = img[y, x]
+    code = wp.uint64(0)
+    bit = wp.uint64(0)
+    for dy in range(-radius, radius + 1):
+        yy = wp.clamp(y + dy, 0, h - 1)
+        for dx in range(-radius, radius + 1):
+            if dy != 0 or dx != 0:
+                xx = wp.clamp(x + dx, 0, w - 1)
+                if img[yy, xx] < c:
+                    code = code | (wp.uint64(1) << bit)
+                bit = bit + wp.uint64(1)
+    out[plane, y, x] = code
+
+
+@wp.kernel
+def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64),
+                out: wp.array3d(dtype=wp.int16), first_step: int, steps: int, block: int, invalid: int):
+    """Block-summed Hamming distances for every disparity sample (see census_cost_reference)."""
+    y, x = wp.tid()
+    h = out.shape[0]
+    w = out.shape[1]
+    r = block / 2
+    for k in range(out.shape[2]):
+        t = first_step + k
+        n = _floor_div(t, steps)
+        f = t - n * steps
+        total = int(0)
+        for v in range(-r, r + 1):
+            yy = wp.clamp(y + v, 0, h - 1)
+            for u in range(-r, r + 1):
+                xx = wp.clamp(x + u, 0, w - 1)
+                xr = xx - n
+                if xr < 0 or xr >= w:
+                    total = total + invalid
+                else:
+                    total = total + _popcount(cl[0, yy, xx] ^ cr[f, yy, xr])
+        out[y, x, k] = wp.int16(total)
+
+
+@wp.kernel
+def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16),
+             scratch: wp.array2d(dtype=wp.int32), dy: int, dx: int, p1: int, p2: int, accumulate: int):
+    """One path direction of semi-global aggregation; one thread per line entering the image."""
+    i = wp.tid()
+    h = cost.shape[0]
+    w = cost.shape[1]
+    nd = cost.shape[2]
+    x = int(0)
+    y = int(0)
+    if dx == 0:
+        if i >= w:
+            return
+        x = i
+        y = 0
+        if dy < 0:
+            y = h - 1
+    elif dy == 0 or i < h:
+        if i >= h:
+            return
+        x = 0
+        if dx < 0:
+            x = w - 1
+        y = i
+    else:
+        if i >= h + w - 1:
+            return
+        x = i - h + 1
+        if dx < 0:
+            x = w - 2 - (i - h)
+        y = 0
+        if dy < 0:
+            y = h - 1
+    prev = int(0)       # column offset of the previous step's costs in this line's scratch row
+    cur = int(nd)
+    mprev = int(0)
+    first = int(1)
+    while x >= 0 and x < w and y >= 0 and y < h:
+        m = int(_INT_MAX)
+        for d in range(nd):
+            v = int(cost[y, x, d])
+            if first == 0:
+                best = wp.min(scratch[i, prev + d], mprev + p2)
+                if d > 0:
+                    best = wp.min(best, scratch[i, prev + d - 1] + p1)
+                if d < nd - 1:
+                    best = wp.min(best, scratch[i, prev + d + 1] + p1)
+                v = v + best - mprev
+            scratch[i, cur + d] = v
+            m = wp.min(m, v)
+            if accumulate != 0:
+                total[y, x, d] = wp.int16(int(total[y, x, d]) + v)
+            else:
+                total[y, x, d] = wp.int16(v)
+        tmp = prev
+        prev = cur
+        cur = tmp
+        mprev = m
+        first = 0
+        x = x + dx
+        y = y + dy
+
+
+@wp.kernel
+def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.float32),
+                     right: wp.array2d(dtype=wp.int32), d_min: int, steps: int, uniqueness: int):
+    """Winner-take-all for both views (uniqueness test, parabola vertex, NaN when not unique)."""
+    y, x = wp.tid()
+    w = agg.shape[1]
+    nd = agg.shape[2]
+    best = int(_INT_MAX)
+    kb = int(0)
+    for k in range(nd):
+        v = int(agg[y, x, k])
+        if v < best:
+            best = v
+            kb = k
+    second = int(_INT_MAX)
+    for k in range(nd):
+        v = int(agg[y, x, k])
+        if wp.abs(k - kb) > 1 and v < second:
+            second = v
+    unique = wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
+    sm = int(agg[y, x, wp.max(kb - 1, 0)])
+    sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
+    den = float(sm - 2 * best + sp)
+    delta = float(0.0)
+    if kb > 0 and kb < nd - 1 and den > 0.0:
+        delta = float(sm - sp) / (2.0 * den)
+    if unique:
+        disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
+    else:
+        disp[y, x] = wp.nan
+    best_r = int(_INT_MAX)
+    kr = int(NO_MATCH)
+    for k in range(nd):
+        t = d_min * steps + k
+        xl = x + _floor_div(t, steps)
+        if xl >= 0 and xl < w:
+            v = int(agg[y, xl, k])
+            if v < best_r:
+                best_r = v
+                kr = t
+    right[y, x] = kr
+
+
+@wp.kernel
+def sweep_update(state: wp.array3d(dtype=wp.float32), ls: wp.array2d(dtype=wp.float32),
+                 rs: wp.array2d(dtype=wp.float32), gl: wp.array(dtype=wp.float32),
+                 gr: wp.array(dtype=wp.float32), offset: int, d: float, radius: int):
+    """One step of the running-best sweep (see sweep_update_reference)."""
+    y, x = wp.tid()
+    h = ls.shape[0]
+    w = ls.shape[1]
+    cost = float(0.0)
+    for v in range(-radius, radius + 1):
+        yy = wp.clamp(y + v, 0, h - 1)
+        for u in range(-radius, radius + 1):
+            xl = wp.clamp(x + u, 0, w - 1)
+            xr = wp.clamp(xl - offset, 0, w - 1)
+            a = gl[xl] * ls[yy, xl] - gr[xr] * rs[yy, xr]
+            cost = cost + a * a
+    if cost < state[0, y, x]:
+        state[2, y, x] = state[4, y, x]
+        state[3, y, x] = wp.nan
+        state[0, y, x] = cost
+        state[1, y, x] = d
+    elif wp.isnan(state[3, y, x]):
+        state[3, y, x] = cost
+    state[4, y, x] = cost
+
+
+# ---- launchers (registered by gfgpu.stereo.kernels) -------------------------------------
+def _contiguous(be, a, name):
+    if not be.owns(a):
+        raise TypeError(f"{name} must be a warp.array on {be._device.alias}, got {type(a).__name__}")
+    return a if a.is_contiguous else a.contiguous()
+
+def launch_census(be, image, out, plane, radius):
+    image = _contiguous(be, image, "image")
+    be._wp.launch(census, dim=image.shape, inputs=[image, out, int(plane), int(radius)],
+                    device=be._device)
+    return out
+
+def launch_cost(be, census_left, census_right, out, first_step, steps, block, invalid):
+    be._wp.launch(census_cost, dim=out.shape[:2],
+                    inputs=[census_left, census_right, out, int(first_step), int(steps), int(block),
+                            int(invalid)], device=be._device)
+    return out
+
+def launch_sgm(be, cost, out, p1, p2, paths):
+    h, w, n = cost.shape
+    lines = h + w - 1
+    scratch = be._wp.empty((lines, 2 * n), dtype=be._wp.int32, device=be._device)
+    for i, (dy, dx) in enumerate(SGM_PATHS[:paths]):
+        count = w if dx == 0 else h if dy == 0 else lines
+        be._wp.launch(sgm_path, dim=count,
+                        inputs=[cost, out, scratch, dy, dx, int(p1), int(p2), int(i > 0)],
+                        device=be._device)
+    return out
+
+def launch_select(be, aggregated, disp, disp_right, d_min, steps, uniqueness):
+    be._wp.launch(select_disparity, dim=disp.shape,
+                    inputs=[aggregated, disp, disp_right, int(d_min), int(steps), int(uniqueness)],
+                    device=be._device)
+    return disp, disp_right
+
+def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
+    ls = _contiguous(be, left_shifted, "left_shifted")
+    rs = _contiguous(be, right_shifted, "right_shifted")
+    be._wp.launch(sweep_update, dim=ls.shape,
+                    inputs=[state, ls, rs, gain_left, gain_right, int(offset), float(d), int(radius)],
+                    device=be._device)
+    return state

@@ -1,0 +1,121 @@
+"""``gfgpu batch``: one operator over many image files, here or on a Dask cluster.
+
+Examples::
+
+    gfgpu batch shift photos/ -o shifted/ --by 2.5 -1.25
+    gfgpu batch gradient 'scans/**/*.tif' -o grad/ -u 1.5 --format npy --workers 4
+    gfgpu batch canny a.png b.png -o edges/ -u 1 --low 0.8 --high 0.95
+    gfgpu batch blur frames/ -o blurred/ --velocity 25 -10 --scheduler tcp://head:8786
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from ..batch import FORMATS, check_parameters, discover_inputs, plan_jobs, run_batch, summarize
+from .common import CommandError, announce_backend, backend_args
+
+_EPILOG = """\
+Outputs are OUTDIR/<input stem>.<format>, written atomically (temporary file + rename), so an
+interrupted batch leaves only complete files; a rerun skips the outputs that exist (resume)
+unless --overwrite. Inputs are never overwritten. A file that fails (unreadable, truncated,
+unsupported pixel type, ...) is reported with its reason and the others go on; the exit status
+is 1 if any file failed.
+
+--workers N starts N local worker processes (Dask LocalCluster, one thread each).
+--scheduler ADDRESS uses a running Dask cluster (e.g. tcp://head:8786, started with
+`dask scheduler` and `dask worker ADDRESS --nthreads 1` per GPU): every worker must have gfgpu
+installed and see the input and output paths at the same location (a shared filesystem).
+See docs/batch.md."""
+
+
+def _common_args(p):
+    p.add_argument("inputs", nargs="+", metavar="INPUT",
+                   help="image files, directories (their .png .jpg .jpeg .tif .tiff .bmp files, not recursive) "
+                        "or glob patterns (quote them; ** spans directories)")
+    p.add_argument("-o", "--output-dir", required=True, metavar="OUTDIR", help="output directory")
+    p.add_argument("--format", choices=tuple(FORMATS), default="png",
+                   help="png: 8-bit image to look at (default); tiff, npy: the raw float result")
+    p.add_argument("--overwrite", action="store_true", help="recompute outputs that already exist")
+    p.add_argument("--mode", default="reflect", choices=("reflect", "constant", "nearest", "mirror", "wrap"),
+                   help="boundary extension (default reflect)")
+    backend_args(p)
+    run = p.add_mutually_exclusive_group()
+    run.add_argument("--workers", type=int, metavar="N", help="N local worker processes (Dask LocalCluster)")
+    run.add_argument("--scheduler", metavar="ADDRESS",
+                     help="address of a running Dask scheduler (files must be on a shared filesystem)")
+
+
+def add_parser(subparsers):
+    """Add the ``batch`` subcommand (with one sub-subcommand per operator) to ``subparsers``."""
+    batch = subparsers.add_parser(
+        "batch", help="one operator over many image files (here, local processes or a Dask cluster)",
+        description="Run one operator over many image files: gfgpu batch OP INPUTS... -o OUTDIR [options].",
+        epilog=_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ops = batch.add_subparsers(dest="op", required=True, metavar="OP")
+
+    def op_parser(name, text):
+        p = ops.add_parser(name, help=text, description=text, epilog=_EPILOG,
+                           formatter_class=argparse.RawDescriptionHelpFormatter)
+        _common_args(p)
+        p.set_defaults(func=run)
+        return p
+
+    p = op_parser("shift", "sub-pixel shift through G_u (colour images per channel)")
+    p.add_argument("--by", nargs=2, type=float, metavar=("DX", "DY"), required=True,
+                   help="displacement in pixels: DX toward the right, DY downward")
+
+    p = op_parser("gradient", "Green's-function gradient of the grey image (PNG colour-coded; raw (gy, gx))")
+    p.add_argument("-u", type=float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
+
+    p = op_parser("canny", "edge map (Green's-function gradient + Canny's steps)")
+    p.add_argument("-u", type=float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
+    p.add_argument("--low", type=float, metavar="Q",
+                   help="low hysteresis threshold as a quantile of the gradient magnitude in [0, 1] "
+                        "(default: gfgpu.canny's absolute default)")
+    p.add_argument("--high", type=float, metavar="Q", help="high threshold, a quantile in [0, 1]")
+
+    p = op_parser("blur", "motion blur (--velocity DX DY) or zoom blur (--zoom U1), colour per channel")
+    how = p.add_mutually_exclusive_group(required=True)
+    how.add_argument("--velocity", nargs=2, type=float, metavar=("DX", "DY"),
+                     help="uniform motion in pixels: DX toward the right, DY downward")
+    how.add_argument("--zoom", type=float, metavar="U1",
+                     help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1)")
+    p.add_argument("--center", nargs=2, type=float, metavar=("X", "Y"),
+                   help="fixed point of the zoom (default: each image's centre)")
+    p.add_argument("--keep-position", action="store_true",
+                   help="uniform motion: blur in place instead of displacing the content")
+    return subparsers
+
+
+def _params(args):
+    if args.op == "shift":
+        return {"by": tuple(args.by)}
+    if args.op == "gradient":
+        return {"u": args.u}
+    if args.op == "canny":
+        return {"u": args.u, "low": args.low, "high": args.high}
+    if args.zoom is not None:
+        return {"zoom": args.zoom, "center": None if args.center is None else tuple(args.center)}
+    if args.center is not None:
+        raise CommandError("--center applies to --zoom only")
+    return {"velocity": tuple(args.velocity), "keep_position": args.keep_position}
+
+
+def run(args):
+    """Handler of ``gfgpu batch``: plan (errors before any work), run, summarise; 1 if a file failed."""
+    if args.workers is not None and args.workers < 1:
+        raise CommandError(f"--workers must be >= 1, got {args.workers}")
+    params = _params(args)
+    check_parameters(args.op, params, args.mode)
+    inputs = discover_inputs(args.inputs)
+    jobs = plan_jobs(inputs, args.output_dir, args.op, params, fmt=args.format, mode=args.mode,
+                     backend=args.backend, device=args.device, overwrite=args.overwrite)
+    if args.workers is None and args.scheduler is None:
+        announce_backend(args)   # workers resolve their own; they say so in their results
+    t0 = time.perf_counter()
+    results = run_batch(jobs, workers=args.workers, scheduler=args.scheduler, description=f"gfgpu batch {args.op}")
+    text, code = summarize(results, time.perf_counter() - t0)
+    print(text)
+    return code

@@ -1,0 +1,90 @@
+"""``gfgpu depth``: depth from one shading image (GSFS or photometric motion).
+
+Examples::
+
+    gfgpu depth vase.png -o vase_depth.png --light 1 0 1
+    gfgpu depth face.png -o depth.png --method photometric-motion --relief relief.png --npy depth.npy
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+from tqdm import tqdm
+
+from .. import io
+from ..shading import lambertian_shading, photometric_motion, shape_from_shading
+from .common import CommandError, announce_backend, backend_args, refuse_overwrite
+
+
+def add_parser(subparsers):
+    """Add the ``depth`` subcommand to an argparse ``subparsers`` object."""
+    p = subparsers.add_parser("depth", help="depth map from one shading image (GSFS / photometric motion)")
+    p.add_argument("image", help="input shading image (grey; colour is averaged)")
+    p.add_argument("-o", "--output", required=True, help="output depth PNG (near = bright)")
+    p.add_argument("--method", choices=("gsfs", "photometric-motion"), default="gsfs")
+    p.add_argument("--light", nargs="+", type=float, metavar="L",
+                   help="light as L1 L2 L3 (x right, y down, z toward the viewer) or TILT SLANT in "
+                        "degrees; default: estimated (Zheng & Chellappa 1991)")
+    p.add_argument("-u", type=float, default=None, help="GSFS matching constant in pixels (default: rule)")
+    p.add_argument("--boundary", choices=("auto", "background", "free"), default="auto",
+                   help="GSFS line constants: an object on a flat background, a textured surface "
+                        "filling the frame, or chosen from the image border (default)")
+    p.add_argument("--direction", type=float, default=None,
+                   help="matching/motion direction in degrees from +x toward +y (default: light tilt)")
+    p.add_argument("--relief", help="also write a shaded-relief rendering of the depth (PNG)")
+    p.add_argument("--npy", help="also write the raw float depth (.npy)")
+    backend_args(p)
+    p.set_defaults(func=run)
+    return p
+
+
+def _light(values):
+    if values is None:
+        return None
+    if len(values) == 2:
+        return (math.radians(values[0]), math.radians(values[1]))
+    if len(values) == 3:
+        return tuple(values)
+    raise CommandError(f"--light takes 3 values (L1 L2 L3) or 2 (TILT SLANT in degrees), got {len(values)}")
+
+
+def _to_png(values):
+    lo, hi = np.percentile(values, [0.5, 99.5])
+    scale = 255.0 / (hi - lo) if hi > lo else 0.0
+    return np.clip(np.rint((values - lo) * scale), 0, 255).astype(np.uint8)
+
+
+def run(args):
+    refuse_overwrite([args.image], [args.output, args.relief, args.npy])
+    image = io.read_image(args.image)
+    img = np.asarray(image)
+    if img.ndim == 3:
+        img = img[..., :3].mean(axis=-1) if img.shape[-1] >= 3 else img[..., 0]
+    img = img.astype(np.float32)
+    if image.dtype == np.uint8:
+        img /= 255.0
+    elif image.dtype == np.uint16:
+        img /= 65535.0
+    kw = dict(light=_light(args.light), backend=announce_backend(args))
+    direction = None if args.direction is None else math.radians(args.direction)
+    t0 = time.perf_counter()
+    with tqdm(total=3, desc=f"gfgpu depth ({args.method})", unit="step", disable=None, leave=False) as bar:
+        bar.update(1)
+        if args.method == "gsfs":
+            depth = shape_from_shading(img, u=args.u, direction=direction, boundary=args.boundary, **kw)
+        else:
+            depth = photometric_motion(img, direction=direction, **kw)
+        bar.update(1)
+        io.save_png(args.output, _to_png(depth))
+        if args.relief:
+            relief = lambertian_shading(depth, (math.radians(-135), math.radians(45)))  # light from top-left
+            io.save_png(args.relief, _to_png(relief))
+        if args.npy:
+            io.save_npy(args.npy, depth)
+        bar.update(1)
+    print(f"{args.image}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({args.method}, "
+          f"{(time.perf_counter() - t0) * 1e3:.0f} ms)")
+    return 0

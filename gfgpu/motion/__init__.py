@@ -1,0 +1,25 @@
+"""Motion blur, zoom and frame synthesis with the Green's filters (chapter §1, §6).
+
+The chapter's Green's functions are point-spread functions that *move* image content and add
+the blur of that motion: G_u (eq. 9) along a direction for uniform motion, and the exact affine
+G_U^(1) (eq. 11-12) for a zoom about a fixed point.  Every operator is a fixed number of O(N)
+recursive passes: the cost per pixel does not depend on the blur length or the zoom factor.
+
+Modules: ``blur`` (:func:`motion_blur`), ``uniform``, ``zoom`` and ``rotation`` (one kind of
+motion each), ``frames`` (sequences and in-between frames), ``params`` (argument parsing).
+
+References
+----------
+.. [1] J. R. A. Torreão, S. M. C. Victer, J. L. Fernandes, "Green's Functions of Matching
+   Equations: A Unifying Approach for Low-level Vision Problems", 2007, eqs. 9-12 and §1, §6.
+.. [2] J. Ferreira Jr., J. R. A. Torreão et al., "Motion synthesis through 1D affine
+   matching", Pattern Analysis and Applications, doi:10.1007/s10044-007-0078-6.
+"""
+
+from .blur import motion_blur
+from .frames import estimate_translation, interpolate_frames, synthesize_motion
+from .uniform import uniform_motion_program
+from .zoom import zoom_cell_weights
+
+__all__ = ["motion_blur", "synthesize_motion", "interpolate_frames", "estimate_translation",
+           "uniform_motion_program", "zoom_cell_weights"]

@@ -1,0 +1,60 @@
+"""Argument parsing shared by the motion operators (velocities, zoom rates, colour axes)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .._core.validation import finite_scalar
+
+__all__ = ["KINDS", "U1_MIN", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "move_channels"]
+
+KINDS = ("uniform", "zoom", "rotation")
+
+
+def pair(value, name):
+    """A pair of finite floats from a scalar (used twice) or a length-2 sequence."""
+    arr = np.asarray(value, dtype=object)
+    if arr.ndim == 0:
+        arr = np.array([value, value], dtype=object)
+    if arr.shape != (2,):
+        raise ValueError(f"{name} must be a number or a pair of numbers, got {value!r}")
+    return tuple(finite_scalar(name, v) for v in arr)
+
+
+def velocity_pair(velocity):
+    if np.ndim(velocity) == 0:
+        raise ValueError(f"velocity must be a pair (dx, dy) in pixels for kind='uniform', got {velocity!r}")
+    return pair(velocity, "velocity")
+
+
+U1_MIN = 2.0 - 2.0 * math.sqrt(2.0)   # below: beta of eq. 12 is imaginary (no oscillating G_U^(1))
+
+
+def zoom_u1(name, u1):
+    """One zoom rate, checked against the range of a bounded real G_U^(1)."""
+    if not U1_MIN < u1 < 2.0:
+        raise ValueError(f"{name} must lie in (2 - 2*sqrt(2), 2) ~ (-0.8284, 2) for a bounded G_U^(1) "
+                         f"(eq. 12: alpha < 0 for zoom-in u1 > 0, real beta for zoom-out u1 < 0), "
+                         f"got {u1!r}")
+    return u1
+
+
+def zoom_factors(velocity):
+    u1x, u1y = pair(velocity, "velocity (zoom u1)")
+    return zoom_u1("velocity (zoom u1)", u1x), zoom_u1("velocity (zoom u1)", u1y)
+
+
+def move_channels(image, channel_axis):
+    """Put a colour axis first (numpy input only); returns (array, undo)."""
+    if channel_axis is None:
+        return image, lambda out: out
+    arr = np.asarray(image)
+    ax = int(channel_axis)
+    if not -arr.ndim <= ax < arr.ndim or arr.ndim < 3:
+        raise ValueError(f"channel_axis={channel_axis} is out of range for an input of shape {arr.shape} "
+                         f"(a colour image needs 3 dimensions)")
+    ax %= arr.ndim
+    moved = np.ascontiguousarray(np.moveaxis(arr, ax, 0))
+    return moved, lambda out: np.moveaxis(out, 0, ax)

@@ -1,0 +1,75 @@
+"""Spin blur: a rotation by three Green's shears (Paeth), each line shifted by its own amount."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .. import greens
+from .._core import strips
+from .._core.job import copy_of_input
+from .._core.recursion import plan_lines
+from .._core.validation import finite_scalar
+from .params import pair
+
+__all__ = ["ROTATION_MAX_DEGREES", "rotation_angle", "rotation_shears", "apply_rotation"]
+
+ROTATION_MAX_DEGREES = 90.0   # tan(θ/2) <= 1: the shears stay at most one pixel per pixel
+
+
+def rotation_angle(velocity):
+    theta = finite_scalar("velocity (rotation angle in degrees)", velocity)
+    if abs(theta) > ROTATION_MAX_DEGREES:
+        raise ValueError(f"velocity (rotation angle) must lie in [-{ROTATION_MAX_DEGREES:g}, "
+                         f"{ROTATION_MAX_DEGREES:g}] degrees for the three-shear rotation, got {theta!r}")
+    return theta
+
+
+def rotation_shears(degrees):
+    """``[(axis, rate), ...]``: the three shears whose product is the rotation by ``degrees``.
+
+    A point p (x right, y down) moves to ``c + R (p - c)``, R = [[cos θ, sin θ], [-sin θ, cos θ]]
+    (counter-clockwise on screen for θ > 0), and ``R = X(a) Y(b) X(a)`` with ``a = tan(θ/2)``,
+    ``b = -sin θ`` (Paeth 1986): ``X(a)`` moves row y by ``a (y - y_c)`` along x (axis -1),
+    ``Y(b)`` column x by ``b (x - x_c)`` along y (axis -2).
+    """
+    theta = math.radians(degrees)
+    a, b = math.tan(theta / 2.0), -math.sin(theta)
+    return [(-1, a), (-2, b), (-1, a)]
+
+
+def _shear_plans(rate, n_lines, centre, n, mode, dtype):
+    """Per-line plans of a shear: line i displaced by ``rate (i - centre)`` (the G_u shift)."""
+    passes = []
+    for i in range(n_lines):
+        d = rate * (i - centre)
+        passes.append(greens.shift_pass(d) if abs(d) > 1e-9 else None)
+    return plan_lines(passes, n, mode, dtype)
+
+
+def apply_rotation(job, degrees, center, displace, mode, cval):
+    height, width = job.shape[-2], job.shape[-1]
+    if center is None:
+        cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
+    else:
+        cx, cy = pair(center, "center")
+    strips.require_whole_image(job, "a rotation (its shears move whole rows and columns)")
+    if degrees == 0.0:
+        return job.finish(copy_of_input(job))
+    shears = rotation_shears(degrees) if displace else \
+        rotation_shears(-degrees / 2.0) + rotation_shears(degrees / 2.0)
+    be, dtype = job.backend, job.dtype
+    batch = int(np.prod(job.shape[:-2], dtype=np.int64))
+    cur = be.reshape(job.data, (batch, height, width))
+    bufs = [be.empty((batch, height, width), dtype) for _ in range(2)]
+    for i, (axis, rate) in enumerate(shears):
+        # rows (axis -1): line = row y, about y_c; columns (axis -2): line = column x, about x_c
+        lines, n, centre = (height, width, cy) if axis == -1 else (width, height, cx)
+        plans = _shear_plans(rate, lines, centre, n, mode, dtype)
+        nxt = bufs[i % 2]
+        be.recurse_lines(cur, nxt, 2 if axis == -1 else 1, plans, cval)
+        cur = nxt
+    result = job.result_buffer()
+    be.copy(cur, be.reshape(result, (batch, height, width)))
+    return job.finish(result)

@@ -1,0 +1,311 @@
+"""Green's-function shape from shading (GSFS, chapter §3, eqs. 30-33).
+
+The matching image ``I2 = G_u * I1`` of a virtual light displacement along the light's
+image-plane direction, and the depth ``Z = u·Ī2/k1`` with ``Ī2 = ½(G_u + H_u) * I1`` (eq. 32 with
+``(a, b, c) = (½, -1, ½)``, ``docs/shading.md``), one exact O(N) recursion per line.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import ndimage
+
+from .. import greens
+from .._core.lines import direction as _line_direction
+from .._core.validation import finite_scalar, positive
+from ..filters import green_filter
+from .light import estimate_illuminant, fit_depth_scale
+from .params import MIN_SLANT, check_contrast, checked_image, checked_mask, parse_light, tilt_slant
+from .scene import border_band, flat_background, has_background
+
+__all__ = ["shape_from_shading", "ShadingGreen", "resolve_light", "GSFS_U_FRACTION"]
+
+#: GSFS matching constant u as a fraction of the path length of one digital line across the image
+#: (the operator is then an integrator over the whole line; Notes of :func:`shape_from_shading`)
+GSFS_U_FRACTION = 1.0
+
+
+# the fused GSFS kernel ½(G_u + H_u)
+# --------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ShadingGreen(greens.GreenKernel):
+    """½(G_u + H_u) (eq. 9 and 33): the GSFS operator ``Ī2 = ½(G_u + H_u) * I1`` as ONE recursion.
+
+    .. math:: c(x) = \\frac{1}{u} (\\sin(x/u) + \\cos(x/u))\\, e^{-x/u} \\quad (x > 0)
+
+    Both kernels share the poles ``exp((-1 ± i)/u)``, so their half sum is one complex section
+    ``lam = exp((-1+i)/u)``, ``kap = (1 - i) lam / u`` plus H_u's direct tap halved, ``1/(2u)``.
+    Its transfer function is ``(1 + ε/2)/(1 + ε + ε²/2)``, ``ε = iuω``: about 1 for ``uω ≪ 1``
+    and about ``1/(iuω)`` (an integrator, times 1/u) for ``uω ≫ 1``.
+    """
+
+    u: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "u", positive("u", self.u))
+
+    shift_invariant = True
+
+    @property
+    def tap(self):
+        return 0.5 / self.u
+
+    def __call__(self, x, x0):
+        d = np.asarray(x, np.float64) - np.asarray(x0, np.float64)
+        return 0.5 * (greens.g_uniform(d, self.u) + greens.h_homogeneous(d, self.u))
+
+    def _section(self):
+        lam = np.exp(complex(-1.0, 1.0) / self.u)
+        return greens.Section(lam=lam, kap=(1.0 - 1.0j) * lam / self.u)
+
+
+
+# GSFS
+# --------------------------------------------------------------------------------------
+def step_length(angle):
+    """Euclidean length (pixels) of one step of a digital line at ``angle`` (DESIGN: lines.py)."""
+    return 1.0 / max(abs(math.cos(angle)), abs(math.sin(angle)))
+
+
+def line_extent(shape, angle):
+    """Pixels of path covered by one digital line at ``angle`` across the image."""
+    steep, _, _ = _line_direction(angle)
+    steps = shape[0] if steep else shape[1]
+    return steps * step_length(angle)
+
+
+def resolve_light(image, light, mask):
+    if light is None:
+        est, _ = estimate_illuminant(image, mask)
+        return est, True
+    return parse_light(light), False
+
+
+def _integration_angle(light, direction, estimated):
+    tilt, slant = tilt_slant(light)
+    if direction is not None:
+        return finite_scalar("direction", direction)   # radians
+    if slant < MIN_SLANT:
+        src = "the estimated light" if estimated else "light"
+        raise ValueError(
+            f"{src} ({light[0]:.4g}, {light[1]:.4g}, {light[2]:.4g}) is frontal (slant {math.degrees(slant):.2f} deg < "
+            f"{math.degrees(MIN_SLANT):.0f} deg): its image-plane direction γ is undefined and the "
+            f"linear reflectance term that GSFS integrates vanishes. Pass direction= (radians) to "
+            f"choose the virtual light displacement, or use photometric_motion")
+    return tilt
+
+
+def _line_coordinates(shape, angle):
+    """Digital line index (0-based) and step position of every pixel at ``angle`` (lines.py)."""
+    steep, _, gamma = _line_direction(angle)
+    h, w = shape
+    yy, xx = np.mgrid[:h, :w]
+    t, minor = (yy, xx) if steep else (xx, yy)
+    r = np.floor(gamma * np.arange(h if steep else w) + 0.5).astype(np.int64)
+    line = minor - r[t]
+    return line - line.min(), t.astype(np.float64)
+
+
+def _fix_line_solutions(z, line, t, weights, anchors):
+    """Add ``c + a·t`` to every line: the homogeneous solutions of the line integration.
+
+    ``anchors`` None: ``a = 0`` and ``c`` gives each line zero weighted mean (minimum norm).
+    Otherwise ``(c, a)`` per line are the least-squares fit of ``Z + c + a·t = 0`` on its anchor
+    pixels (weighted); a line with anchors at one position only gets ``a = 0``.
+    """
+    n = int(line.max()) + 1
+    lab = line.ravel()
+
+    def per_line(w, v):
+        return np.bincount(lab, (w * v).ravel(), minlength=n)
+
+    if anchors is None:
+        cnt = per_line(weights, 1.0)
+        c = -np.divide(per_line(weights, z), cnt, out=np.zeros(n), where=cnt > 0)
+        return z + c[line]
+    w = weights * anchors
+    s0, s1, s2 = per_line(w, 1.0), per_line(w, t), per_line(w, t * t)
+    sz, stz = per_line(w, z), per_line(w, t * z)
+    det = s0 * s2 - s1 * s1
+    ok = det > 1e-9 * np.maximum(s0 * s2, 1e-300)
+    a = np.zeros(n)
+    a[ok] = -(s0[ok] * stz[ok] - s1[ok] * sz[ok]) / det[ok]
+    c = -np.divide(sz + a * s1, s0, out=np.zeros(n), where=s0 > 0)
+    return z + c[line] + a[line] * t
+
+
+def _line_ends(line, t, weights):
+    """Pixels at the first and the last weighted position of every line."""
+    n = int(line.max()) + 1
+    idx = np.arange(n)
+    lo = ndimage.minimum(np.where(weights > 0, t, np.inf), line, idx)
+    hi = ndimage.maximum(np.where(weights > 0, t, -np.inf), line, idx)
+    return (weights > 0) & ((t == lo[line]) | (t == hi[line]))
+
+
+def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, direction=None,
+                       boundary="auto", backend=None, device=None):
+    """Depth from one shading image by Green's-function shape from shading (GSFS).
+
+    Parameters
+    ----------
+    image : (H, W) array_like
+        Shading image (Lambertian surface, one distant light).  float32/float64 kept,
+        integers -> float32.  The image is used as is: no clipping, no normalisation.
+    light : sequence, optional
+        Light as ``(l1, l2, l3)`` or ``(tilt, slant)`` (radians; see :func:`parse_light`).
+        Default: estimated from the image by :func:`estimate_illuminant` (Zheng & Chellappa).
+    u : float, optional
+        Matching constant (virtual disparity, eq. 7), in pixels of path along γ, > 0.
+        Default: :data:`GSFS_U_FRACTION` (1) times the path length of one digital line
+        across the image (Notes).
+    k1 : {'render', 'linear'} or float, optional
+        Depth scale of eq. 31.  ``'render'`` (default): the value whose Lambertian re-rendering
+        best matches the image in least squares (:func:`fit_depth_scale`).  ``'linear'``:
+        ``k1 = -ρ sin σ`` from the linearised reflectance map, with the albedo ρ of
+        :func:`estimate_illuminant`.  A float is used as given (non-zero).
+    mask : (H, W) bool array_like, optional
+        Pixels that enter the light estimate, k0, the line constants and the k1 fit (default
+        all).  The filtering itself runs over the whole image.
+    direction : float, optional
+        Matching direction γ as an angle in radians from +x toward +y; default the light's
+        tilt.  Required when the light is frontal (slant below :data:`MIN_SLANT`).
+    boundary : {'auto', 'background', 'free'}, optional
+        How the two constants that the integration leaves free on every line are fixed
+        (Notes).  ``'background'``: the flat background and the ends of every line lie on
+        one reference plane.  ``'free'``: one global k0 and zero-mean lines.  ``'auto'``
+        (default): ``'background'`` when :func:`has_background` (a quiet image border),
+        else ``'free'``.
+    backend, device : str, optional
+        Where the line filtering runs (:func:`gfgpu.green_filter`).
+
+    Returns
+    -------
+    ndarray, (H, W)
+        Height toward the viewer, in pixel units, float32 (float64 for float64 input), with
+        zero mean over ``mask``.
+
+    Raises
+    ------
+    ValueError
+        Non-2-D, empty, constant or non-finite image; a light pointing away from the viewer;
+        a frontal light without ``direction``; ``u <= 0``; ``k1 == 0``; bad ``boundary``/``mask``.
+    TypeError
+        Non-numeric image or parameters.
+
+    Notes
+    -----
+    *Operator.*  Eq. 30 of DBPS with the second-order matching equation (7) integrated once
+    along γ gives (science.md §2.2) ``Z = u Ī2 / k1 − k0 (x + γy)/(k1 (1+γ²))`` (eq. 30-31)
+    with ``Ī2 = I2 + (u/2)∂_γ I2`` and, in terms of the input, exactly
+    ``Ī2 = ½(G_u + H_u) * I1``, i.e. eq. 32 with ``(a, b, c) = (½, -1, ½)``.  The k0 ramp of
+    eq. 30 is the integral of the constant k0, so it is removed by filtering ``I1 − k0``.
+    ``½(G_u + H_u)`` is one first-order complex recursion per line (:class:`ShadingGreen`),
+    run causally along the digital lines at angle γ by :func:`gfgpu.green_filter` on the chosen
+    backend, with ``I1 − k0 = 0`` beyond the image (``mode='constant'``: the surface continues
+    as the reference plane).  Along an oblique line one step covers ``1/max(|cos γ|, |sin γ|)``
+    pixels, so ``u`` in pixels is divided by that length to get the kernel's ``u`` in steps.
+    The transfer function ``(1 + ε/2)/(1 + ε + ε²/2)``, ``ε = iuω``, times ``u`` tends to the
+    integrator ``1/(iω)`` for ``uω ≫ 1``; with ``u`` = one line length that holds for every
+    frequency a line can carry, so ``u Ī2`` is the path integral of ``I1 − k0`` along γ and,
+    with the linearised Lambertian map ``I ≈ k0 − ρ sin σ ∂_γ Z``, the depth for
+    ``k1 = −ρ sin σ``.
+
+    *The two free constants of every line.*  Integrating along γ determines the depth on each
+    line up to the homogeneous solutions of the integrated equation: a constant and, through
+    the unknown k0, a ramp along the line (the integrator limit of eq. 34's solutions).  Depth
+    variation across γ is unobservable from the linear term, so these constants must come
+    from a prior, and the right prior depends on the scene:
+
+    * an object on a flat background (``boundary='background'``): k0 is the background's
+      intensity (median over the :func:`flat_background` pixels, or over the border band when
+      there are none; a frontal plane gives exactly ``ρ l3``), and on
+      every line ``(c, a)`` are fitted in least squares so that the flat pixels and the two
+      ends of the line lie on the reference plane ``Z = 0`` (Dirichlet conditions, which also
+      cancel each line's shading bias from the non-linear terms: shadows, ``1/|n|``);
+    * a textured surface filling the frame (``boundary='free'``): one global k0, the mean
+      intensity (the surface has no mean slope along γ), which keeps each line's own
+      end-to-end depth difference, and ``c`` gives every line zero mean depth (the minimum
+      norm solution, also the least cross-line gradient energy).
+
+    ``'auto'`` chooses by :func:`has_background`.  Pentland's FFT method instead discards
+    each line's mean intensity and wraps it periodically, which is neither.
+
+    *Frontal light.*  For a light along the viewing direction γ is undefined and the linear
+    term vanishes; GSFS refuses such a light unless ``direction`` is given, in which case the
+    method runs as stated along that direction (its result is then not supported by the
+    linearisation; docs/shading.md reports it).
+
+    References
+    ----------
+    .. [1] J. R. A. Torreão, "A Green's function approach to shape from shading", Pattern
+       Recognition 34:2367-2382, 2001.
+    .. [2] Torreão, Victer and Fernandes, "Green's Functions of Matching Equations", 2007,
+       §3, eqs. 29-34.
+    .. [3] A. Pentland, "Linear shape from shading", IJCV 4:153-162, 1990.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gfgpu.shading import lambertian_shading, photometric_motion, shape_from_shading
+    >>> yy, xx = np.mgrid[-32:32, -32:32] + 0.5
+    >>> z = 8 * np.exp(-(xx**2 + yy**2) / 200)
+    >>> img = lambertian_shading(z, (1, 0, 1))
+    >>> est = shape_from_shading(img, light=(1, 0, 1), backend="numpy")
+    >>> bool(np.corrcoef(est.ravel(), z.ravel())[0, 1] > 0.9)
+    True
+    """
+    img = checked_image(image)
+    m = checked_mask(mask, img.shape)
+    check_contrast(img, m)
+    if boundary not in ("auto", "background", "free"):
+        raise ValueError(f"boundary must be 'auto', 'background' or 'free', got {boundary!r}")
+    L, estimated = resolve_light(img, light, m)
+    angle = _integration_angle(L, direction, estimated)
+    step = step_length(angle)
+    if u is None:
+        u_px = GSFS_U_FRACTION * line_extent(img.shape, angle)
+    else:
+        u_px = positive("u", u)
+    if boundary == "auto":
+        boundary = "background" if has_background(img, m) else "free"
+    flat = flat_background(img, m) if boundary == "background" else None
+    if boundary == "background":
+        # the background's intensity: the flat pixels, else the border band
+        ref = flat if flat.any() else (border_band(img.shape) & m)
+        k0 = float(np.median(img[ref]))
+    else:
+        k0 = float(img[m].astype(np.float64).mean())
+    centred = (img - np.asarray(k0, img.dtype)).astype(img.dtype, copy=False)
+    bar = green_filter(centred, ShadingGreen(u_px / step), angle=angle, mode="constant", cval=0.0,
+                       backend=backend, device=device)
+    z_unit = u_px * np.asarray(bar, np.float64)      # eq. 31 with k1 = 1, k0 ramp removed
+    line, t = _line_coordinates(img.shape, angle)
+    weights = m.astype(np.float64)
+    if boundary == "background":
+        anchors = (flat | _line_ends(line, t, weights)).astype(np.float64)
+        z_unit = _fix_line_solutions(z_unit, line, t, weights, anchors)
+    else:
+        z_unit = _fix_line_solutions(z_unit, line, t, weights, None)
+    z_unit -= z_unit[m].mean()
+    if isinstance(k1, str):
+        if k1 == "render":
+            scale, _, _ = fit_depth_scale(z_unit, img, L, m)
+        elif k1 == "linear":
+            _, slant = tilt_slant(L)
+            _, albedo = estimate_illuminant(img, m)
+            if math.sin(slant) * albedo == 0:
+                raise ValueError("k1='linear' needs an oblique light (k1 = -ρ sin σ is 0 for a "
+                                 "frontal one); use k1='render'")
+            scale = -1.0 / (albedo * math.sin(slant))
+        else:
+            raise ValueError(f"k1 must be 'render', 'linear' or a non-zero number, got {k1!r}")
+    else:
+        k = finite_scalar("k1", k1)
+        if k == 0:
+            raise ValueError("k1 must be non-zero (Z = u Ī2 / k1)")
+        scale = 1.0 / k
+    return (scale * z_unit).astype(img.dtype)

@@ -1,0 +1,40 @@
+"""The fused kernels of the stereo matcher, registered with the backends.
+
+Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification lives in
+:mod:`gfgpu.backends.specs`, its device code beside each backend (``backends/warp/stereo.py``,
+``backends/opencl/stereo.cl``).  Call as ``kernel(backend, *args)``.
+"""
+
+from __future__ import annotations
+
+from ..backends import specs
+from ..backends.fused import register
+
+__all__ = ["census", "cost", "sgm", "select", "sweep"]
+
+
+def _launchers(name):
+    return {"numpy": f"gfgpu.backends.numpy.fused:launch_{name}",
+            "warp": f"gfgpu.backends.warp.stereo:launch_{name}",
+            "opencl": f"gfgpu.backends.opencl.stereo:launch_{name}"}
+
+
+#: ``census(be, image, out, plane, radius)``: ``out[plane] = census_transform_reference(image, radius)``
+#: (``image`` (H, W) float32, ``out`` (S, H, W) uint64 device arrays)
+census = register("stereo.census", specs.census_transform_reference, **_launchers("census"))
+
+#: ``cost(be, census_left, census_right, out, first_step, steps, block, invalid)``: ``out =
+#: census_cost_reference(census_left[0], census_right, first_step, n_disp, steps, block, invalid)``
+#: (``census_left`` (1, H, W), ``census_right`` (steps, H, W) uint64; ``out`` (H, W, D) int16)
+cost = register("stereo.cost", specs.census_cost_reference, **_launchers("cost"))
+
+#: ``sgm(be, cost, out, p1, p2, paths)``: ``out = sgm_aggregate_reference(cost, p1, p2, paths)``
+sgm = register("stereo.sgm", specs.sgm_aggregate_reference, **_launchers("sgm"))
+
+#: ``select(be, aggregated, disp, disp_right, d_min, steps, uniqueness)``: both outputs of
+#: ``select_disparity_reference`` written into ``disp`` (H, W) float32 and ``disp_right`` (H, W) int32
+select = register("stereo.select", specs.select_disparity_reference, **_launchers("select"))
+
+#: ``sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius)``:
+#: ``sweep_update_reference`` in place on device arrays (float32)
+sweep = register("stereo.sweep", specs.sweep_update_reference, **_launchers("sweep"))

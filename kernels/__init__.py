@@ -1,1 +1,0 @@
-"""Device code of gfgpu (installed as ``gfgpu.kernels``): OpenCL C sources and Warp kernels."""

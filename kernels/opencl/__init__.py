@@ -1,1 +1,0 @@
-"""OpenCL C sources, read with importlib.resources and specialised with -D defines."""
