@@ -108,7 +108,9 @@ def _automatic():
     for name, want in (("warp", "cuda"), ("opencl", "gpu"), ("opencl", "cpu"), ("warp", "cpu")):
         try:
             if name == "warp":
-                from .warp import warp_devices
+                from .warp import cuda_driver_present, warp_devices
+                if want == "cuda" and not cuda_driver_present():
+                    continue   # decided without initialising Warp
                 devs = [d for d in warp_devices() if d.startswith(want)]
                 if devs:
                     return get_backend("warp", devs[0])
@@ -197,7 +199,9 @@ def devices():
             for d in warp_devices():
                 out.append(DeviceInfo("warp", d, "gpu" if d.startswith("cuda") else "cpu", True))
             if not any(d.startswith("cuda") for d in warp_devices()):
-                out.append(DeviceInfo("warp", "cuda", "gpu", False, "no CUDA driver/GPU found by Warp"))
+                from .warp import cuda_driver_present
+                why = "no GPU found by Warp" if cuda_driver_present() else "no NVIDIA CUDA driver (libcuda)"
+                out.append(DeviceInfo("warp", "cuda", "gpu", False, why))
     except Exception as exc:
         out.append(DeviceInfo("warp", "-", "-", False, str(exc)))
     try:

@@ -4,6 +4,6 @@ Importing this package neither imports nor initialises Warp: ``recurse.py``, ``e
 ``stereo.py`` hold the Warp kernels and are imported when first launched.
 """
 
-from .backend import WarpBackend, unavailable_reason, warp_devices
+from .backend import WarpBackend, cuda_driver_present, unavailable_reason, warp_devices
 
-__all__ = ["WarpBackend", "unavailable_reason", "warp_devices"]
+__all__ = ["WarpBackend", "cuda_driver_present", "unavailable_reason", "warp_devices"]

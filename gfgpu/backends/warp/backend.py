@@ -8,7 +8,13 @@ or ``WARP_CACHE_PATH``), so later processes only load them.
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import os
+import sys
+import tempfile
 from collections import OrderedDict
+from functools import cache
 
 import numpy as np
 
@@ -17,6 +23,57 @@ from ..base import Backend, BackendUnavailable, check_line_plans
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
+
+
+@cache
+def cuda_driver_present():
+    """True if the NVIDIA driver library loads (checked without importing Warp).
+
+    The automatic backend choice asks this before initialising Warp, so a machine without a
+    CUDA driver never initialises Warp unless Warp is the backend that runs.
+    """
+    names = {"win32": ("nvcuda.dll",), "darwin": ()}.get(sys.platform, ("libcuda.so", "libcuda.so.1"))
+    for name in names:
+        try:
+            ctypes.CDLL(name)
+            return True
+        except OSError:
+            continue
+    return False
+
+
+_NO_DRIVER_LINE = b"Warp CUDA warning: Could not find or load the NVIDIA CUDA driver"
+
+
+@contextlib.contextmanager
+def _without_driver_warning():
+    """Drop Warp's "no CUDA driver" line, printed by its native library on stderr at ``wp.init``.
+
+    Where no CUDA driver exists, Warp on the CPU is a deliberate choice and ``gfgpu devices``
+    says why CUDA is unavailable; everything else Warp writes to stderr is passed on.
+    """
+    if cuda_driver_present():
+        yield
+        return
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError):     # no real stderr (embedded interpreters): nothing to filter
+        yield
+        return
+    with tempfile.TemporaryFile() as capture:
+        os.dup2(capture.fileno(), 2)
+        try:
+            yield
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+            capture.seek(0)
+            kept = b"".join(line for line in capture.read().splitlines(keepends=True)
+                            if not line.startswith(_NO_DRIVER_LINE))
+            if kept:
+                sys.stderr.write(kept.decode(errors="replace"))
+                sys.stderr.flush()
 
 
 def _import_warp():
@@ -31,7 +88,8 @@ def _import_warp():
     if hasattr(wp, "LOG_WARNING"):
         wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
     try:
-        wp.init()
+        with _without_driver_warning():
+            wp.init()
     except Exception as exc:  # pragma: no cover - depends on the environment
         raise BackendUnavailable(f"warp-lang failed to initialise: {exc}") from exc
     return wp
