@@ -21,7 +21,9 @@ import os
 from dataclasses import dataclass
 from functools import cache, lru_cache
 
+from . import opencl, warp
 from .base import Backend, BackendUnavailable
+from .numpy import NumpyBackend
 
 __all__ = ["Backend", "BackendUnavailable", "BACKENDS", "get_backend", "resolve_backend",
            "use_backend", "devices", "DeviceInfo", "backend_request", "check_backend_name"]
@@ -73,13 +75,10 @@ def _construct(name, device_key, device):
     if name == "numpy":
         if device not in (None, "host", "cpu"):
             raise BackendUnavailable(f"the numpy backend runs on the host only; got device={device!r}")
-        from .numpy import NumpyBackend
         return NumpyBackend()
     if name == "warp":
-        from .warp import WarpBackend
-        return WarpBackend(device)
-    from .opencl import OpenCLBackend
-    return OpenCLBackend(device)
+        return warp.WarpBackend(device)
+    return opencl.OpenCLBackend(device)
 
 
 def get_backend(name, device=None) -> Backend:
@@ -108,15 +107,13 @@ def _automatic():
     for name, want in (("warp", "cuda"), ("opencl", "gpu"), ("opencl", "cpu"), ("warp", "cpu")):
         try:
             if name == "warp":
-                from .warp import cuda_driver_present, warp_devices
-                if want == "cuda" and not cuda_driver_present():
+                if want == "cuda" and not warp.cuda_driver_present():
                     continue   # decided without initialising Warp
-                devs = [d for d in warp_devices() if d.startswith(want)]
+                devs = [d for d in warp.warp_devices() if d.startswith(want)]
                 if devs:
                     return get_backend("warp", devs[0])
             else:
-                from .opencl import opencl_devices
-                devs = [i for i, _, kind in opencl_devices() if kind == want]
+                devs = [i for i, _, kind in opencl.opencl_devices() if kind == want]
                 if devs:
                     return get_backend("opencl", devs[0])
         except Exception as exc:  # a broken driver must not stop the fallback chain
@@ -130,8 +127,7 @@ def array_backend(array):
     if mod.startswith("warp"):
         return get_backend("warp", str(array.device))
     if mod.startswith("pyopencl"):
-        from .opencl import backend_for_queue
-        return backend_for_queue(array.queue)
+        return opencl.backend_for_queue(array.queue)
     return None
 
 
@@ -191,27 +187,23 @@ def devices():
     """Every backend/device gfgpu can see, usable or not (with the reason)."""
     out = [DeviceInfo("numpy", "host", "cpu", True, "float64 reference, vectorised over lines")]
     try:
-        from .warp import unavailable_reason, warp_devices
-        why = unavailable_reason()
+        why = warp.unavailable_reason()
         if why:
             out.append(DeviceInfo("warp", "-", "-", False, why))
         else:
-            for d in warp_devices():
+            for d in warp.warp_devices():
                 out.append(DeviceInfo("warp", d, "gpu" if d.startswith("cuda") else "cpu", True))
-            if not any(d.startswith("cuda") for d in warp_devices()):
-                from .warp import cuda_driver_present
-                why = "no GPU found by Warp" if cuda_driver_present() else "no NVIDIA CUDA driver (libcuda)"
+            if not any(d.startswith("cuda") for d in warp.warp_devices()):
+                why = "no GPU found by Warp" if warp.cuda_driver_present() else "no NVIDIA CUDA driver (libcuda)"
                 out.append(DeviceInfo("warp", "cuda", "gpu", False, why))
     except Exception as exc:
         out.append(DeviceInfo("warp", "-", "-", False, str(exc)))
     try:
-        from .opencl import opencl_devices
-        from .opencl import unavailable_reason as ocl_reason
-        why = ocl_reason()
+        why = opencl.unavailable_reason()
         if why:
             out.append(DeviceInfo("opencl", "-", "-", False, why))
         else:
-            for idx, dev, kind in opencl_devices():
+            for idx, dev, kind in opencl.opencl_devices():
                 out.append(DeviceInfo("opencl", f"{idx}: {dev.name.strip()} ({dev.platform.name.strip()})",
                                       kind, True))
     except Exception as exc:
