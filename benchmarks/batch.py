@@ -22,8 +22,9 @@ import numpy as np
 
 from gfgpu import batch
 
-PARAMS = {"shift": {"by": (2.5, -1.25)}, "gradient": {"u": 1.0}, "canny": {"u": 1.0, "low": 0.8, "high": 0.9},
-          "blur": {"velocity": (25.0, -10.0)}}
+# the gfgpu.batch parameters; pairs in array-axis order: shift=(dy, dx), velocity=(vy, vx)
+PARAMS = {"shift": {"shift": (-1.25, 2.5)}, "gradient": {"u": 1.0}, "canny": {"u": 1.0, "low": 0.8, "high": 0.9},
+          "blur": {"velocity": (-10.0, 25.0)}}
 
 
 def make_images(folder, count, size):

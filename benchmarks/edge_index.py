@@ -1,7 +1,7 @@
 """The chapter's edge-filter figure of merit, reproduced from gfgpu's closed forms.
 
 Prints Canny's Σ, Λ, x_max, W_rms, SRC and the (ΣΛ)·SRC index (definitions in
-gfgpu.edge_criteria) for the chapter's D(x) at a = 1.1, η = 3.5 (chapter: 3.547), the grid
+gfgpu.edges.criteria) for the chapter's D(x) at a = 1.1, η = 3.5 (chapter: 3.547), the grid
 optimum over (a, η) at step 0.1, the eq. (24)-as-printed weighting K = η²/a for contrast,
 Deriche's filter at m = 1 (= D_u, eq. 19) and at its best m, the first derivative of a Gaussian,
 and Sarkar & Boyer's best as quoted by the chapter (3.388; their filter is not given there).

@@ -42,39 +42,39 @@ def best_time(fn, repeat):
 
 def accuracy_table():
     rows = ["| test | requested | measured | error (px) |", "|---|---|---|---|"]
-    for v in [(5.0, 0.0), (12.5, 0.0), (0.0, -25.0), (-40.3, 0.0), (9.5, 9.5), (-17.0, 17.0)]:
+    for v in [(0.0, 5.0), (0.0, 12.5), (-25.0, 0.0), (0.0, -40.3), (9.5, 9.5), (17.0, -17.0)]:   # (vy, vx)
         img = np.zeros((1024, 1024))
-        y0, x0 = int(512 - 6 * v[1]), int(512 - 6 * v[0])   # room for the kernel's tail
+        y0, x0 = int(512 - 6 * v[0]), int(512 - 6 * v[1])   # room for the kernel's tail
         img[y0, x0] = 1.0
         out = motion_blur(img, v, mode="constant", backend="numpy")
         yy, xx = np.mgrid[:1024, :1024]
-        cx, cy = (out * xx).sum() / out.sum() - x0, (out * yy).sum() / out.sum() - y0
-        rows.append(f"| impulse, velocity (dx, dy) | ({v[0]:g}, {v[1]:g}) | ({cx:.4f}, {cy:.4f}) | "
-                    f"{max(abs(cx - v[0]), abs(cy - v[1])):.1e} |")
+        cy, cx = (out * yy).sum() / out.sum() - y0, (out * xx).sum() / out.sum() - x0
+        rows.append(f"| impulse, velocity (vy, vx) | ({v[0]:g}, {v[1]:g}) | ({cy:.4f}, {cx:.4f}) | "
+                    f"{max(abs(cy - v[0]), abs(cx - v[1])):.1e} |")
     errs = []
     for x0 in range(60, 70):
         img = np.zeros((300, 300))
         img[120 + x0 % 3, x0] = 1.0
-        out = motion_blur(img, (10.0, 4.0), mode="constant", backend="numpy")
+        out = motion_blur(img, (4.0, 10.0), mode="constant", backend="numpy")
         yy, xx = np.mgrid[:300, :300]
-        errs.append(((out * xx).sum() - x0 - 10, (out * yy).sum() - (120 + x0 % 3) - 4))
+        errs.append(((out * yy).sum() - (120 + x0 % 3) - 4, (out * xx).sum() - x0 - 10))
     errs = np.array(errs)
-    rows.append(f"| impulse, oblique (10, 4), 10 positions | (10, 4) | mean ({10 + errs[:, 0].mean():.4f}, "
-                f"{4 + errs[:, 1].mean():.4f}) | x: {np.abs(errs[:, 0]).max():.1e}, y per pixel: "
-                f"{np.abs(errs[:, 1]).max():.2f}, y mean: {abs(errs[:, 1].mean()):.1e} |")
+    rows.append(f"| impulse, oblique (vy, vx) = (4, 10), 10 positions | (4, 10) | mean ({4 + errs[:, 0].mean():.4f}, "
+                f"{10 + errs[:, 1].mean():.4f}) | x: {np.abs(errs[:, 1]).max():.1e}, y per pixel: "
+                f"{np.abs(errs[:, 0]).max():.2f}, y mean: {abs(errs[:, 0].mean()):.1e} |")
     x = np.arange(1024)
     for v in (7.5, 30.0):
         img = np.tile((x >= 300).astype(float), (4, 1))
-        d = np.diff(motion_blur(img, (v, 0.0), mode="nearest", backend="numpy")[2])
+        d = np.diff(motion_blur(img, (0.0, v), mode="nearest", backend="numpy")[2])
         pos = (d * (x[1:] - 0.5)).sum() / d.sum() - 299.5
-        rows.append(f"| step edge, velocity ({v:g}, 0) | {v:g} | {pos:.4f} | {abs(pos - v):.1e} |")
+        rows.append(f"| step edge, velocity (vy, vx) = (0, {v:g}) | {v:g} | {pos:.4f} | {abs(pos - v):.1e} |")
     yy, xx = np.mgrid[:512, :512].astype(float)
-    c = (256.0, 240.4)
-    far = (np.abs(xx - c[0]) >= 5) & (np.abs(yy - c[1]) >= 5)
+    c = (240.4, 256.0)   # (row, col)
+    far = (np.abs(xx - c[1]) >= 5) & (np.abs(yy - c[0]) >= 5)
     for u1 in (0.02, 0.05, 0.25, 0.8, 1.5, 1.9):
         mx = motion_blur(xx, u1, kind="zoom", center=c, backend="numpy")
         my = motion_blur(yy, u1, kind="zoom", center=c, backend="numpy")
-        err = np.maximum(np.abs(mx - (c[0] + (xx - c[0]) / (1 + u1))), np.abs(my - (c[1] + (yy - c[1]) / (1 + u1))))
+        err = np.maximum(np.abs(mx - (c[1] + (xx - c[1]) / (1 + u1))), np.abs(my - (c[0] + (yy - c[0]) / (1 + u1))))
         rows.append(f"| zoom u1 = {u1:g}: pre-image of every pixel (x and y) | x_U + (x - x_U)/(1+u1) | "
                     f"max error {err.max():.1e} (>= 5 px from x_U: {err[far].max():.1e}) | "
                     f"{err.max():.1e} |")
@@ -85,7 +85,7 @@ def accuracy_table():
     line = np.tile(np.arange(n, dtype=float), (3, 1))
     d = np.abs(np.arange(n) - cx)
     for u1 in (-0.1, -0.3, -0.5, -0.8):
-        out = motion_blur(line, (u1, 0.0), kind="zoom", center=(cx, 1), mode="nearest", backend="numpy")[1]
+        out = motion_blur(line, (0.0, u1), kind="zoom", center=(1, cx), mode="nearest", backend="numpy")[1]
         err = np.abs(out - (cx + (np.arange(n) - cx) / (1 + u1)))
         parts = [f"s <= S/{r}: {err[(d >= 5) & (d <= cx / r)].max():.3f}" for r in (3, 10, 50)]
         rows.append(f"| zoom-out u1 = {u1:g}: pre-image, line of {n} px about its centre (S = {cx:g}) | "
@@ -94,15 +94,15 @@ def accuracy_table():
     # rotation: three moment-exact shears map linear content exactly; the shears' kernels reach
     # the border (mode 'nearest' here) from lines far from the centre at large angles
     yy, xx = np.mgrid[:1024, :1024].astype(float)
-    c = (511.5, 511.5)
-    dx, dy = xx - c[0], yy - c[1]
+    c = (511.5, 511.5)   # (row, col)
+    dy, dx = yy - c[0], xx - c[1]
     r = np.hypot(dx, dy)
     for degrees in (2.0, 10.0, 30.0):
         t = np.radians(degrees)
         mx = motion_blur(xx, degrees, kind="rotation", center=c, mode="nearest", backend="numpy")
         my = motion_blur(yy, degrees, kind="rotation", center=c, mode="nearest", backend="numpy")
-        err = np.maximum(np.abs(mx - (c[0] + np.cos(t) * dx - np.sin(t) * dy)),
-                         np.abs(my - (c[1] + np.sin(t) * dx + np.cos(t) * dy)))
+        err = np.maximum(np.abs(mx - (c[1] + np.cos(t) * dx - np.sin(t) * dy)),
+                         np.abs(my - (c[0] + np.sin(t) * dx + np.cos(t) * dy)))
         parts = [f"r <= {q}: {err[r <= q].max():.1e}" for q in (100, 200, 400)]
         rows.append(f"| rotation {degrees:g} deg: pre-image of every pixel, 1024^2 about its centre | "
                     f"c + R^-1 (q - c) | {', '.join(parts)} | {err[r <= 200].max():.1e} (r <= 200) |")
@@ -124,7 +124,7 @@ def speed_table(size, repeat, backends):
 
     for name in backends:
         try:
-            cells = [fmt(best_time(lambda L=L, name=name: motion_blur(img, (float(L), 0.0), output=out,
+            cells = [fmt(best_time(lambda L=L, name=name: motion_blur(img, (0.0, float(L)), output=out,
                                                                       backend=name), repeat))
                      for L in LENGTHS]
         except Exception as exc:   # report an unusable backend, keep measuring the others
@@ -201,13 +201,13 @@ def figure(path):
     with resources.as_file(resources.files("gfgpu.data").joinpath("camera.png")) as p:
         cam = iio.imread(p).astype(np.float32)
     panels = [("input", cam),
-              ("uniform, velocity (30, 0)", motion_blur(cam, (30.0, 0.0), backend="numpy")),
-              ("uniform, (20, -12), displace=False", motion_blur(cam, (20.0, -12.0), displace=False,
+              ("uniform, velocity (vy, vx) = (0, 30)", motion_blur(cam, (0.0, 30.0), backend="numpy")),
+              ("uniform, (-12, 20), displace=False", motion_blur(cam, (-12.0, 20.0), displace=False,
                                                                   backend="numpy")),
-              ("zoom-in u1 = 0.08 about (250, 200)", motion_blur(cam, 0.08, kind="zoom", center=(250, 200),
-                                                                  backend="numpy")),
-              ("rotation 12 deg about (250, 200), displace=False",
-               motion_blur(cam, 12.0, kind="rotation", center=(250, 200), displace=False, backend="numpy"))]
+              ("zoom-in u1 = 0.08 about (row, col) = (200, 250)",
+               motion_blur(cam, 0.08, kind="zoom", center=(200, 250), backend="numpy")),
+              ("rotation 12 deg about (200, 250), displace=False",
+               motion_blur(cam, 12.0, kind="rotation", center=(200, 250), displace=False, backend="numpy"))]
     fig, axes = plt.subplots(1, 5, figsize=(20, 4.4))
     for ax, (title, im) in zip(axes, panels):
         ax.imshow(im, cmap="gray", vmin=0, vmax=255)

@@ -1,15 +1,16 @@
 """Stereo benchmark: gfgpu.disparity beside OpenCV StereoBM and StereoSGBM, same run.
 
-Scenes: the four Middlebury pairs of ``../shared/data/stereo/`` (tsukuba, venus, teddy, cones;
-non-occluded masks) and ``skimage.data.stereo_motorcycle()`` (pixels with finite ground
-truth), plus random-dot stereograms with piecewise-constant and slanted disparities (the
-chapter's Fig. 8).  Metrics: bad-1 / bad-2 = % of evaluated pixels with |d - gt| > 1 / 2 px,
-with rejected pixels (holes) filled by :func:`gfgpu.stereo.fill_holes` (the smaller of the
-nearest valid left/right neighbours, as the data README prescribes) for every method; the
-share of holes before filling is printed too.  Times are per pair, steady state (the best of
+Scenes: the four Middlebury pairs in ``benchmarks/data/stereo/`` (tsukuba, venus, teddy, cones;
+non-occluded masks; conventions and terms of use in its README.md) and
+``skimage.data.stereo_motorcycle()`` (pixels with finite ground truth), plus random-dot
+stereograms with piecewise-constant and slanted disparities (the chapter's Fig. 8).  Metrics:
+bad-1 / bad-2 = % of evaluated pixels with |d - gt| > 1 / 2 px, with rejected pixels (holes)
+filled by :func:`gfgpu.stereo.fill_holes` (the smaller of the nearest valid left/right
+neighbours, as that README prescribes) for every method; the share of holes before filling
+is printed too.  Times are per pair, steady state (the best of
 ``--repeat`` runs after one warm-up, which also compiles the kernels).
 
-OpenCV settings (from ``../shared/data/stereo/README.md``): StereoBM blockSize 15, StereoSGBM
+OpenCV settings (from ``benchmarks/data/stereo/README.md``): StereoBM blockSize 15, StereoSGBM
 blockSize 5, P1 = 8·bs², P2 = 32·bs², uniquenessRatio 10, speckle filter 100/2,
 numDisparities = next multiple of 16 above the ground truth's maximum.  gfgpu searches the
 same range.
@@ -33,7 +34,7 @@ import numpy as np
 from gfgpu.stereo import disparity, fill_holes, random_dot_stereogram
 from gfgpu.stereo import kernels as stereo_kernels
 
-DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "stereo")
+DATA = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "stereo")
 SCENES = ("tsukuba", "venus", "teddy", "cones")
 
 

@@ -26,13 +26,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ._core.validation import finite_scalar
 from .edges import canny
 from .filters import gradient, shift
 from .io import gradient_to_rgb, read_image, save_npy, save_png, to_display_8bit, write_atomic
 from .motion import motion_blur
 
-__all__ = ["IMAGE_EXTENSIONS", "FORMATS", "OPS", "Job", "Result", "discover_inputs", "check_parameters",
-           "plan_jobs", "process_file", "run_batch", "summarize"]
+__all__ = ["IMAGE_EXTENSIONS", "FORMATS", "OPS", "PARAMETERS", "Job", "Result", "discover_inputs",
+           "check_parameters", "plan_jobs", "process_file", "run_batch", "summarize"]
 
 #: extensions of the image files taken from a directory (compared case-insensitively)
 IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
@@ -40,6 +41,9 @@ IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 FORMATS = {"png": ".png", "tiff": ".tiff", "npy": ".npy"}
 #: operators (see :func:`process_file` for their parameters)
 OPS = ("shift", "gradient", "canny", "blur")
+#: the parameters each operator takes; pairs are in array-axis order (rows, cols)
+PARAMETERS = {"shift": ("shift",), "gradient": ("u",), "canny": ("u", "low", "high"),
+              "blur": ("velocity", "keep_position", "zoom", "center")}
 _MODES = ("reflect", "constant", "nearest", "mirror", "wrap")
 
 
@@ -142,28 +146,77 @@ def _probe_image():
     return (np.sin(xx / 3.0) * np.cos(yy / 5.0) + 0.01 * xx).astype(np.float32)
 
 
+def _check_keys(op, params):
+    """ValueError for a parameter ``op`` does not take (e.g. a misspelt or renamed key)."""
+    unknown = sorted(set(params) - set(PARAMETERS[op]))
+    if unknown:
+        raise ValueError(f"{op} takes the parameters {', '.join(PARAMETERS[op])}; got unknown "
+                         f"{', '.join(map(repr, unknown))} (shift=(dy, dx), velocity=(vy, vx) and "
+                         f"center=(row, col) are in array-axis order, rows then columns)")
+    if op == "shift" and "shift" not in params:
+        raise ValueError("shift needs shift=(dy, dx): pixels down the rows and right along the columns")
+    if op == "blur" and (params.get("velocity") is None) == (params.get("zoom") is None):
+        raise ValueError("blur needs exactly one of velocity=(vy, vx) (uniform motion, pixels: rows, cols) "
+                         "and zoom=u1")
+    if op == "blur" and params.get("center") is not None and params.get("zoom") is None:
+        raise ValueError("center=(row, col) applies to zoom only")
+
+
+def _center(center, img):
+    """``center = (row, col)`` for ``img``; a ``None`` coordinate is the image's middle along that axis."""
+    if center is None:
+        return None
+    if np.ndim(center) != 1 or len(center) != 2:
+        raise ValueError(f"center must be a pair (row, col), got {center!r}")
+    row, col = center
+    h, w = img.shape[:2]
+    return (finite_scalar("center (row, col)", (h - 1) / 2.0 if row is None else row),
+            finite_scalar("center (row, col)", (w - 1) / 2.0 if col is None else col))
+
+
 def check_parameters(op, params, mode="reflect"):
     """Validate an operator's parameters once, before a batch, with the library's own checks.
 
     Runs ``op`` on a 24 x 24 test image with the numpy backend (a few milliseconds), so a bad
     value (``u <= 0``, a zoom rate outside its range, ``low > high``, ...) is reported once with
     the message of the function that rejects it, instead of once per file.  A zoom ``center``
-    is checked per image (it must lie inside each one).
+    is checked for its form here and for its position per image (it must lie inside each one).
+
+    Parameters
+    ----------
+    op : {'shift', 'gradient', 'canny', 'blur'}
+    params : dict
+        The operator's parameters, see :func:`process_file` (keys in :data:`PARAMETERS`).
+    mode : str, optional
+        Boundary mode, as in :func:`gfgpu.green_filter`.
 
     Raises
     ------
-    ValueError, TypeError
-        Unknown ``op`` or ``mode``, or a parameter the operator rejects.
+    ValueError
+        Unknown ``op`` or ``mode``, an unknown or missing parameter (e.g. the old ``by`` of
+        ``shift``, now ``shift=(dy, dx)``), or a value the operator rejects.
+    TypeError
+        A non-numeric value.
+
+    Examples
+    --------
+    >>> check_parameters("blur", {"velocity": (-2.0, 6.0)})
+    >>> check_parameters("shift", {"by": (1.0, 2.0)})  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ValueError: shift takes the parameters shift; got unknown 'by' (shift=(dy, dx), ...)
     """
     if op not in OPS:
         raise ValueError(f"op must be one of {', '.join(OPS)}; got {op!r}")
     if mode not in _MODES:
         raise ValueError(f"mode must be one of {', '.join(_MODES)}; got {mode!r}")
+    _check_keys(op, params)
     if op == "canny" and params.get("low") is not None and params.get("high") is not None \
             and params["low"] > params["high"]:
         raise ValueError(f"the low quantile ({params['low']}) must not exceed the high one ({params['high']})")
     probe = dict(params)
-    probe.pop("center", None)
+    if probe.get("center") is not None:
+        _center(probe.pop("center"), np.zeros((2, 2)))    # its form; its position per image
     _OPERATORS[op](_probe_image(), probe, dict(mode=mode, backend="numpy", device=None))
 
 
@@ -250,13 +303,18 @@ def _working(img):
     return img if img.dtype == np.float64 else img.astype(np.float32)
 
 
+def _channel_axis(img):
+    return -1 if img.ndim == 3 else None
+
+
 def _op_shift(img, p, kw):
-    dx, dy = p["by"]
-    raw = shift(_working(img), (dy, dx), axes=(0, 1), **kw)   # colour: per channel
+    _check_keys("shift", p)
+    raw = shift(_working(img), p["shift"], channel_axis=_channel_axis(img), **kw)   # (dy, dx); colour per channel
     return raw, lambda: to_display_8bit(raw, img)
 
 
 def _op_gradient(img, p, kw):
+    _check_keys("gradient", p)
     work = _working(img)
     grey = work.mean(axis=-1) if work.ndim == 3 else work   # one gradient per pixel
     gy, gx = gradient(grey, p.get("u", 1.0), **kw)
@@ -264,6 +322,7 @@ def _op_gradient(img, p, kw):
 
 
 def _op_canny(img, p, kw):
+    _check_keys("canny", p)
     work = img
     if img.dtype.kind in "iu":   # canny's convention: integers scaled to [0, 1] by the dtype's maximum
         work = img.astype(np.float32) / np.iinfo(img.dtype).max
@@ -274,13 +333,14 @@ def _op_canny(img, p, kw):
 
 
 def _op_blur(img, p, kw):
+    _check_keys("blur", p)
     if p.get("zoom") is not None:
-        how = dict(kind="zoom", center=p.get("center"))
+        how = dict(kind="zoom", center=_center(p.get("center"), img))   # (row, col)
         velocity = p["zoom"]
     else:
         how = dict(kind="uniform", displace=not p.get("keep_position", False))
-        velocity = tuple(p["velocity"])
-    raw = motion_blur(_working(img), velocity, channel_axis=-1 if img.ndim == 3 else None, **how, **kw)
+        velocity = tuple(p["velocity"])                                  # (vy, vx)
+    raw = motion_blur(_working(img), velocity, channel_axis=_channel_axis(img), **how, **kw)
     return raw, lambda: to_display_8bit(raw, img)
 
 
@@ -302,20 +362,25 @@ def process_file(job):
 
     Operators and their ``job.params``:
 
-    - ``shift``: ``by=(dx, dy)`` pixels (x right, y down); :func:`gfgpu.shift`, colour
-      images per channel.
+    - ``shift``: ``shift=(dy, dx)`` pixels in array-axis order (rows down, cols right);
+      :func:`gfgpu.shift`, colour images per channel (``channel_axis=-1``).
     - ``gradient``: ``u``; :func:`gfgpu.gradient` of the grey image (channel mean).  Raw
       output ``(2, H, W)`` = ``(gy, gx)``; PNG colour-coded (hue = orientation, value =
       magnitude), as ``gfgpu gradient``.
     - ``canny``: ``u``, ``low``, ``high`` (quantiles of the gradient magnitude in [0, 1];
       ``None`` = :func:`gfgpu.canny`'s absolute defaults); grey image, integers scaled to
       [0, 1].  Raw output the boolean edge map; PNG 0/255.
-    - ``blur``: ``velocity=(dx, dy)`` [``keep_position``] or ``zoom=u1`` [``center=(x, y)``];
-      :func:`gfgpu.motion_blur`, colour images per channel.
+    - ``blur``: ``velocity=(vy, vx)`` pixels (rows, cols) [``keep_position``] or ``zoom=u1``
+      (one rate or ``(u1_y, u1_x)``) [``center=(row, col)``, default each image's centre; a
+      ``None`` coordinate is the middle of that axis]; :func:`gfgpu.motion_blur`, colour
+      images per channel.
+
+    Any other key (such as the ``by`` of earlier versions) fails the file with a
+    ``ValueError``; :func:`check_parameters` reports it once before a batch.
 
     Images are read with imageio (TIFF through tifffile).  Alpha channels are dropped;
     integer and bool images are filtered in float32, float32/float64 in their own type.
-    ``png`` writes the 8-bit display image (``gfgpu.files.to_display_8bit``: rounded and
+    ``png`` writes the 8-bit display image (:func:`gfgpu.io.to_display_8bit`: rounded and
     clipped to the input's range); ``npy`` and ``tiff`` the raw result.
 
     Parameters
@@ -337,7 +402,7 @@ def process_file(job):
     >>> d = tempfile.mkdtemp()
     >>> iio.imwrite(os.path.join(d, "a.png"), np.zeros((8, 8), np.uint8))
     >>> job = Job(os.path.join(d, "a.png"), os.path.join(d, "out", "a.npy"), "shift",
-    ...           {"by": (1.5, 0.0)}, fmt="npy", backend="numpy")
+    ...           {"shift": (0.0, 1.5)}, fmt="npy", backend="numpy")
     >>> r = process_file(job)
     >>> r.status, np.load(r.output).shape
     ('ok', (8, 8))

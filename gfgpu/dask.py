@@ -49,7 +49,8 @@ import numpy as np
 
 from . import filters, greens
 from ._core import carry
-from ._core.program import axes_list, run_steps
+from ._core.lines import normalize_axis
+from ._core.program import is_axis_angle, run_steps
 from ._core.recursion import check_mode, plan_pass
 from ._core.validation import finite_cval, work_dtype
 from .backends import Backend, backend_request, check_backend_name, resolve_backend
@@ -208,8 +209,28 @@ def _carried_step(x, passes, axis, mode, cval, spec, dtype):
     return da.block(out.tolist())
 
 
-def run_program(x, program, mode="reflect", cval=0.0, *, backend=None, device=None):
-    """Run a :class:`gfgpu.filters.Program` on a dask array (the wrappers' common engine)."""
+def run_program(x, program, *, mode="reflect", cval=0.0, backend=None, device=None):
+    """Run a :class:`~gfgpu._core.program.Program` on a dask array (the wrappers' common engine).
+
+    Parameters
+    ----------
+    x : dask.array.Array
+    program : Program
+        E.g. from :func:`gfgpu.filters.shift_program`.
+    mode, cval, backend, device : optional
+        As in :func:`gfgpu.green_filter`.
+
+    Returns
+    -------
+    dask.array.Array
+
+    Raises
+    ------
+    TypeError
+        ``x`` not a dask array, unsupported dtype.
+    ValueError
+        Empty input, unknown chunk sizes, bad ``mode``/``cval``/backend.
+    """
     dtype = _check_array(x)
     check_mode(mode)
     cval = finite_cval(cval)
@@ -238,89 +259,185 @@ def _whole_planes(x):
 # --------------------------------------------------------------------------------------
 # public wrappers
 # --------------------------------------------------------------------------------------
-def green_filter(x, kernel, axis=-1, mode="reflect", cval=0.0, *, angle=None, axes=(-2, -1),
-                 anticausal=False, backend=None, device=None):
+def green_filter(x, kernel, *, axis=None, angle=None, axes=None, channel_axis=None, anticausal=False,
+                 mode="reflect", cval=0.0, backend=None, device=None):
     """:func:`gfgpu.green_filter` on a dask array; exact across chunks along ``axis``.
 
-    Parameters are those of :func:`gfgpu.green_filter` (no ``output``: the result is lazy).
-    An oblique ``angle`` rechunks the image plane (``axes`` must be the last two) whole.
+    Parameters
+    ----------
+    x : dask.array.Array
+    kernel, axis, angle, axes, channel_axis, anticausal, mode, cval, backend, device
+        As in :func:`gfgpu.green_filter` (no ``output``: the result is lazy).  An oblique
+        ``angle`` (radians from +x, the columns, toward +y, the rows) rechunks the image plane
+        whole; a plane that is not on the last two axes (e.g. ``channel_axis=-1``) is moved
+        there lazily and back.
 
     Returns
     -------
     dask.array.Array
         float32 or float64, the chunks of ``x`` (of the rechunked ``x`` for ``angle``).
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`gfgpu.green_filter`, and for a ``x`` that is not a dask array.
     """
     _check_array(x)
-    program = filters.green_filter_program(x.ndim, kernel, axis, angle=angle, axes=axes, anticausal=anticausal)
-    return run_program(x, program, mode, cval, backend=backend, device=device)
+    if angle is not None and not is_axis_angle(angle):
+        ya, xa = filters.image_plane(x.ndim, axes, channel_axis)
+        last = (x.ndim - 2, x.ndim - 1)
+        if (ya, xa) != last:
+            program = filters.green_filter_program(x.ndim, kernel, angle=angle, anticausal=anticausal)
+            moved = run_program(da.moveaxis(x, (ya, xa), last), program, mode=mode, cval=cval, backend=backend,
+                                device=device)
+            return da.moveaxis(moved, last, (ya, xa))
+    program = filters.green_filter_program(x.ndim, kernel, axis=axis, angle=angle, axes=axes,
+                                           channel_axis=channel_axis, anticausal=anticausal)
+    return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
-def shift(x, shift, mode="reflect", cval=0.0, *, axes=None, backend=None, device=None):
+def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, backend=None, device=None):
     """:func:`gfgpu.shift` on a dask array; exact across chunks along every axis.
 
+    Parameters
+    ----------
+    x : dask.array.Array
+    shift : float or sequence of float
+        Displacement along each axis operated on, array-axis order: ``(dy, dx)`` (rows, cols)
+        for an image.
+    mode, cval, axes, channel_axis, backend, device
+        As in :func:`gfgpu.shift`.
+
     Returns
     -------
     dask.array.Array
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`gfgpu.shift`, and for a ``x`` that is not a dask array.
     """
     _check_array(x)
-    return run_program(x, filters.shift_program(x.ndim, shift, axes), mode, cval, backend=backend, device=device)
+    program = filters.shift_program(x.ndim, shift, axes=axes, channel_axis=channel_axis)
+    return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
-def derivative(x, u, axis=-1, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
-               single_scale=False, projection_scale=1.0, backend=None, device=None):
+def derivative(x, u, *, axis=None, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
+               eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0, backend=None, device=None):
     """:func:`gfgpu.derivative` on a dask array; exact across chunks.
 
+    Parameters
+    ----------
+    x : dask.array.Array
+    u, axis, axes, channel_axis, mode, cval, a, eta, single_scale, projection_scale, backend, device
+        As in :func:`gfgpu.derivative`.
+
     Returns
     -------
     dask.array.Array
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`gfgpu.derivative`, and for a ``x`` that is not a dask array.
     """
     _check_array(x)
-    program = filters.derivative_program(x.ndim, u, axis, axes, a, eta, single_scale, projection_scale)
-    return run_program(x, program, mode, cval, backend=backend, device=device)
+    program = filters.derivative_program(x.ndim, u, axis=axis, axes=axes, channel_axis=channel_axis, a=a,
+                                         eta=eta, single_scale=single_scale, projection_scale=projection_scale)
+    return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
-def projection(x, u, axis=-1, mode="reflect", cval=0.0, *, a=greens.EDGE_A, eta=greens.EDGE_ETA,
-               single_scale=False, backend=None, device=None):
+def projection(x, u, *, axis=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
+               eta=greens.EDGE_ETA, single_scale=False, backend=None, device=None):
     """:func:`gfgpu.projection` on a dask array; exact across chunks.
 
+    Parameters
+    ----------
+    x : dask.array.Array
+    u, axis, channel_axis, mode, cval, a, eta, single_scale, backend, device
+        As in :func:`gfgpu.projection`.
+
     Returns
     -------
     dask.array.Array
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`gfgpu.projection`, and for a ``x`` that is not a dask array.
     """
     _check_array(x)
-    program = filters.projection_program(x.ndim, u, axis, a, eta, single_scale)
-    return run_program(x, program, mode, cval, backend=backend, device=device)
+    program = filters.projection_program(x.ndim, u, axis=axis, channel_axis=channel_axis, a=a, eta=eta,
+                                         single_scale=single_scale)
+    return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
-def gradient(x, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
-             single_scale=False, projection_scale=1.0, backend=None, device=None):
-    """:func:`gfgpu.gradient` on a dask array: one lazy derivative per axis in ``axes``.
+def gradient(x, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
+             eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0, backend=None, device=None):
+    """:func:`gfgpu.gradient` on a dask array: one lazy derivative per axis operated on.
+
+    Parameters
+    ----------
+    x : dask.array.Array
+    u, axes, channel_axis, mode, cval, a, eta, single_scale, projection_scale, backend, device
+        As in :func:`gfgpu.gradient`.
 
     Returns
     -------
     tuple of dask.array.Array
+        In array-axis order (``(d/dy, d/dx)`` for an image).
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`gfgpu.gradient`, and for a ``x`` that is not a dask array.
     """
     _check_array(x)
-    ax = axes_list(axes, x.ndim)
-    return tuple(derivative(x, u, d, mode, cval, axes=ax, a=a, eta=eta, single_scale=single_scale,
+    ax = filters.operated_axes(x.ndim, axes, channel_axis)
+    return tuple(derivative(x, u, axis=d, axes=ax, mode=mode, cval=cval, a=a, eta=eta, single_scale=single_scale,
                             projection_scale=projection_scale, backend=backend, device=device) for d in ax)
 
 
 def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode="reflect", cval=0.0,
-                backend=None, device=None):
+                channel_axis=None, backend=None, device=None):
     """:func:`gfgpu.motion_blur` on a dask array of images ``(..., H, W)``.
 
-    Uniform motion along an axis is exact across chunks; an oblique direction or a zoom
-    rechunks the image plane whole (stacks stay chunked along their leading axes).
+    Uniform motion along an axis is exact across chunks; an oblique direction, a zoom or a
+    rotation rechunks the image plane whole (stacks stay chunked along their leading axes).
+
+    Parameters
+    ----------
+    x : dask.array.Array
+        Images ``(..., H, W)``, or colour images with ``channel_axis``.
+    velocity : pair of float, or float
+        As in :func:`gfgpu.motion_blur`: ``(vy, vx)`` pixels in array-axis order (rows, cols)
+        for uniform motion, ``u1`` or ``(u1_y, u1_x)`` for a zoom, degrees for a rotation.
+    kind, center, displace, mode, cval, backend, device
+        As in :func:`gfgpu.motion_blur` (``center`` is ``(row, col)``).
+    channel_axis : int, optional
+        Axis of colour channels, blurred each on its own (moved first lazily, and back).
 
     Returns
     -------
     dask.array.Array
+
+    Raises
+    ------
+    TypeError, ValueError
+        As :func:`gfgpu.motion_blur`, checked before any task is built.
     """
     dtype = _check_array(x)
+    if channel_axis is not None:
+        if x.ndim < 3:
+            raise ValueError(f"channel_axis={channel_axis} needs a colour image of 3 dimensions or more, got "
+                             f"shape {x.shape}")
+        ch = normalize_axis(channel_axis, x.ndim, "channel_axis")
+        out = motion_blur(da.moveaxis(x, ch, 0), velocity, kind=kind, center=center, displace=displace,
+                          mode=mode, cval=cval, backend=backend, device=device)
+        return da.moveaxis(out, 0, ch)
     if kind == "uniform":
         program = uniform_motion_program(x.ndim, velocity, bool(displace))
-        return run_program(x, program, mode, cval, backend=backend, device=device)
+        return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
     # validate here, before any task is built (the workers would raise the same error later)

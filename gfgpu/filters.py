@@ -1,8 +1,15 @@
 """Line operators on N-D arrays: green_filter, shift, derivative, projection, gradient.
 
-All are compositions of the recursion primitive (:mod:`gfgpu.recursion`) along array axes
-or image-plane directions (:mod:`gfgpu.lines`), run on the backend chosen by
+All are compositions of the recursion primitive (:mod:`gfgpu._core.recursion`) along array
+axes or image-plane directions (:mod:`gfgpu._core.lines`), run on the backend chosen by
 :func:`gfgpu.backends.resolve_backend`.
+
+Coordinates (as scipy.ndimage and scikit-image): every per-axis tuple is in array-axis order
+``(..., row, col)``; for a 2-D image ``shift(img, (dy, dx))`` moves content ``dy`` rows down
+and ``dx`` columns right.  x is the column index (0 at the left), y the row index (0 at the
+top); angles are in radians from +x toward +y (down the rows).  ``axes`` names the axes an
+operator works on; ``channel_axis`` names a colour axis that it leaves alone (each channel is
+filtered on its own).  Arguments after the data and the main parameter are keyword-only.
 
 Dtype policy: float32 and float64 are preserved; integer and boolean images are converted
 to float32; float16 is computed in float32; complex and other types raise ``TypeError``.
@@ -12,16 +19,19 @@ same kind on the same device.
 
 from __future__ import annotations
 
+import numpy as np
+
 from . import greens
 from ._core.job import Job, apply_program
 from ._core.lines import normalize_axis
-from ._core.program import Program, axes_list, direction_steps, per_axis
+from ._core.program import Program, axes_list, direction_steps, is_axis_angle, per_axis, plane_axes
 from ._core.recursion import check_mode
 from ._core.validation import finite_cval, positive
 from .backends import resolve_backend
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "make_job",
-           "green_filter_program", "shift_program", "derivative_program", "projection_program"]
+           "green_filter_program", "shift_program", "derivative_program", "projection_program",
+           "operated_axes", "line_axis", "image_plane"]
 
 
 def make_job(input, output=None, backend=None, device=None, min_ndim=1):
@@ -30,21 +40,127 @@ def make_job(input, output=None, backend=None, device=None, min_ndim=1):
 
 
 # --------------------------------------------------------------------------------------
+# axes: what an operator works on, and the colour axis it leaves alone
+# --------------------------------------------------------------------------------------
+def _channel(ndim, channel_axis):
+    if channel_axis is None:
+        return None
+    ch = normalize_axis(channel_axis, ndim, "channel_axis")
+    if ndim < 2:
+        raise ValueError(f"channel_axis={channel_axis} needs an input of at least 2 dimensions, got {ndim}")
+    return ch
+
+
+def operated_axes(ndim, axes=None, channel_axis=None):
+    """The normalised axes an operator works on: ``axes``, default every axis but ``channel_axis``.
+
+    Parameters
+    ----------
+    ndim : int
+        Number of dimensions of the input.
+    axes : int or sequence of int, optional
+        Axes to operate on (distinct).
+    channel_axis : int, optional
+        A colour axis that is not operated on.
+
+    Returns
+    -------
+    list of int
+
+    Raises
+    ------
+    ValueError
+        An axis out of range or repeated, or ``axes`` that include ``channel_axis``.
+
+    Examples
+    --------
+    >>> operated_axes(3, channel_axis=-1)
+    [0, 1]
+    >>> operated_axes(3, axes=(0, 1))
+    [0, 1]
+    """
+    ch = _channel(ndim, channel_axis)
+    if axes is None:
+        return [a for a in range(ndim) if a != ch]
+    ax = axes_list(axes, ndim)
+    if ch is not None and ch in ax:
+        raise ValueError(f"axes={axes!r} and channel_axis={channel_axis!r} overlap: the channel axis is "
+                         f"never operated on; leave it out of axes")
+    return ax
+
+
+def line_axis(ndim, axis=None, channel_axis=None):
+    """The normalised axis of a one-axis operator: ``axis``, default the last axis but ``channel_axis``.
+
+    Raises
+    ------
+    ValueError
+        ``axis`` out of range, or ``axis`` and ``channel_axis`` naming the same axis.
+
+    Examples
+    --------
+    >>> line_axis(3), line_axis(3, channel_axis=-1), line_axis(3, 0)
+    (2, 1, 0)
+    """
+    ch = _channel(ndim, channel_axis)
+    if axis is None:
+        free = [a for a in range(ndim) if a != ch]
+        if not free:
+            raise ValueError(f"a line operator needs an input of at least 1 dimension, got {ndim}")
+        return free[-1]
+    ax = normalize_axis(axis, ndim)
+    if ax == ch:
+        raise ValueError(f"axis={axis!r} and channel_axis={channel_axis!r} name the same axis: the channel "
+                         f"axis is never filtered")
+    return ax
+
+
+def image_plane(ndim, axes=None, channel_axis=None):
+    """The ``(row axis, column axis)`` of the image plane for an image-plane direction.
+
+    ``axes`` (two axes, rows then columns), default the last two axes other than
+    ``channel_axis``.
+
+    Raises
+    ------
+    ValueError
+        Fewer than two axes left, axes out of range or equal, or ``axes`` that include
+        ``channel_axis``.
+
+    Examples
+    --------
+    >>> image_plane(3), image_plane(3, channel_axis=-1), image_plane(3, channel_axis=0)
+    ((1, 2), (0, 1), (1, 2))
+    """
+    if axes is None:
+        free = operated_axes(ndim, None, channel_axis)
+        if len(free) < 2:
+            raise ValueError(f"an image-plane direction needs two axes besides channel_axis, got an input "
+                             f"of {ndim} dimension(s)")
+        return free[-2], free[-1]
+    ya, xa = plane_axes(axes, ndim)
+    operated_axes(ndim, (ya, xa), channel_axis)   # overlap check
+    return ya, xa
+
+
+# --------------------------------------------------------------------------------------
 # public operators
 # --------------------------------------------------------------------------------------
-def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, *, angle=None,
-                 axes=(-2, -1), anticausal=False, backend=None, device=None):
+def green_filter(input, kernel, *, axis=None, angle=None, axes=None, channel_axis=None, anticausal=False,
+                 output=None, mode="reflect", cval=0.0, backend=None, device=None):
     """Apply a Green's function of the chapter along an axis or an image-plane direction.
 
     .. math:: f[x] = \\sum_{x_0 \\le x} G(x, x_0)\\, I[x_0]   \\qquad (causal)
 
-    computed exactly by the first-order complex recursion of DESIGN §1, in O(N) whatever
-    the kernel's length.
+    computed exactly, in O(N) whatever the kernel's length, by the first-order complex
+    recursion ``F[x+1] = λ[x] F[x] + κ[x] I[x]``, ``f = c Im F`` (``Re F`` for H_u), whose
+    coefficients factorise the kernel as ``c Im[P(x) Q(x0)]`` (:mod:`gfgpu._core.recursion`).
 
     Parameters
     ----------
     input : array_like, warp.array or pyopencl.array.Array
-        Image, stack ``(N, H, W)`` or colour image; float32/float64 kept, integers -> float32.
+        Image, stack ``(N, H, W)`` or colour image (with ``channel_axis``); float32/float64
+        kept, integers -> float32.
     kernel : GreenKernel
         :class:`~gfgpu.greens.UniformGreen` ``(u)`` (G_u, eq. 9),
         :class:`~gfgpu.greens.HomogeneousGreen` ``(u)`` (H_u, eq. 33),
@@ -55,7 +171,20 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
         right-to-left pass (``anticausal``, or a direction with ``cos θ < 0``) needs the
         affine kernels' fixed point beyond the last sample, ``x_U > n - 1``.
     axis : int, optional
-        Axis to filter along (ignored when ``angle`` is given).
+        Axis to filter along (not with ``angle``); default the last axis other than
+        ``channel_axis``.
+    angle : float, optional
+        Filter along the image-plane direction at this angle instead of along ``axis``:
+        radians from +x (the column axis, to the right) toward +y (the row axis, down); see
+        :mod:`gfgpu._core.lines` for the digital lines used and the units of kernel lengths
+        along them.
+    axes : pair of int, optional
+        With ``angle``: the axes operated on, i.e. the image plane as ``(row axis, column
+        axis)``; default the last two axes other than ``channel_axis``.
+    channel_axis : int, optional
+        Axis of colour channels, filtered each on its own (never filtered along).
+    anticausal : bool, optional
+        Apply the mirrored operator ``f[x] = Σ_{x0 >= x} G(x', x0')`` (right to left).
     output : ndarray or dtype, optional
         Array to write the result into, or the result dtype (never lower precision).
     mode : {'reflect', 'constant', 'nearest', 'mirror', 'wrap'}, optional
@@ -63,16 +192,10 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
         as the recursion's initial state.
     cval : float, optional
         Value beyond the border when ``mode='constant'``.
-    angle : float, optional
-        Filter along the image-plane direction at this angle (radians from +x toward +y, y
-        being the row index) instead of ``axis``; see :mod:`gfgpu.lines` for the digital lines
-        used and the units of kernel lengths along them.
-    axes : pair of int, optional
-        (row axis, column axis) of the image plane for ``angle``; default the last two.
-    anticausal : bool, optional
-        Apply the mirrored operator ``f[x] = Σ_{x0 >= x} G(x', x0')`` (right to left).
     backend, device : str, optional
-        ``"numpy"``, ``"warp"`` or ``"opencl"`` and its device; default: DESIGN §4 rule.
+        ``"numpy"``, ``"warp"`` or ``"opencl"`` and its device; default: the resolution rule
+        of :mod:`gfgpu.backends` (explicit argument, the input array's own kind,
+        :func:`gfgpu.use_backend`, ``GFGPU_BACKEND``, then automatic).
 
     Returns
     -------
@@ -82,14 +205,18 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
     Raises
     ------
     ValueError
-        Bad ``mode``/``axis``/``angle``, empty or non-finite input, or a kernel whose domain
-        does not contain the line (e.g. ``x_U`` inside it).
+        Bad ``mode``/``axis``/``angle``/``axes``, ``axes`` given without ``angle``, ``axis``
+        or ``axes`` overlapping ``channel_axis``, an oblique direction on a device array whose
+        image plane is not on its last two axes, empty or non-finite input, or a kernel whose
+        domain does not contain the line (e.g. ``x_U`` inside it).
     TypeError
         Unsupported dtype, or float64 on a device without fp64.
 
     Notes
     -----
     The kernel is point-sampled at integer offsets; H_u's jump at 0 takes its mean 1/u.
+    An oblique direction on a numpy image whose plane is not on its last two axes (e.g.
+    ``(H, W, 3)`` with ``channel_axis=-1``) runs on a copy with the plane moved last.
 
     References
     ----------
@@ -103,28 +230,57 @@ def green_filter(input, kernel, axis=-1, output=None, mode="reflect", cval=0.0, 
     >>> out = gfgpu.green_filter(line, UniformGreen(3.0), mode="constant", backend="numpy")
     >>> round(float(out.sum()), 3)  # sampled G_u: DC gain slightly below 1 at u = 3
     0.982
+    >>> rgb = np.random.default_rng(0).random((16, 20, 3))
+    >>> obl = gfgpu.green_filter(rgb, UniformGreen(2.0), angle=0.3, channel_axis=-1, backend="numpy")
+    >>> bool(np.allclose(obl[..., 1], gfgpu.green_filter(rgb[..., 1], UniformGreen(2.0), angle=0.3,
+    ...                                                   backend="numpy")))
+    True
     """
     check_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
-    program = green_filter_program(job.ndim, kernel, axis, angle=angle, axes=axes, anticausal=anticausal)
+    if angle is not None and not is_axis_angle(angle):
+        ya, xa = image_plane(job.ndim, axes, channel_axis)
+        last = (job.ndim - 2, job.ndim - 1)
+        if (ya, xa) != last:
+            if not job.host_input:
+                raise ValueError(f"an oblique direction on a device array needs the image plane on its last two "
+                                 f"axes; got plane axes ({ya}, {xa}) of shape {job.shape} (move the channel "
+                                 f"axis first)")
+            out_view = np.moveaxis(output, (ya, xa), last) if isinstance(output, np.ndarray) else output
+            moved = Job(np.moveaxis(np.asarray(job.source), (ya, xa), last), out_view, job.backend)
+            program = green_filter_program(job.ndim, kernel, angle=angle, anticausal=anticausal)
+            result = apply_program(moved, program, mode, cval)
+            return output if isinstance(output, np.ndarray) else np.moveaxis(result, last, (ya, xa))
+    program = green_filter_program(job.ndim, kernel, axis=axis, angle=angle, axes=axes,
+                                   channel_axis=channel_axis, anticausal=anticausal)
     return apply_program(job, program, mode, cval)
 
 
-def green_filter_program(ndim, kernel, axis=-1, *, angle=None, axes=(-2, -1), anticausal=False):
-    """The :class:`Program` of :func:`green_filter` on ``ndim``-dimensional arrays."""
+def green_filter_program(ndim, kernel, *, axis=None, angle=None, axes=None, channel_axis=None,
+                         anticausal=False):
+    """The :class:`Program` of :func:`green_filter` on ``ndim``-dimensional arrays.
+
+    An oblique ``angle`` needs the image plane on the last two axes (a Program runs on the
+    array as it is laid out).
+    """
     if not isinstance(kernel, greens.GreenKernel):
         raise TypeError(f"kernel must be a gfgpu.greens kernel (UniformGreen, HomogeneousGreen, "
                         f"AffineGreen, AffineGreenApprox), got {type(kernel).__name__}")
     passes = [kernel.line_pass(reverse=bool(anticausal))]
     if angle is None:
-        return Program([(passes, normalize_axis(axis, ndim), None)])
-    return Program(*direction_steps(ndim, passes, angle, axes))
+        if axes is not None:
+            raise ValueError(f"axes={axes!r} names the image plane of angle=; give angle, or use axis= for "
+                             f"one axis")
+        return Program([(passes, line_axis(ndim, axis, channel_axis), None)])
+    if axis is not None:
+        raise ValueError("give either axis or angle, not both")
+    return Program(*direction_steps(ndim, passes, angle, image_plane(ndim, axes, channel_axis)))
 
 
-def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, backend=None,
+def shift(input, shift, *, output=None, mode="reflect", cval=0.0, axes=None, channel_axis=None, backend=None,
           device=None):
-    """Sub-pixel shift through G_u: content moves by ``shift`` (scipy.ndimage.shift order).
+    """Sub-pixel shift through G_u: content moves by ``shift``, in array-axis order (rows, cols).
 
     Each axis with a non-zero shift ``s`` gets one recursive pass: causal (toward higher
     indices) for ``s > 0``, anticausal for ``s < 0``.  The discrete operator has unit DC gain
@@ -134,21 +290,40 @@ def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, bac
     Parameters
     ----------
     input : array_like or device array
+        Image, stack or colour image (with ``channel_axis``).
     shift : float or sequence of float
-        Displacement per axis in ``axes`` (for a 2-D image: ``(dy, dx)``, rows then columns).
-    output, mode, cval, backend, device
+        Displacement along each axis operated on, in array-axis order: for a 2-D image
+        ``(dy, dx)``, rows (down) then columns (right), as ``scipy.ndimage.shift``.  A single
+        number shifts every such axis by the same amount.
+    output : ndarray or dtype, optional
+        As in :func:`green_filter`.
+    mode, cval : optional
         As in :func:`green_filter`.
     axes : sequence of int, optional
-        Axes that ``shift`` refers to (default: all), e.g. ``(0, 1)`` for a colour image.
+        The axes operated on, which ``shift`` refers to; default every axis other than
+        ``channel_axis``.
+    channel_axis : int, optional
+        Axis of colour channels, not shifted: for ``(H, W, 3)`` with ``channel_axis=-1``,
+        ``shift`` is ``(dy, dx)`` and every channel moves the same way.
+    backend, device : str, optional
+        As in :func:`green_filter`.
 
     Returns
     -------
     ndarray or device array
 
+    Raises
+    ------
+    ValueError
+        ``shift`` not finite or with a length other than the number of axes operated on,
+        ``axes`` overlapping ``channel_axis``, bad ``mode``, empty or non-finite input.
+    TypeError
+        Unsupported dtype, or a non-numeric ``shift``.
+
     Notes
     -----
     The continuous G_u (eq. 9) shifts by ``u`` with zero variance; its samples do not (DC gain
-    0.84 and mean 1.17 at u = 1, DESIGN §2).  The taps used here are
+    0.84 and mean 1.17 at u = 1).  The taps used here are
     ``w[0] = t`` and ``w[m] = Re(K λ^{m-1})``, ``λ = e^{(-1+i)/u}`` (two poles, numerator of
     degree two), with ``(t, K)`` fitted in float64 so that ``Σ w = 1`` and ``Σ m w = u``
     exactly, the variance equals that of the pixel-integrated kernel (1/12) and the taps stay
@@ -158,28 +333,37 @@ def shift(input, shift, output=None, mode="reflect", cval=0.0, *, axes=None, bac
     --------
     >>> import numpy as np, gfgpu
     >>> img = np.zeros((16, 64)); img[:, 10] = 1
-    >>> out = gfgpu.shift(img, (0, 2.5), mode="constant", backend="numpy")
+    >>> out = gfgpu.shift(img, (0, 2.5), mode="constant", backend="numpy")   # (dy, dx)
     >>> round(float((out[0] * np.arange(64)).sum()), 6)
     12.5
+    >>> rgb = np.zeros((16, 64, 3)); rgb[:, 10] = 1
+    >>> col = gfgpu.shift(rgb, (0, 2.5), channel_axis=-1, mode="constant", backend="numpy")
+    >>> bool(np.allclose(col[..., 2], out))
+    True
     """
     check_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
-    return apply_program(job, shift_program(job.ndim, shift, axes), mode, cval)
+    program = shift_program(job.ndim, shift, axes=axes, channel_axis=channel_axis)
+    return apply_program(job, program, mode, cval)
 
 
-def shift_program(ndim, shift, axes=None):
+def shift_program(ndim, shift, *, axes=None, channel_axis=None):
     """The :class:`Program` of :func:`shift` on ``ndim``-dimensional arrays."""
-    ax = axes_list(axes, ndim)
+    ax = operated_axes(ndim, axes, channel_axis)
+    if np.ndim(shift) == 1 and len(shift) != len(ax):
+        hint = "" if channel_axis is not None or axes is not None else "; for a colour image pass channel_axis"
+        raise ValueError(f"shift must have one value per axis operated on ({len(ax)}: axes {ax}, in "
+                         f"array-axis order), got {len(shift)}{hint}")
     amounts = per_axis(shift, ax, "shift")
     return Program([([greens.shift_pass(s)], a, None) for a, s in zip(ax, amounts) if s != 0.0])
 
 
-def derivative_program(ndim, u, axis=-1, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
-                       single_scale=False, projection_scale=1.0):
+def derivative_program(ndim, u, *, axis=None, axes=None, channel_axis=None, a=greens.EDGE_A,
+                       eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0):
     """The :class:`Program` of :func:`derivative`: P along the other axes, then D along ``axis``."""
-    ax = axes_list(axes, ndim)
-    d_axis = normalize_axis(axis, ndim)
+    ax = operated_axes(ndim, axes, channel_axis)
+    d_axis = ax[-1] if axis is None else line_axis(ndim, axis, channel_axis)
     if d_axis not in ax:
         raise ValueError(f"axis {axis} must be one of axes {ax}")
     ratio = positive("projection_scale", projection_scale)
@@ -190,12 +374,14 @@ def derivative_program(ndim, u, axis=-1, axes=None, a=greens.EDGE_A, eta=greens.
     return Program(steps)
 
 
-def projection_program(ndim, u, axis=-1, a=greens.EDGE_A, eta=greens.EDGE_ETA, single_scale=False):
+def projection_program(ndim, u, *, axis=None, channel_axis=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
+                       single_scale=False):
     """The :class:`Program` of :func:`projection`."""
-    return Program([(list(greens.projection_passes(u, a, eta, single_scale)), normalize_axis(axis, ndim), None)])
+    passes = list(greens.projection_passes(u, a, eta, single_scale))
+    return Program([(passes, line_axis(ndim, axis, channel_axis), None)])
 
 
-def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes=None,
+def derivative(input, u, *, axis=None, axes=None, channel_axis=None, output=None, mode="reflect", cval=0.0,
                a=greens.EDGE_A, eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0,
                backend=None, device=None):
     """Green's-function derivative: D(x) across ``axis``, the projection P along the others.
@@ -203,33 +389,48 @@ def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes
     Parameters
     ----------
     input : array_like or device array
+        Image, stack or colour image (with ``channel_axis``).
     u : float
         Scale of the operator (> 0), in pixels.
-    axis : int
-        Axis of differentiation.
+    axis : int, optional
+        Axis of differentiation, one of ``axes``; default the last of ``axes`` (for a 2-D
+        image the columns: d/dx).
     axes : sequence of int, optional
-        Spatial axes (default all); P smooths along ``axes`` other than ``axis``.
+        Spatial axes, the axes operated on; P smooths along those other than ``axis``.
+        Default every axis other than ``channel_axis``.
+    channel_axis : int, optional
+        Axis of colour channels: each channel is differentiated on its own.
+    output, mode, cval, backend, device
+        As in :func:`green_filter`.
     a, eta : float
-        Weight and scale ratio of the two-scale D (eq. 25-26, ``K = a eta^2``, DESIGN §2).
+        Weight and scale ratio of the two-scale D (eq. 25-26):
+        ``F(x) = A[e^{-x/ηu} sin(x/ηu) + K e^{-x/u} sin(x/u)]``, ``K = a η²``,
+        ``A = 2/(u η² (1 + a))``, so that ``a`` weights the fine scale.
     single_scale : bool
         Use D_u of eq. 19 (and its integral) instead.
     projection_scale : float
         Scale of P relative to D's (> 0); 1 is the chapter's P = ∫D at the same u.  Smaller
         values smooth less along edges, which makes the 2-D operator closer to isotropic
         (better on oblique and curved edges; see ``benchmarks/edges_fom.py``).
-    output, mode, cval, backend, device
-        As in :func:`green_filter`.
 
     Returns
     -------
     ndarray or device array
         The derivative estimate; unit response to a unit ramp along ``axis``.
 
+    Raises
+    ------
+    ValueError
+        ``u <= 0`` or ``projection_scale <= 0``, ``axis`` not among ``axes``, ``axis`` or
+        ``axes`` overlapping ``channel_axis``, bad ``mode``, empty or non-finite input.
+    TypeError
+        Unsupported dtype.
+
     Notes
     -----
     D is applied as one causal and one anticausal pass of two 2-pole sections (one per
     scale); taps are the point samples of eq. 25-26 normalised so that ``-Σ m D[m] = 1``.
-    P = ∫D (science notes §1.5) is sampled and normalised to unit sum.
+    P = ∫D, the integral of D from -∞, is even; it is sampled and normalised to unit sum.
 
     References
     ----------
@@ -247,33 +448,87 @@ def derivative(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, axes
     check_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
-    program = derivative_program(job.ndim, u, axis, axes, a, eta, single_scale, projection_scale)
+    program = derivative_program(job.ndim, u, axis=axis, axes=axes, channel_axis=channel_axis, a=a, eta=eta,
+                                 single_scale=single_scale, projection_scale=projection_scale)
     return apply_program(job, program, mode, cval)
 
 
-def projection(input, u, axis=-1, output=None, mode="reflect", cval=0.0, *, a=greens.EDGE_A,
-               eta=greens.EDGE_ETA, single_scale=False, backend=None, device=None):
+def projection(input, u, *, axis=None, channel_axis=None, output=None, mode="reflect", cval=0.0,
+               a=greens.EDGE_A, eta=greens.EDGE_ETA, single_scale=False, backend=None, device=None):
     """The projection function P = ∫D along one axis (the smoothing used along edges).
 
-    Parameters as in :func:`derivative`; P is even with unit sum (two recursive passes).
+    P is even with unit sum (two recursive passes).
+
+    Parameters
+    ----------
+    input : array_like or device array
+    u : float
+        Scale (> 0), in pixels.
+    axis : int, optional
+        Axis to smooth along; default the last axis other than ``channel_axis``.
+    channel_axis : int, optional
+        Axis of colour channels, never smoothed along.
+    output, mode, cval, a, eta, single_scale, backend, device
+        As in :func:`derivative`.
+
+    Returns
+    -------
+    ndarray or device array
+
+    Raises
+    ------
+    ValueError
+        ``u <= 0``, ``axis`` out of range or equal to ``channel_axis``, bad ``mode``, empty or
+        non-finite input.
+    TypeError
+        Unsupported dtype.
+
+    Examples
+    --------
+    >>> import numpy as np, gfgpu
+    >>> line = np.zeros(257); line[128] = 1
+    >>> p = gfgpu.projection(line, 1.0, mode="constant", backend="numpy")
+    >>> round(float(p.sum()), 6), bool(np.allclose(p[:128], p[:128:-1]))
+    (1.0, True)
     """
     check_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
-    return apply_program(job, projection_program(job.ndim, u, axis, a, eta, single_scale), mode, cval)
+    program = projection_program(job.ndim, u, axis=axis, channel_axis=channel_axis, a=a, eta=eta,
+                                 single_scale=single_scale)
+    return apply_program(job, program, mode, cval)
 
 
-def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, eta=greens.EDGE_ETA,
-             single_scale=False, projection_scale=1.0, backend=None, device=None):
-    """Green's-function gradient: :func:`derivative` along each axis in ``axes``.
+def gradient(input, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
+             eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0, backend=None, device=None):
+    """Green's-function gradient: :func:`derivative` along each axis operated on.
 
-    Parameters are those of :func:`derivative`.
+    Parameters
+    ----------
+    input : array_like or device array
+        Image, stack or colour image (with ``channel_axis``).
+    u : float
+        Scale of the operator (> 0), in pixels.
+    axes : sequence of int, optional
+        The axes differentiated along (the spatial axes); default every axis other than
+        ``channel_axis``.
+    channel_axis : int, optional
+        Axis of colour channels: no derivative along it, each channel differentiated on its own.
+    mode, cval, a, eta, single_scale, projection_scale, backend, device
+        As in :func:`derivative`.
 
     Returns
     -------
     tuple of arrays
-        One derivative per axis, in axis order (for a 2-D image: ``(d/dy, d/dx)``, as
-        ``numpy.gradient``).
+        One derivative per axis operated on, in array-axis order (for a 2-D image:
+        ``(d/dy, d/dx)``, rows then columns, as ``numpy.gradient``), each of the input's shape.
+
+    Raises
+    ------
+    ValueError
+        As :func:`derivative`.
+    TypeError
+        Unsupported dtype.
 
     Examples
     --------
@@ -282,10 +537,16 @@ def gradient(input, u, mode="reflect", cval=0.0, *, axes=None, a=greens.EDGE_A, 
     >>> gy, gx = gfgpu.gradient(2 * yy + 3 * xx, 1.0, mode="nearest", backend="numpy")
     >>> round(float(gy[128, 128]), 6), round(float(gx[128, 128]), 6)
     (2.0, 3.0)
+    >>> rgb = np.stack([yy, xx, yy + xx], axis=-1)
+    >>> gy, gx = gfgpu.gradient(rgb, 1.0, channel_axis=-1, mode="nearest", backend="numpy")
+    >>> gy.shape, [round(float(v), 6) for v in gx[128, 128]]
+    ((256, 256, 3), [0.0, 1.0, 1.0])
     """
     check_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, None, backend, device)
-    ax = axes_list(axes, job.ndim)
-    return tuple(apply_program(job, derivative_program(job.ndim, u, d, ax, a, eta, single_scale, projection_scale),
-                                 mode, cval) for d in ax)
+    ax = operated_axes(job.ndim, axes, channel_axis)
+    return tuple(apply_program(job, derivative_program(job.ndim, u, axis=d, axes=ax, a=a, eta=eta,
+                                                       single_scale=single_scale,
+                                                       projection_scale=projection_scale), mode, cval)
+                 for d in ax)

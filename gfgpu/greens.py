@@ -2,7 +2,8 @@
 
 This module is the mathematics of gfgpu and nothing else: float64 closed forms of the
 kernels (for references, figures and tests) and the coefficients of the exact first-order
-complex recursions that every backend runs (DESIGN.md §1).
+complex recursions that every backend runs (derived in ``docs/derivations.md``, "The
+recursion").
 
 Every causal operator here is a sum of *sections*.  A section is the recursion
 
@@ -136,7 +137,8 @@ def g_affine_approx(x, x0, sigma, x_U):
         G_U^{(2)}(x, x_0) = \\frac{2|x_U|}{\\sigma^2} \\sin\\Big[\\frac{|x_U|}{\\sigma^2}(x - x_0)\\Big]
         \\exp\\Big[-\\frac{(x - x_U)^2 - (x_0 - x_U)^2}{2\\sigma^2}\\Big], \\quad x > x_0
 
-    It shifts by about ``sigma^2/|x_U|`` with a gain ramp ``1 - x/|x_U|`` (DESIGN §2).
+    It shifts by about ``sigma^2/|x_U|`` with a gain ramp ``1 - x/|x_U|``: a uniform shift, not an
+    affine displacement (``docs/derivations.md``, "G_U^(2)").
     """
     sigma = positive("sigma", sigma)
     x_U = finite_scalar("x_U", x_U)
@@ -162,18 +164,22 @@ def edge_weights(u, a, eta):
     a = positive("a", a)
     eta = positive("eta", eta)
     big_a = 2.0 / (u * eta**2 * (1.0 + a))
-    big_k = a * eta**2  # DESIGN §2: the fine scale carries weight a (reproduces 3.547)
+    big_k = a * eta**2  # the fine scale carries weight a: reproduces the chapter's 3.547 (docs/derivations.md)
     return u, a, eta, big_a, big_k
 
 
 def edge_derivative(x, u, a=EDGE_A, eta=EDGE_ETA):
-    """Multiscale differentiator D(x) (eq. 25-26) with ``K = a eta^2`` (DESIGN §2).
+    """Multiscale differentiator D(x) (eq. 25-26) with ``K = a eta^2``.
 
     .. math::
         D(x) = \\frac{1}{2u}[F(-x) - F(x)],\\quad
         F(x) = A[e^{-x/\\eta u}\\sin(x/\\eta u) + K e^{-x/u}\\sin(x/u)] \\ (x>0),
 
     ``A = 2/(u eta^2 (1+a))``.  Continuous unit ramp response: ``-∫ x D = 1``.
+
+    ``K = a eta^2`` weights the fine scale by ``a``, i.e. ``(I'_eta + a I'_1)/(1 + a)``: with
+    it the (ΣΛ)·SRC index at a = 1.1, η = 3.5 is the chapter's 3.547.  Eq. 24 as printed
+    would give ``K = eta^2/a`` and 3.538 (``docs/derivations.md``).
     """
     u, a, eta, big_a, big_k = edge_weights(u, a, eta)
     x = np.asarray(x, dtype=np.float64)
@@ -183,7 +189,7 @@ def edge_derivative(x, u, a=EDGE_A, eta=EDGE_ETA):
 
 
 def edge_projection(x, u, a=EDGE_A, eta=EDGE_ETA):
-    """Projection function P = ∫D used along edges (chapter §2; science notes §1.5).
+    """Projection function P = ∫D used along edges (chapter §2; ``docs/derivations.md``).
 
     .. math::
         P(x) = \\frac{A}{4u}\\big[\\eta u\\, e^{-|x|/\\eta u}(\\sin + \\cos)(|x|/\\eta u)
@@ -321,7 +327,7 @@ class AffineGreen(GreenKernel):
 
 @dataclass(frozen=True)
 class AffineGreenApprox(GreenKernel):
-    """G_U^(2) (eq. 14): uniform shift ``sigma^2/|x_U|`` with a gain ramp (DESIGN §2).
+    """G_U^(2) (eq. 14): uniform shift ``sigma^2/|x_U|`` with a gain ramp ``1 - x/|x_U|``.
 
     Causal use needs ``x_U < 0`` (the domain ``(x_U, inf)`` must contain the line),
     anticausal use ``x_U > n - 1``.  Recursion: ``lam = kap = exp(i w0 - (2(x - x_U)+1)/(2 sigma^2))``,

@@ -44,9 +44,11 @@ def filter_npy(operator, source, destination, *, mode="reflect", cval=0.0, worki
     Parameters
     ----------
     operator : {'green_filter', 'shift', 'derivative', 'projection', 'motion_blur'}
-        The operator; ``parameters`` are its own (e.g. ``shift=(2.5, -1)`` for ``'shift'``,
-        ``kernel=UniformGreen(3), axis=0`` for ``'green_filter'``, ``u=1.0, axis=1`` for
-        ``'derivative'``, ``velocity=(12, 0)`` for ``'motion_blur'`` (uniform motion)).
+        The operator; ``parameters`` are those of the in-memory function, keywords only, with
+        every pair in array-axis order (rows, cols): e.g. ``shift=(2.5, -1)`` (``(dy, dx)``)
+        for ``'shift'``, ``kernel=UniformGreen(3), axis=0`` for ``'green_filter'``,
+        ``u=1.0, axis=1`` for ``'derivative'``, ``velocity=(0, 12)`` (``(vy, vx)``: 12 px to
+        the right) for ``'motion_blur'`` (uniform motion only).
     source, destination : str or path
         Input ``.npy`` (C order, any real dtype) and output path; the output is written to a
         temporary file beside it and renamed into place when complete.  It may not be the input.
@@ -71,7 +73,10 @@ def filter_npy(operator, source, destination, *, mode="reflect", cval=0.0, worki
     ------
     ValueError
         Unknown operator, same source and destination, unreadable or truncated input, an
-        oblique direction whose image plane exceeds the working set, non-finite input.
+        oblique direction whose image plane exceeds the working set, non-finite input, or a
+        parameter the operator rejects.
+    TypeError
+        An unknown parameter, an unsupported ``dtype`` or one that would downcast the input.
 
     Notes
     -----

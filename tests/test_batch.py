@@ -1,4 +1,4 @@
-"""``gfgpu batch`` (gfgpu.batch, gfgpu.batch_cli): outputs, resume, atomicity, bad files, Dask."""
+"""``gfgpu batch`` (gfgpu.batch, gfgpu.cli.batch): outputs, resume, atomicity, bad files, Dask."""
 
 import hashlib
 import os
@@ -58,7 +58,7 @@ def leftovers(folder):
 # --------------------------------------------------------------------------------------
 def test_shift_npy_equals_api(images, tmp_path, backend):
     out = tmp_path / "out"
-    assert run_cli("shift", images, "-o", out, "--by", 2.5, -1.25, "--format", "npy",
+    assert run_cli("shift", images, "-o", out, "--dx", 2.5, "--dy", -1.25, "--format", "npy",
                    "--backend", backend.name) == 0
     for name in ("c1", "c2", "g"):
         img = iio.imread(images / f"{name}.png").astype(np.float32)
@@ -70,7 +70,7 @@ def test_shift_npy_equals_api(images, tmp_path, backend):
 
 def test_png_and_tiff_outputs(images, tmp_path):
     for fmt in ("png", "tiff", "npy"):
-        assert run_cli("shift", images / "c1.png", "-o", tmp_path / fmt, "--by", 1, 3, "--format", fmt,
+        assert run_cli("shift", images / "c1.png", "-o", tmp_path / fmt, "--dx", 1, "--dy", 3, "--format", fmt,
                        "--backend", "numpy", "--mode", "nearest") == 0
     img = iio.imread(images / "c1.png")
     raw = gfgpu.shift(img.astype(np.float32), (3, 1), mode="nearest", axes=(0, 1), backend="numpy")
@@ -102,16 +102,54 @@ def test_canny_outputs_equal_api(images, tmp_path):
     np.testing.assert_array_equal(got, ref)
 
 
-@pytest.mark.parametrize("how", [("--velocity", 6, -2), ("--velocity", 4, 0, "--keep-position"),
-                                 ("--zoom", 0.3, "--center", 10, 12)])
-def test_blur_outputs_equal_api(images, tmp_path, how):
+@pytest.mark.parametrize("how, expect", [
+    (("--dx", 6, "--dy", -2), dict(velocity=(-2, 6))),                       # (vy, vx)
+    (("--dx", 4, "--keep-position"), dict(velocity=(0, 4), displace=False)),
+    (("--dy", 5), dict(velocity=(5, 0))),
+    (("--zoom", 0.3, "--center-x", 10, "--center-y", 12), dict(velocity=0.3, kind="zoom", center=(12, 10))),
+    (("--zoom", 0.3, "--center-x", 10), dict(velocity=0.3, kind="zoom", center=(11.5, 10))),   # row: middle
+])
+def test_blur_outputs_equal_api(images, tmp_path, how, expect):
+    """--dx/--dy map onto velocity=(dy, dx) and --center-x/--center-y onto center=(row, col)."""
     assert run_cli("blur", images / "c1.png", "-o", tmp_path, *how, "--format", "npy", "--backend", "numpy") == 0
     img = iio.imread(images / "c1.png").astype(np.float32)
-    if how[0] == "--zoom":
-        ref = gfgpu.motion_blur(img, 0.3, kind="zoom", center=(10, 12), channel_axis=-1, backend="numpy")
-    else:
-        ref = gfgpu.motion_blur(img, how[1:3], displace=len(how) == 3, channel_axis=-1, backend="numpy")
+    ref = gfgpu.motion_blur(img, channel_axis=-1, backend="numpy", **expect)
     np.testing.assert_array_equal(np.load(tmp_path / "c1.npy"), ref)
+
+
+def test_parameters_are_rows_then_cols_and_old_keys_are_refused(images, tmp_path):
+    """The library's parameter dicts: shift=(dy, dx), velocity=(vy, vx), center=(row, col);
+    the old keys fail before any work (check_parameters) and per file (process_file)."""
+    img = iio.imread(images / "c1.png")
+    jobs = [batch.Job(str(images / "c1.png"), str(tmp_path / f"{name}.npy"), op, params, "npy", backend="numpy")
+            for name, op, params in (("shift", "shift", {"shift": (-1.25, 2.5)}),
+                                     ("blur", "blur", {"velocity": (-2.0, 6.0)}),
+                                     ("zoom", "blur", {"zoom": 0.3, "center": (12, 10)}))]
+    assert [batch.process_file(j).status for j in jobs] == ["ok"] * 3
+    work = img.astype(np.float32)
+    np.testing.assert_array_equal(np.load(tmp_path / "shift.npy"),
+                                  gfgpu.shift(work, (-1.25, 2.5), channel_axis=-1, backend="numpy"))
+    # the same job with the old (dx, dy) convention would differ
+    assert not np.allclose(np.load(tmp_path / "shift.npy"),
+                           gfgpu.shift(work, (2.5, -1.25), channel_axis=-1, backend="numpy"))
+    np.testing.assert_array_equal(np.load(tmp_path / "blur.npy"),
+                                  gfgpu.motion_blur(work, (-2.0, 6.0), channel_axis=-1, backend="numpy"))
+    np.testing.assert_array_equal(np.load(tmp_path / "zoom.npy"),
+                                  gfgpu.motion_blur(work, (0.3, 0.3), kind="zoom", center=(12, 10),
+                                                    channel_axis=-1, backend="numpy"))
+    for op, params, match in (("shift", {"by": (1, 1)}, "unknown 'by'"),
+                              ("shift", {}, r"shift=\(dy, dx\)"),
+                              ("blur", {"velocity": (1, 1), "zoom": 0.2}, "exactly one"),
+                              ("blur", {"velocity": (1, 1), "center": (3, 3)}, "zoom only"),
+                              ("blur", {"zoom": 0.2, "center": (1, 2, 3)}, r"pair \(row, col\)")):
+        with pytest.raises(ValueError, match=match):
+            batch.check_parameters(op, params)
+    old = batch.process_file(batch.Job(str(images / "c1.png"), str(tmp_path / "old.npy"), "shift", {"by": (1, 1)},
+                                       "npy", backend="numpy"))
+    assert old.status == "failed" and "unknown 'by'" in old.message
+    outside = batch.process_file(batch.Job(str(images / "c1.png"), str(tmp_path / "out.npy"), "blur",
+                                           {"zoom": 0.3, "center": (30, 10)}, "npy", backend="numpy"))
+    assert outside.status == "failed" and "inside the image" in outside.message   # row 30 of 24 rows
 
 
 # --------------------------------------------------------------------------------------
@@ -121,7 +159,7 @@ def test_resume_skips_and_overwrite_recomputes(images, tmp_path, capsys):
     out = tmp_path / "out"
     out.mkdir()
     (out / "c1.npy").write_bytes(b"stale")          # an output from an earlier run
-    args = ("shift", images, "-o", out, "--by", 1, 1, "--format", "npy", "--backend", "numpy")
+    args = ("shift", images, "-o", out, "--dx", 1, "--dy", 1, "--format", "npy", "--backend", "numpy")
     assert run_cli(*args) == 0
     assert "2 ok, 1 skipped, 0 failed" in capsys.readouterr().out
     assert (out / "c1.npy").read_bytes() == b"stale"
@@ -169,14 +207,14 @@ def test_interrupted_write_leaves_no_partial_output(images, tmp_path, monkeypatc
         monkeypatch.setattr(imageio.v3, "imwrite", dying_writer)
     out = tmp_path / "out"
     before = tree_digest(images)
-    assert run_cli("shift", images, "-o", out, "--by", 1, 0, "--format", fmt, "--backend", "numpy") == 1
+    assert run_cli("shift", images, "-o", out, "--dx", 1, "--format", fmt, "--backend", "numpy") == 1
     text = capsys.readouterr().out
     assert "2 ok, 0 skipped, 1 failed" in text and "disk full (simulated)" in text
     assert sorted(os.listdir(out)) == sorted(f"{n}.{fmt}" for n in ("c1", "g"))   # c2 died: absent
     assert not leftovers(out)
     assert tree_digest(images) == before
     monkeypatch.undo()
-    assert run_cli("shift", images, "-o", out, "--by", 1, 0, "--format", fmt, "--backend", "numpy") == 0
+    assert run_cli("shift", images, "-o", out, "--dx", 1, "--format", fmt, "--backend", "numpy") == 0
     assert "1 ok, 2 skipped, 0 failed" in capsys.readouterr().out   # the rerun completes the batch
 
 
@@ -199,7 +237,7 @@ def test_bad_files_are_reported_and_the_rest_processed(images, tmp_path, capsys)
               if n not in ("dangling.png", "locked.png")}
     out = tmp_path / "out"
     try:
-        code = run_cli("shift", images, missing, "-o", out, "--by", 0.5, 0.5, "--format", "npy",
+        code = run_cli("shift", images, missing, "-o", out, "--dx", 0.5, "--dy", 0.5, "--format", "npy",
                        "--backend", "numpy")
     finally:
         if unreadable:
@@ -221,9 +259,9 @@ def test_bad_files_are_reported_and_the_rest_processed(images, tmp_path, capsys)
 
 
 def test_process_file_never_raises(tmp_path):
-    jobs = [batch.Job(str(tmp_path / "none.png"), str(tmp_path / "o.npy"), "shift", {"by": (1, 1)}, "npy"),
+    jobs = [batch.Job(str(tmp_path / "none.png"), str(tmp_path / "o.npy"), "shift", {"shift": (1, 1)}, "npy"),
             batch.Job(str(tmp_path / "none.png"), str(tmp_path / "o.npy"), "rotate", {}, "npy"),
-            batch.Job(str(tmp_path), str(tmp_path / "o.npy"), "shift", {"by": (1, 1)}, "npy")]
+            batch.Job(str(tmp_path), str(tmp_path / "o.npy"), "shift", {"shift": (1, 1)}, "npy")]
     iio.imwrite(tmp_path / "nan.tiff", np.full((8, 8), np.nan, np.float32))
     jobs.append(batch.Job(str(tmp_path / "nan.tiff"), str(tmp_path / "o.npy"), "gradient", {"u": 1.0}, "npy",
                           backend="numpy"))
@@ -239,13 +277,13 @@ def test_process_file_never_raises(tmp_path):
 # --------------------------------------------------------------------------------------
 def test_refuses_to_overwrite_an_input(images, capsys):
     before = tree_digest(images)
-    fails_with(capsys, "overwrite an input", "shift", images, "-o", images, "--by", 1, 1, "--backend", "numpy")
+    fails_with(capsys, "overwrite an input", "shift", images, "-o", images, "--dx", 1, "--dy", 1, "--backend", "numpy")
     os.link(images / "g.png", images.parent / "g.npy")       # a hard link is the same file
     with pytest.raises(ValueError, match="overwrite an input"):
-        batch.plan_jobs([str(images / "g.png")], str(images.parent), "shift", {"by": (1, 1)}, fmt="npy")
+        batch.plan_jobs([str(images / "g.png")], str(images.parent), "shift", {"shift": (1, 1)}, fmt="npy")
     assert tree_digest(images) == before
     # the task itself refuses too, whatever its job says
-    job = batch.Job(str(images / "g.png"), str(images / "g.png"), "shift", {"by": (1, 1)}, overwrite=True)
+    job = batch.Job(str(images / "g.png"), str(images / "g.png"), "shift", {"shift": (1, 1)}, overwrite=True)
     assert batch.process_file(job).status == "failed"
     assert tree_digest(images) == before
 
@@ -253,7 +291,8 @@ def test_refuses_to_overwrite_an_input(images, capsys):
 def test_same_stem_is_an_error_before_any_work(images, tmp_path, capsys):
     (images / "sub").mkdir()
     (images / "sub" / "g.jpg").write_bytes((images / "g.png").read_bytes())
-    fails_with(capsys, "same name stem 'g'", "shift", images, images / "sub", "-o", tmp_path / "out", "--by", 1, 1)
+    fails_with(capsys, "same name stem 'g'", "shift", images, images / "sub", "-o", tmp_path / "out", "--dx", 1,
+               "--dy", 1)
     assert not (tmp_path / "out").exists()
 
 
@@ -280,7 +319,11 @@ def test_discovery(images, tmp_path, capsys):
     (("canny", "--low", 0.9, "--high", 0.2), r"low quantile \(0.9\) must not exceed"),
     (("canny", "--low", 1.5), "low_threshold"),
     (("blur", "--zoom", 3), "u1.* got 3"),
-    (("blur", "--velocity", 1, 1, "--center", 3, 3), "--center"),
+    (("blur", "--dx", 1, "--dy", 1, "--center-x", 3, "--center-y", 3), "--center"),
+    (("blur", "--dx", 1, "--zoom", 0.2), "give one motion"),
+    (("blur",), "give one motion"),
+    (("shift",), "--dx"),
+    (("shift", "--dx", "nan"), "shift must be finite"),
 ])
 def test_bad_parameters_fail_once_before_any_work(images, tmp_path, capsys, argv, message):
     fails_with(capsys, message, argv[0], images, "-o", tmp_path / "out", *argv[1:], "--backend", "numpy")
@@ -294,13 +337,13 @@ def test_local_cluster_two_workers(images, tmp_path, capsys):
     pytest.importorskip("dask.distributed")
     (images / "broken.png").write_bytes(b"\x89PNG\r\n\x1a\n")
     before = tree_digest(images)
-    code = run_cli("shift", images, "-o", tmp_path / "dask", "--by", 2, 1, "--format", "npy",
+    code = run_cli("shift", images, "-o", tmp_path / "dask", "--dx", 2, "--dy", 1, "--format", "npy",
                    "--backend", "numpy", "--workers", 2)
     captured = capsys.readouterr()
     assert code == 1
     assert "3 ok, 0 skipped, 1 failed" in captured.out and "broken.png" in captured.out
     assert "2 worker(s)" in captured.err
-    assert run_cli("shift", images, "-o", tmp_path / "here", "--by", 2, 1, "--format", "npy",
+    assert run_cli("shift", images, "-o", tmp_path / "here", "--dx", 2, "--dy", 1, "--format", "npy",
                    "--backend", "numpy") == 1
     for name in ("c1", "c2", "g"):
         np.testing.assert_array_equal(np.load(tmp_path / "dask" / f"{name}.npy"),

@@ -1,4 +1,4 @@
-"""Exact state carry (gfgpu.carry): a pass cut into segments equals the uncut pass."""
+"""Exact state carry (gfgpu._core.carry): a pass cut into segments equals the uncut pass."""
 import numpy as np
 import pytest
 from oracle import direct_axis

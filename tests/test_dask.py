@@ -37,7 +37,9 @@ CASES = {
                                                          cval=0.5, backend=be), {}),
     "derivative axis 0": (lambda m, img, be: m.derivative(img, 2.0, axis=0, mode="nearest", backend=be), {}),
     "projection axis 1": (lambda m, img, be: m.projection(img, 1.5, axis=1, backend=be), {}),
-    "motion_blur displace=False": (lambda m, img, be: m.motion_blur(img, (11, 0), displace=False, backend=be), {}),
+    "motion_blur displace=False": (lambda m, img, be: m.motion_blur(img, (0, 11), displace=False, backend=be), {}),
+    "shift colour channel_axis": (lambda m, img, be: m.shift(img[:, :81].reshape(97, 27, 3), (2.5, -1.5),
+                                                              channel_axis=-1, backend=be), {}),
 }
 
 
@@ -65,13 +67,38 @@ def test_gradient_float64_every_axis_of_a_stack(rng):
 def test_whole_plane_operators(rng):
     stack = rng.random((3, 64, 48)).astype(np.float32)
     x = da.from_array(stack, chunks=(1, 20, 20))
-    oblique = _compute(gd.motion_blur(x, (7, 3), backend="numpy"))
-    _close(oblique, gfgpu.motion_blur(stack, (7, 3), backend="numpy"), rel=0)
+    oblique = _compute(gd.motion_blur(x, (3, 7), backend="numpy"))
+    _close(oblique, gfgpu.motion_blur(stack, (3, 7), backend="numpy"), rel=0)
     zoom = _compute(gd.motion_blur(x, 0.4, kind="zoom", backend="numpy"))
     _close(zoom, gfgpu.motion_blur(stack, 0.4, kind="zoom", backend="numpy"), rel=0)
     edges = _compute(gd.canny(x, 1.0, backend="numpy"))
     expect = np.stack([gfgpu.canny(p, 1.0, backend="numpy") for p in stack])
     assert edges.dtype == bool and (edges == expect).all() and edges.any()
+
+
+def test_convention_rows_then_cols_and_channel_axis(rng):
+    """gfgpu.dask.motion_blur takes (vy, vx) and center=(row, col); channel_axis everywhere."""
+    img = np.zeros((300, 200))
+    img[100, 60] = 1.0
+    out = _compute(gd.motion_blur(da.from_array(img, chunks=(70, 90)), (12.0, 0.0), mode="constant",
+                                  backend="numpy"))
+    yy = np.arange(300)[:, None]
+    assert abs((out * yy).sum() / out.sum() - 112.0) < 0.05 and np.abs(out[:, 61:]).max() < 1e-12   # 12 rows down
+    rgb = rng.random((40, 56, 3))
+    x = da.from_array(rgb, chunks=(15, 20, 3))
+    for kw in (dict(velocity=(3.0, -5.0)), dict(velocity=0.3, kind="zoom", center=(10, 40)),
+               dict(velocity=8.0, kind="rotation", center=(30, 12))):
+        _close(_compute(gd.motion_blur(x, channel_axis=-1, backend="numpy", **kw)),
+               gfgpu.motion_blur(rgb, channel_axis=-1, backend="numpy", **kw), rel=1e-12)
+    oblique = gd.green_filter(x, UniformGreen(2.0), angle=0.4, channel_axis=-1, backend="numpy")
+    _close(_compute(oblique), gfgpu.green_filter(rgb, UniformGreen(2.0), angle=0.4, channel_axis=-1,
+                                                 backend="numpy"), rel=1e-12)
+    gy, gx = gd.gradient(x, 1.0, channel_axis=-1, backend="numpy")
+    ry, rx = gfgpu.gradient(rgb, 1.0, channel_axis=-1, backend="numpy")
+    _close(_compute(gy), ry, rel=1e-12)
+    _close(_compute(gx), rx, rel=1e-12)
+    with pytest.raises(ValueError, match="axes.*channel_axis"):
+        gd.shift(x, (1.0, 1.0), axes=(1, 2), channel_axis=-1)
 
 
 def test_lazy_and_input_untouched(rng):

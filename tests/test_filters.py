@@ -232,3 +232,101 @@ def test_projection_scale_sets_the_smoothing_along_edges(backend, rng):
     assert relerr(d, gfgpu.derivative(img, 2.0, axis=1, backend=backend)) > 1e-3
     with pytest.raises(ValueError, match="projection_scale must be > 0"):
         gfgpu.gradient(img, 1.0, projection_scale=-1, backend=backend)
+
+
+# --------------------------------------------------------------------------------------
+# the coordinate convention: (rows, cols); channel_axis for colour; keyword-only options
+# --------------------------------------------------------------------------------------
+def test_shift_colour_channel_axis_equals_per_channel_shifts(backend, rng):
+    colour = rng.standard_normal((20, 26, 3)).astype(np.float32)
+    out = gfgpu.shift(colour, (1.5, -2.25), channel_axis=-1, mode="nearest", backend=backend)
+    for c in range(3):
+        one = gfgpu.shift(colour[..., c], (1.5, -2.25), mode="nearest", backend=backend)   # (dy, dx)
+        np.testing.assert_allclose(out[..., c], one, rtol=1e-6, atol=1e-6)
+    first = gfgpu.shift(np.moveaxis(colour, -1, 0).copy(), (1.5, -2.25), channel_axis=0, mode="nearest",
+                        backend=backend)
+    np.testing.assert_allclose(np.moveaxis(first, 0, -1), out, rtol=1e-6, atol=1e-6)
+    # (dy, dx): an impulse moves dy rows down and dx columns right
+    img = np.zeros((120, 200))
+    img[20, 40] = 1.0
+    moved = gfgpu.shift(img, (3.0, 7.0), mode="constant", backend=backend)
+    yy, xx = np.mgrid[:120, :200]
+    assert abs((moved * yy).sum() - 23) < 1e-4 and abs((moved * xx).sum() - 47) < 1e-4
+
+
+def test_channel_axis_of_every_line_operator(backend, rng):
+    rgb = rng.standard_normal((24, 30, 3))
+    k = greens.UniformGreen(2.0)
+    per_channel = {
+        "green_filter angle": (lambda im, **kw: gfgpu.green_filter(im, k, angle=0.5, backend=backend, **kw)),
+        "green_filter axis": (lambda im, **kw: gfgpu.green_filter(im, k, backend=backend, **kw)),
+        "derivative": (lambda im, **kw: gfgpu.derivative(im, 1.0, backend=backend, **kw)),
+        "derivative axis 0": (lambda im, **kw: gfgpu.derivative(im, 1.0, axis=0, backend=backend, **kw)),
+        "projection": (lambda im, **kw: gfgpu.projection(im, 1.0, backend=backend, **kw)),
+        "gradient": (lambda im, **kw: np.stack(gfgpu.gradient(im, 1.0, backend=backend, **kw))),
+    }
+    for name, op in per_channel.items():
+        out = op(rgb, channel_axis=-1)
+        for c in range(3):
+            np.testing.assert_allclose(out[..., c], op(rgb[..., c]), rtol=1e-12, atol=1e-12, err_msg=name)
+    out = gfgpu.green_filter(rgb, k, angle=0.5, channel_axis=-1, output=np.empty_like(rgb), backend=backend)
+    np.testing.assert_allclose(out[..., 1], gfgpu.green_filter(rgb[..., 1], k, angle=0.5, backend=backend),
+                               atol=1e-12)
+
+
+def test_channel_axis_on_device_arrays(backend, rng):
+    if backend.name == "numpy":
+        pytest.skip("host arrays")
+    rgb = rng.standard_normal((12, 14, 3)).astype(np.float32)
+    dev = backend.asarray(rgb)
+    out = gfgpu.shift(dev, (1.5, -0.5), channel_axis=-1)
+    np.testing.assert_allclose(backend.to_host(out), gfgpu.shift(rgb, (1.5, -0.5), channel_axis=-1, backend="numpy"),
+                               rtol=2e-5, atol=2e-6)
+    with pytest.raises(ValueError, match="device array needs the image plane on its last two axes"):
+        gfgpu.green_filter(dev, greens.UniformGreen(1.0), angle=0.4, channel_axis=-1)
+    first = backend.asarray(np.moveaxis(rgb, -1, 0).copy())
+    ob = gfgpu.green_filter(first, greens.UniformGreen(1.0), angle=0.4, channel_axis=0)
+    np.testing.assert_allclose(np.moveaxis(backend.to_host(ob), 0, -1),
+                               gfgpu.green_filter(rgb, greens.UniformGreen(1.0), angle=0.4, channel_axis=-1,
+                                                  backend="numpy"), rtol=2e-5, atol=2e-5)
+
+
+@pytest.mark.parametrize("call, match", [
+    (lambda im: gfgpu.shift(im, (1.0, 1.0), axes=(1, 2), channel_axis=-1), r"axes=\(1, 2\) and channel_axis=-1"),
+    (lambda im: gfgpu.gradient(im, 1.0, axes=(0, 2), channel_axis=2), "axes.*channel_axis.*overlap"),
+    (lambda im: gfgpu.derivative(im, 1.0, axis=2, channel_axis=-1), "axis=2 and channel_axis=-1"),
+    (lambda im: gfgpu.projection(im, 1.0, axis=-1, channel_axis=2), "axis=-1 and channel_axis=2"),
+    (lambda im: gfgpu.green_filter(im, greens.UniformGreen(1.0), axis=0, channel_axis=0), "axis=0 and channel_axis"),
+    (lambda im: gfgpu.green_filter(im, greens.UniformGreen(1.0), angle=0.3, axes=(0, 2), channel_axis=2),
+     "axes.*channel_axis"),
+    (lambda im: gfgpu.green_filter(im, greens.UniformGreen(1.0), axes=(0, 1)), "give angle"),
+    (lambda im: gfgpu.shift(im, (1.0, 1.0)), "one value per axis.*channel_axis"),
+    (lambda im: gfgpu.shift(im, 1.0, channel_axis=3), "channel_axis=3 is out of range"),
+])
+def test_axes_and_channel_axis_conflicts(call, match):
+    with pytest.raises(ValueError, match=match):
+        call(np.ones((6, 7, 3)))
+
+
+def test_options_are_keyword_only():
+    img = np.ones((8, 9))
+    for call in (lambda: gfgpu.shift(img, 1.0, None, "constant"),
+                 lambda: gfgpu.green_filter(img, greens.UniformGreen(1.0), 0),
+                 lambda: gfgpu.derivative(img, 1.0, 0),
+                 lambda: gfgpu.projection(img, 1.0, 0),
+                 lambda: gfgpu.gradient(img, 1.0, "nearest")):
+        with pytest.raises(TypeError, match="positional"):
+            call()
+
+
+def test_shift_command_maps_dx_dy(tmp_path):
+    """gfgpu shift --dx DX --dy DY is shift(img, (DY, DX)), colour channels per channel."""
+    import imageio.v3 as iio
+
+    from gfgpu.cli import main
+    rgb = (np.random.default_rng(5).random((20, 30, 3)) * 255).astype(np.uint8)
+    iio.imwrite(tmp_path / "in.png", rgb)
+    assert main(["shift", str(tmp_path / "in.png"), "-o", str(tmp_path / "o.png"), "--npy", str(tmp_path / "o.npy"),
+                 "--dx", "2.5", "--dy", "-1", "--backend", "numpy", "--quiet"]) == 0
+    ref = gfgpu.shift(rgb.astype(np.float32), (-1.0, 2.5), channel_axis=-1, backend="numpy")
+    np.testing.assert_array_equal(np.load(tmp_path / "o.npy"), ref)

@@ -94,11 +94,11 @@ def _shear_oracle(img, rate, axis, centre):
 @pytest.mark.parametrize("displace", [True, False])
 def test_rotation_matches_direct_summation(backend, displace, rng):
     img = rng.random((40, 52))
-    degrees, centre = 12.0, (30.0, 17.5)
+    degrees, centre = 12.0, (17.5, 30.0)    # (row, col)
     shears = rotation_shears(degrees) if displace else rotation_shears(-degrees / 2) + rotation_shears(degrees / 2)
     ref = img
     for axis, rate in shears:
-        ref = _shear_oracle(ref, rate, axis, centre[1] if axis == -1 else centre[0])
+        ref = _shear_oracle(ref, rate, axis, centre[0] if axis == -1 else centre[1])
     for dtype in _dtypes(backend):
         out = motion_blur(img.astype(dtype), degrees, kind="rotation", center=centre, displace=displace,
                           mode="constant", backend=backend.name)
@@ -112,15 +112,15 @@ def test_rotation_maps_points(backend):
     images (exact for linear content away from the borders, every shear being moment-exact)."""
     dtype = _dtypes(backend)[-1]
     yy, xx = np.mgrid[:200, :220].astype(dtype)
-    c = (109.5, 96.0)
-    inner = np.hypot(xx - c[0], yy - c[1]) < 45
+    c = (96.0, 109.5)                               # (row, col)
+    inner = np.hypot(xx - c[1], yy - c[0]) < 45
     tol = 1e-6 if dtype == np.float64 else 2e-3     # float64: the tails reaching the border
     for degrees in (-6.0, 4.0):
         t = math.radians(degrees)
         mx = motion_blur(xx, degrees, kind="rotation", center=c, mode="nearest", backend=backend.name)
         my = motion_blur(yy, degrees, kind="rotation", center=c, mode="nearest", backend=backend.name)
-        dx, dy = xx - c[0], yy - c[1]
-        px, py = c[0] + math.cos(t) * dx - math.sin(t) * dy, c[1] + math.sin(t) * dx + math.cos(t) * dy
+        dx, dy = xx - c[1], yy - c[0]
+        px, py = c[1] + math.cos(t) * dx - math.sin(t) * dy, c[0] + math.sin(t) * dx + math.cos(t) * dy
         assert np.abs(mx - px)[inner].max() < tol and np.abs(my - py)[inner].max() < tol
         # in place (displace=False): the identity map, blurred symmetrically
         kx = motion_blur(xx, degrees, kind="rotation", center=c, mode="nearest", displace=False,
@@ -153,3 +153,23 @@ def test_rotation_inputs():
     frames = synthesize_motion(img, 9.0, 4, kind="rotation", backend="numpy")
     np.testing.assert_allclose(frames[-1], motion_blur(img, 9.0, kind="rotation", backend="numpy"))
     np.testing.assert_array_equal(frames[0], img)
+
+
+def test_rotation_center_is_row_col():
+    """center = (row, col): on a non-square image with an off-centre fixed point, the pixel
+    there keeps its value and a point at distance r from it moves along its circle."""
+    img = np.zeros((61, 121))
+    row, col = 20, 85
+    img[row, col] = 1.0
+    img[row, col + 20] = 1.0                      # 20 px to the right of the centre
+    out = motion_blur(img, 30.0, kind="rotation", center=(row, col), mode="constant", backend="numpy")
+    assert abs(out[row, col] - 1.0) < 1e-9        # the centre does not move
+    # counter-clockwise on screen: the right-hand point moves up (to smaller rows)
+    window = out[:row + 5, col + 5:]
+    yy, xx = np.mgrid[:window.shape[0], :window.shape[1]]
+    cy = (window * yy).sum() / window.sum()
+    cx = (window * xx).sum() / window.sum() + col + 5
+    t = math.radians(30.0)
+    assert abs(cy - (row - 20 * math.sin(t))) < 0.2 and abs(cx - (col + 20 * math.cos(t))) < 0.2   # tails cut
+    with pytest.raises(ValueError, match="inside the image"):   # (x, y) order would be outside
+        motion_blur(img, 0.3, kind="zoom", center=(col, row), backend="numpy")

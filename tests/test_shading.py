@@ -69,7 +69,7 @@ def test_fused_kernel_matches_its_closed_form():
 
 
 def test_eq32_identity_holds_to_third_order():
-    """Ī2 = ½(G+H)*I1 equals I2 + (½G − G*H + ½H)*I2, I2 = G*I1, up to O((uω)³) (science §2.2)."""
+    """Ī2 = ½(G+H)*I1 equals I2 + (½G − G*H + ½H)*I2, I2 = G*I1, up to O((uω)³) (docs/derivations.md)."""
     u, n = 20.0, 4096
     errs = []
     for k in (16, 8):          # uω = 0.49, 0.25: halving uω must cut the error about 8-fold
@@ -82,7 +82,7 @@ def test_eq32_identity_holds_to_third_order():
         rhs = i2 + 0.5 * f(i2, G) - f(f(i2, H), G) + 0.5 * f(i2, H)
         errs.append(np.abs(lhs - rhs).max())
     uw = u * 2 * np.pi * 16 / n
-    assert errs[0] < 1.5 * 0.75 * uw**3          # residual (3/4)|ε|³ of science §2.2
+    assert errs[0] < 1.5 * 0.75 * uw**3          # residual (3/4)|ε|³, docs/derivations.md
     assert 5.0 < errs[0] / errs[1] < 11.0        # third order: ratio 2³ = 8
 
 

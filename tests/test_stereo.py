@@ -58,7 +58,7 @@ def test_random_dots_uniform_sweep(backend):
 
 
 def test_affine_sweep_bias_is_the_sampling_bias(backend):
-    # point-sampled G_U^(2) shifts by about s + 1/(6 s) (DESIGN §2), not s: the affine sweep is
+    # point-sampled G_U^(2) shifts by about s + 1/(6 s) (docs/derivations.md), not s: the affine sweep is
     # biased low by a known amount, documented in docs/stereo.md; check it runs and orders depths
     results = []
     for true_d in (1.6, 2.6):
@@ -162,14 +162,10 @@ def test_select_matches_reference_with_ties(backend, n, steps, d_min):
     np.testing.assert_array_equal(backend.to_host(right), ref_r)
 
 
-def test_opencl_line_aggregation_matches_reference(monkeypatch):
+def test_opencl_line_aggregation_matches_reference(monkeypatch, require_backend):
     # GPUs aggregate one image line per work-item (sgm_line_pair), CPUs in two sweeps: run the
     # GPU variant on whatever OpenCL device there is
-    from gfgpu.backends import BackendUnavailable, get_backend
-    try:
-        be = get_backend("opencl")
-    except BackendUnavailable as exc:
-        pytest.skip(str(exc))
+    be = require_backend("opencl")
     monkeypatch.setattr(be, "kind", "gpu")
     for h, w, n, *_, paths in KERNEL_CASES[2:5]:
         cost = np.random.default_rng(n).integers(0, 60, (h, w, n)).astype(np.int16)

@@ -1,4 +1,4 @@
-"""Strips under a working-set limit (gfgpu.strips): same results as one piece, bounded memory."""
+"""Strips under a working-set limit (gfgpu._core.strips): same results as one piece, bounded memory."""
 import os
 
 import numpy as np
@@ -26,7 +26,7 @@ def _ops(name):
         "derivative axis 1": lambda img, **kw: gfgpu.derivative(img, 2.0, axis=1, mode="nearest", **kw),
         "projection": lambda img, **kw: gfgpu.projection(img, 1.5, axis=0, **kw),
         "gradient": lambda img, **kw: np.stack(gfgpu.gradient(img, 1.0, **kw)),
-        "motion_blur vertical, in place": lambda img, **kw: gfgpu.motion_blur(img, (0, 15), displace=False, **kw),
+        "motion_blur vertical, in place": lambda img, **kw: gfgpu.motion_blur(img, (15, 0), displace=False, **kw),
     }[name]
 
 
@@ -70,18 +70,18 @@ def test_strips_into_output_and_integer_input(rng):
 def test_stack_planes_larger_than_the_working_set(rng):
     stack = rng.random((3, 120, 90)).astype(np.float32)
     ref = gfgpu.shift(stack, (2.5, -1.5), axes=(1, 2), backend="numpy")
-    oblique = gfgpu.motion_blur(stack, (6, 2), backend="numpy")
+    oblique = gfgpu.motion_blur(stack, (2, 6), backend="numpy")
     with strips.working_set(20_000):    # one plane (43 kB) does not fit: strips within each plane
         out = gfgpu.shift(stack, (2.5, -1.5), axes=(1, 2), backend="numpy")
     assert np.abs(out - ref).max() <= 1e-6
     with strips.working_set(5 * stack[0].nbytes + 1):   # a plane fits: oblique lines are whole
-        assert np.abs(gfgpu.motion_blur(stack, (6, 2), backend="numpy") - oblique).max() <= 1e-6
+        assert np.abs(gfgpu.motion_blur(stack, (2, 6), backend="numpy") - oblique).max() <= 1e-6
 
 
 def test_oblique_needs_the_whole_plane(rng):
     img = rng.random((200, 200)).astype(np.float32)
     with strips.working_set(50_000), pytest.raises(ValueError, match="working set"):
-        gfgpu.motion_blur(img, (7, 3), backend="numpy")
+        gfgpu.motion_blur(img, (3, 7), backend="numpy")
 
 
 def test_working_set_settings(monkeypatch):
@@ -115,7 +115,7 @@ def test_cpu_backends_have_no_default_limit(backend):
 @pytest.mark.parametrize("op, params", [("shift", dict(shift=(2.5, -1.5))),
                                         ("derivative", dict(u=1.0, axis=0)),
                                         ("green_filter", dict(kernel=UniformGreen(8.0), axis=0, anticausal=True)),
-                                        ("motion_blur", dict(velocity=(0, 9)))])
+                                        ("motion_blur", dict(velocity=(9, 0)))])
 def test_filter_npy_equals_in_memory(backend, op, params, tmp_path, rng):
     img = rng.random((333, 120)).astype(np.float32)
     src, dst = tmp_path / "in.npy", tmp_path / "out.npy"
@@ -128,6 +128,19 @@ def test_filter_npy_equals_in_memory(backend, op, params, tmp_path, rng):
     assert out.dtype == np.float32 and np.abs(out - ref).max() <= 2e-6 * np.abs(ref).max()
     assert src.read_bytes() == before
     assert sorted(os.listdir(tmp_path)) == ["in.npy", "out.npy"]
+
+
+def test_filter_npy_motion_velocity_is_rows_then_cols(tmp_path):
+    """filter_npy("motion_blur", velocity=(vy, vx)): an impulse moves vy rows down, across strips."""
+    img = np.zeros((400, 60), np.float32)
+    img[100, 30] = 1.0
+    np.save(tmp_path / "in.npy", img)
+    info = filter_npy("motion_blur", tmp_path / "in.npy", tmp_path / "out.npy", velocity=(20.0, 0.0), mode="constant",
+                      working_set="20K", backend="numpy")
+    assert info["strips"] > 5
+    out = np.load(tmp_path / "out.npy").astype(np.float64)
+    assert abs((out * np.arange(400)[:, None]).sum() / out.sum() - 120.0) < 0.05
+    assert np.abs(out[:, :30]).max() < 1e-6 and np.abs(out[:, 31:]).max() < 1e-6
 
 
 def test_filter_npy_large_strips(backend, tmp_path, rng):

@@ -7,7 +7,8 @@ samples, in traversal order (reversed lines for anticausal passes):
 * ``lam[s, k]``, ``kap[s, k]``  complex recursion coefficients of section ``s`` at step ``k``
   (``constant=True``: every column equals column 0, kernels may read ``[s, 0]`` once);
 * ``omega[s, j]`` (``j < L``) and ``omega_c[s]``: the initial state, the boundary mode realised
-  exactly as ``F_s[0] = Σ_j omega[s, j] I[j] + omega_c[s] cval`` (DESIGN §5);
+  exactly as ``F_s[0] = Σ_j omega[s, j] I[j] + omega_c[s] cval`` (``docs/derivations.md``,
+  "Boundary modes as initial states");
 * ``tap``: direct term.
 
 For each line ``I[0..n-1]`` (traversal order) a kernel computes::

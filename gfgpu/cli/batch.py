@@ -2,10 +2,15 @@
 
 Examples::
 
-    gfgpu batch shift photos/ -o shifted/ --by 2.5 -1.25
+    gfgpu batch shift photos/ -o shifted/ --dx 2.5 --dy -1.25
     gfgpu batch gradient 'scans/**/*.tif' -o grad/ -u 1.5 --format npy --workers 4
     gfgpu batch canny a.png b.png -o edges/ -u 1 --low 0.8 --high 0.95
-    gfgpu batch blur frames/ -o blurred/ --velocity 25 -10 --scheduler tcp://head:8786
+    gfgpu batch blur frames/ -o blurred/ --dx 25 --dy -10 --scheduler tcp://head:8786
+    gfgpu batch blur frames/ -o zoomed/ --zoom 0.1 --center-x 300 --center-y 200
+
+The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` column,
+``--center-y`` row); :func:`_params` maps them onto the library's array-axis order
+(``shift=(dy, dx)``, ``velocity=(dy, dx)``, ``center=(row, col)``, see :mod:`gfgpu.batch`).
 """
 
 from __future__ import annotations
@@ -63,8 +68,8 @@ def add_parser(subparsers):
         return p
 
     p = op_parser("shift", "sub-pixel shift through G_u (colour images per channel)")
-    p.add_argument("--by", nargs=2, type=float, metavar=("DX", "DY"), required=True,
-                   help="displacement in pixels: DX toward the right, DY downward")
+    p.add_argument("--dx", type=float, metavar="DX", help="displacement toward the right (columns), pixels")
+    p.add_argument("--dy", type=float, metavar="DY", help="displacement downward (rows), pixels")
 
     p = op_parser("gradient", "Green's-function gradient of the grey image (PNG colour-coded; raw (gy, gx))")
     p.add_argument("-u", type=float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
@@ -76,31 +81,39 @@ def add_parser(subparsers):
                         "(default: gfgpu.canny's absolute default)")
     p.add_argument("--high", type=float, metavar="Q", help="high threshold, a quantile in [0, 1]")
 
-    p = op_parser("blur", "motion blur (--velocity DX DY) or zoom blur (--zoom U1), colour per channel")
-    how = p.add_mutually_exclusive_group(required=True)
-    how.add_argument("--velocity", nargs=2, type=float, metavar=("DX", "DY"),
-                     help="uniform motion in pixels: DX toward the right, DY downward")
-    how.add_argument("--zoom", type=float, metavar="U1",
-                     help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1)")
-    p.add_argument("--center", nargs=2, type=float, metavar=("X", "Y"),
-                   help="fixed point of the zoom (default: each image's centre)")
+    p = op_parser("blur", "motion blur (--dx/--dy) or zoom blur (--zoom U1), colour per channel")
+    p.add_argument("--dx", type=float, metavar="DX", help="uniform motion toward the right (columns), pixels")
+    p.add_argument("--dy", type=float, metavar="DY", help="uniform motion downward (rows), pixels")
+    p.add_argument("--zoom", type=float, metavar="U1",
+                   help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1)")
+    p.add_argument("--center-x", type=float, metavar="X",
+                   help="column of the zoom's fixed point (default: each image's middle)")
+    p.add_argument("--center-y", type=float, metavar="Y",
+                   help="row of the zoom's fixed point (default: each image's middle)")
     p.add_argument("--keep-position", action="store_true",
                    help="uniform motion: blur in place instead of displacing the content")
     return subparsers
 
 
 def _params(args):
+    """The :mod:`gfgpu.batch` parameters of the options, in the library's (rows, cols) order."""
     if args.op == "shift":
-        return {"by": tuple(args.by)}
+        if args.dx is None and args.dy is None:
+            raise CommandError("give the displacement: --dx (right) and/or --dy (down), pixels")
+        return {"shift": (args.dy or 0.0, args.dx or 0.0)}                 # (dy, dx)
     if args.op == "gradient":
         return {"u": args.u}
     if args.op == "canny":
         return {"u": args.u, "low": args.low, "high": args.high}
+    uniform = args.dx is not None or args.dy is not None
+    if uniform == (args.zoom is not None):
+        raise CommandError("give one motion: --dx/--dy (uniform, pixels) or --zoom U1")
+    centre = (args.center_y, args.center_x)                                # (row, col)
     if args.zoom is not None:
-        return {"zoom": args.zoom, "center": None if args.center is None else tuple(args.center)}
-    if args.center is not None:
-        raise CommandError("--center applies to --zoom only")
-    return {"velocity": tuple(args.velocity), "keep_position": args.keep_position}
+        return {"zoom": args.zoom, "center": None if centre == (None, None) else centre}
+    if centre != (None, None):
+        raise CommandError("--center-x/--center-y apply to --zoom only")
+    return {"velocity": (args.dy or 0.0, args.dx or 0.0), "keep_position": args.keep_position}   # (vy, vx)
 
 
 def run(args):

@@ -2,8 +2,8 @@
 
 Examples::
 
-    gfgpu blur photo.png -o blurred.png --dx 25 --dy -10
-    gfgpu blur --example camera -o zoom.png --zoom 0.3 --center-x 256 --center-y 200
+    gfgpu blur photo.png -o blurred.png --dx 25 --dy -10     # motion_blur(img, (-10, 25))
+    gfgpu blur --example camera -o zoom.png --zoom 0.3 --center-x 256 --center-y 200   # center=(200, 256)
     gfgpu blur --example camera -o spin.png --rotate 10 --keep-position
 """
 
@@ -21,7 +21,7 @@ from .motion_args import motion_args, motion_input
 
 
 def add_parser(subparsers):
-    p = subparsers.add_parser("blur", help="motion blur (--dx/--dy), zoom blur (--zoom U1) or "
+    p = subparsers.add_parser("blur", help="motion blur (--dx right, --dy down), zoom blur (--zoom U1) or "
                                            "rotation blur (--rotate DEGREES)")
     motion_args(p)
     p.add_argument("-o", "--output", required=True, help="output PNG")

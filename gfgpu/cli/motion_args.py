@@ -1,4 +1,9 @@
-"""Options shared by ``gfgpu blur`` and ``gfgpu frames``: the kind of motion and its parameters."""
+"""Options shared by ``gfgpu blur`` and ``gfgpu frames``: the kind of motion and its parameters.
+
+The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` column,
+``--center-y`` row) and :func:`motion_input` maps them onto the library's array-axis order:
+``velocity=(dy, dx)`` and ``center=(row, col)``.
+"""
 
 from __future__ import annotations
 
@@ -7,16 +12,16 @@ from .common import MODES, CommandError, backend_args, drop_alpha, image_args, r
 
 def motion_args(p):
     image_args(p)
-    how = p.add_mutually_exclusive_group(required=True)
-    how.add_argument("--dx", type=float, metavar="DX",
-                     help="uniform motion toward the right (columns), pixels during the exposure")
-    how.add_argument("--zoom", type=float, metavar="U1",
-                     help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1); "
-                          "u1 > 0 zooms in, u1 < 0 zooms out (reads beyond the border through --mode)")
-    how.add_argument("--rotate", type=float, metavar="DEGREES",
-                     help="rotation during the exposure, in [-90, 90] degrees, counter-clockwise on "
-                          "screen for > 0, about the centre (three Green's shears)")
-    p.add_argument("--dy", type=float, metavar="DY", help="uniform motion downward (rows), pixels (with --dx)")
+    p.add_argument("--dx", type=float, metavar="DX",
+                   help="uniform motion toward the right (columns), pixels during the exposure")
+    p.add_argument("--dy", type=float, metavar="DY",
+                   help="uniform motion downward (rows), pixels during the exposure")
+    p.add_argument("--zoom", type=float, metavar="U1",
+                   help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1); "
+                        "u1 > 0 zooms in, u1 < 0 zooms out (reads beyond the border through --mode)")
+    p.add_argument("--rotate", type=float, metavar="DEGREES",
+                   help="rotation during the exposure, in [-90, 90] degrees, counter-clockwise on "
+                        "screen for > 0, about the centre (three Green's shears)")
     p.add_argument("--center-x", type=float, metavar="X", help="column of the zoom/rotation centre (default: middle)")
     p.add_argument("--center-y", type=float, metavar="Y", help="row of the zoom/rotation centre (default: middle)")
     p.add_argument("--keep-position", action="store_true",
@@ -26,23 +31,32 @@ def motion_args(p):
 
 
 def motion_input(args):
-    """``(image, label, keyword arguments of motion_blur / synthesize_motion)`` from the options."""
+    """``(image, label, keyword arguments of motion_blur / synthesize_motion)`` from the options.
+
+    ``--dx``/``--dy`` become ``velocity=(dy, dx)`` (rows, cols; a missing one is 0), and
+    ``--center-x``/``--center-y`` become ``center=(row, col)`` (a missing one is the middle).
+    """
+    uniform = args.dx is not None or args.dy is not None
+    kinds = [name for name, given in (("--dx/--dy", uniform), ("--zoom", args.zoom is not None),
+                                      ("--rotate", args.rotate is not None)) if given]
+    if len(kinds) != 1:
+        got = f"; got {' and '.join(kinds)}" if kinds else ""
+        raise CommandError(f"give one motion: --dx/--dy (uniform, pixels), --zoom U1 or --rotate DEGREES{got}")
     image, label = read_input(args)
     img = drop_alpha(image)
     if img.ndim not in (2, 3):
         raise CommandError(f"{label}: expected a grey or colour image, got shape {img.shape}")
-    if args.dy is not None and args.dx is None:
-        raise CommandError("--dy goes with --dx (uniform motion)")
-    centre = (args.center_x, args.center_y)
-    if args.dx is not None and centre != (None, None):
+    given = (args.center_x, args.center_y) != (None, None)
+    if uniform and given:
         raise CommandError("--center-x/--center-y apply to --zoom and --rotate only")
     center = None
-    if centre != (None, None):
+    if given:
         h, w = img.shape[:2]
-        center = (args.center_x if args.center_x is not None else (w - 1) / 2.0,
-                  args.center_y if args.center_y is not None else (h - 1) / 2.0)
-    if args.dx is not None:
-        kw = dict(kind="uniform", velocity=(args.dx, args.dy or 0.0), displace=not args.keep_position)
+        center = (args.center_y if args.center_y is not None else (h - 1) / 2.0,    # (row, col)
+                  args.center_x if args.center_x is not None else (w - 1) / 2.0)
+    if uniform:
+        kw = dict(kind="uniform", velocity=(args.dy or 0.0, args.dx or 0.0),       # (vy, vx)
+                  displace=not args.keep_position)
     elif args.rotate is not None:
         kw = dict(kind="rotation", velocity=args.rotate, center=center, displace=not args.keep_position)
     else:

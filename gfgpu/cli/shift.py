@@ -36,9 +36,9 @@ def run(args):
     be = announce_backend(args)
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu shift", unit="image", disable=None, leave=False) as bar:
-        # array-axis order (rows, columns); colour channels are not shifted
-        raw = shift(img.astype(np.float32), (args.dy, args.dx) + (0.0,) * (img.ndim - 2), mode=args.mode,
-                    backend=be)
+        # the library's array-axis order (rows, cols); colour channels are not shifted
+        raw = shift(img.astype(np.float32), (args.dy, args.dx), channel_axis=-1 if img.ndim == 3 else None,
+                    mode=args.mode, backend=be)
         bar.update(1)
     elapsed = time.perf_counter() - t0
     io.save_png(args.output, io.to_display_8bit(raw, img))

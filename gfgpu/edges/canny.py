@@ -86,7 +86,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     a, eta, single_scale, projection_scale
         Parameters of D(x) and of the projection P along edges, see :func:`gfgpu.derivative`.
     return_gradient : bool
-        Also return the gradient magnitude and orientation (radians, ``arctan2(gy, gx)``).
+        Also return the gradient magnitude and orientation (``arctan2(gy, gx)``: radians from +x,
+        along the columns, toward +y, down the rows).
     backend, device
         Where the gradient and non-maximum suppression run.
 

@@ -9,7 +9,8 @@ below is a finite sum over pairs of complex exponentials:
 * mean distance between noise-response maxima ``x_max = 2π (∫f'² / ∫f''²)^{1/2}``;
 * RMS width ``W_rms = (∫x² f² / ∫f²)^{1/2}`` and single-response ratio ``SRC = x_max / W_rms``;
 * the index ``(ΣΛ)·SRC``, which is 3.547 for the chapter's D(x) at a = 1.1, η = 3.5
-  (science notes §1.3: this width convention is the one that reproduces the chapter).
+  (this RMS-width convention is the one that reproduces the chapter's figure; other widths
+  tried do not: ``docs/derivations.md``, "The differentiator D and the projection P").
 
 All measures are invariant to amplitude and to the scale ``u``.
 

@@ -5,6 +5,13 @@ the blur of that motion: G_u (eq. 9) along a direction for uniform motion, and t
 G_U^(1) (eq. 11-12) for a zoom about a fixed point.  Every operator is a fixed number of O(N)
 recursive passes: the cost per pixel does not depend on the blur length or the zoom factor.
 
+Coordinates, as everywhere in gfgpu (and in scipy.ndimage and scikit-image): every pair is in
+array-axis order, rows then columns.  A uniform velocity is ``(vy, vx)`` pixels (``vy`` down the
+rows, ``vx`` right along the columns), a zoom rate pair ``(u1_y, u1_x)``, a centre ``(row, col)``,
+and :func:`estimate_translation` returns ``(dy, dx)``.  Rotations are in degrees, positive
+counter-clockwise on screen; colour images take ``channel_axis``.  ``docs/motion.md`` has the
+method and its measured accuracy.
+
 Modules: ``blur`` (:func:`motion_blur`), ``uniform``, ``zoom`` and ``rotation`` (one kind of
 motion each), ``frames`` (sequences and in-between frames), ``params`` (argument parsing).
 

@@ -25,19 +25,21 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
         colour image with ``channel_axis`` (numpy input).  float32/float64 kept, integers ->
         float32.
     velocity : pair of float, or float for ``kind="zoom"`` and ``kind="rotation"``
-        ``kind="uniform"``: the displacement ``(dx, dy)`` in pixels during the exposure, x to
-        the right (columns), y down (rows).  ``(0, 0)`` returns a copy.
-        ``kind="zoom"``: the affine rate ``u1`` (eq. 10, ``U = u1 (x - x_U)``), one value or
-        ``(u1_x, u1_y)``; ``2 - 2 sqrt(2) < u1 < 2`` (about -0.828 .. 2): ``u1 > 0`` zooms in,
-        ``u1 < 0`` zooms out, 0 leaves that axis unchanged.  A point at ``x`` moves to
-        ``x_U + (x - x_U)(1 + u1)``.
+        ``kind="uniform"``: the displacement ``(vy, vx)`` in pixels during the exposure, in
+        array-axis order (rows, cols) as :func:`gfgpu.shift`: ``vy`` down the rows, ``vx``
+        right along the columns.  ``(0, 0)`` returns a copy.
+        ``kind="zoom"``: the affine rate ``u1`` (eq. 10, ``U = u1 (x - x_U)``), one value or a
+        pair ``(u1_y, u1_x)`` (rows, cols); ``2 - 2 sqrt(2) < u1 < 2`` (about -0.828 .. 2):
+        ``u1 > 0`` zooms in, ``u1 < 0`` zooms out, 0 leaves that axis unchanged.  A point at
+        column ``x`` moves to ``x_U + (x - x_U)(1 + u1_x)`` (rows likewise with ``u1_y``).
         ``kind="rotation"``: the angle turned during the exposure, in degrees, within
-        [-90, 90]; positive turns counter-clockwise on screen (x right, y down): a point at p
-        moves to ``c + R (p - c)``, ``R = [[cos, sin], [-sin, cos]]``.
+        [-90, 90]; positive turns counter-clockwise on screen (x = column to the right, y = row
+        down): a point at ``p = (x, y)`` moves to ``c + R (p - c)``,
+        ``R = [[cos, sin], [-sin, cos]]``.
     kind : {'uniform', 'zoom', 'rotation'}
     center : pair of float, optional
-        Fixed point ``(x_U, y_U)`` of the zoom (inside the image) or of the rotation; default
-        the image centre.
+        Fixed point ``(row, col)`` of the zoom (inside the image) or of the rotation, i.e.
+        ``(y_U, x_U)``; default the image centre ``((H - 1)/2, (W - 1)/2)``.
     displace : bool, optional
         Uniform motion and rotation.  True: content moves by ``velocity`` and is blurred along
         its path (the G_u point-spread function).  False: content stays in place (centroid kept
@@ -53,7 +55,8 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     output : ndarray or dtype, optional
         As in :func:`gfgpu.green_filter` (not with ``channel_axis``).
     backend, device : str, optional
-        ``"numpy"``, ``"warp"`` or ``"opencl"`` and its device (DESIGN §4 rule by default).
+        ``"numpy"``, ``"warp"`` or ``"opencl"`` and its device (default: the resolution rule
+        of :mod:`gfgpu.backends`).
 
     Returns
     -------
@@ -65,7 +68,8 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     ValueError
         Unknown ``kind``, non-finite or malformed ``velocity``, ``u1`` outside
         ``(2 - 2 sqrt(2), 2)``, a rotation angle outside [-90, 90] degrees, a zoom
-        ``center`` outside the image, bad ``mode``, empty or non-finite input.
+        ``center`` outside the image, ``channel_axis`` out of range or combined with
+        ``output``, bad ``mode``, empty or non-finite input.
     TypeError
         Unsupported dtype or non-numeric parameters.
 
@@ -73,8 +77,8 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     -----
     **Uniform motion** (eq. 7-9).  One recursive pass along the direction of ``velocity`` of
     the discrete G_u shift (:func:`gfgpu.greens.shift_pass`: G_u's poles ``e^{(-1±i)/L}``, unit
-    DC gain and first moment exactly ``L``), ``L = max(|dx|, |dy|)`` steps of the dominant axis
-    along the digital lines of :mod:`gfgpu.lines`.  Along an axis or a diagonal the displacement
+    DC gain and first moment exactly ``L``), ``L = max(|vy|, |vx|)`` steps of the dominant axis
+    along the digital lines of :mod:`gfgpu._core.lines`.  Along an axis or a diagonal the displacement
     is exact (to 1e-6 px); along other directions the displacement of the dominant axis is
     exact and that of the minor axis is exact on average but quantised per pixel (error up to
     0.5 px, see ``docs/motion.md``).  ``displace=False`` runs the anticausal shift by ``L/2`` then
@@ -83,8 +87,8 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     pixel whatever ``L``.
 
     **Zoom** (eq. 10-12).  G_U^(1) is an exact affine warp to second order (zero variance, mean
-    at the pre-image ``x_U + (x - x_U)/(1 + u1)``; science.md §4).  It is applied separably, rows
-    about ``x_U`` then columns about ``y_U``, each line split at the fixed point and the
+    at the pre-image ``x_U + (x - x_U)/(1 + u1)``; ``docs/motion.md``).  It is applied separably,
+    along the rows about ``x_U`` then along the columns about ``y_U``, each line split at the fixed point and the
     recursion run outward on each side.  Point samples of eq. 11 fail near the fixed point
     (the kernel has an integrable singularity there), so the source taps are the exact cell
     integrals of eq. 11 (:func:`zoom_cell_weights`): unit DC gain at every pixel, mean within
@@ -96,7 +100,7 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     **Zoom-out** (``u1 < 0``).  The bounded solution of eq. 10 is then anticausal: the sources
     of the output at distance ``s`` from the fixed point lie further out, ``x0 > s``, with
     ``G = 2/(u1^2 beta x0) (x0/s)^(-alpha) sin(beta ln(x0/s))`` (``alpha = 1/2 - 1/u1 > 0``,
-    ``beta = sqrt(1 + u1 - u1^2/4)/|u1|``, real for ``u1 > 2 - 2 sqrt(2)``; science.md §4).  It
+    ``beta = sqrt(1 + u1 - u1^2/4)/|u1|``, real for ``u1 > 2 - 2 sqrt(2)``; ``docs/motion.md``).  It
     has unit integral and its mean is at the pre-image ``x_U + (x - x_U)/(1 + u1)`` (zero
     variance for ``u1 > -2/3``; infinite below).  Same cell-integrated taps and factorisation,
     but the recursion runs inward, from beyond the border toward the fixed point.  The kernel's
@@ -129,14 +133,14 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     >>> import numpy as np
     >>> from gfgpu.motion import motion_blur
     >>> img = np.zeros((32, 256)); img[16, 10] = 1
-    >>> out = motion_blur(img, (12.5, 0), mode="constant", backend="numpy")
+    >>> out = motion_blur(img, (0, 12.5), mode="constant", backend="numpy")   # (vy, vx)
     >>> round(float((out[16] * np.arange(256)).sum()), 4)
     22.5
-    >>> z = motion_blur(np.tile(np.arange(64.0), (8, 1)), 0.5, kind="zoom", center=(20, 4),
-    ...                       backend="numpy")
+    >>> z = motion_blur(np.tile(np.arange(64.0), (8, 1)), 0.5, kind="zoom", center=(4, 20),
+    ...                 backend="numpy")   # center (row, col)
     >>> round(float(z[4, 50]), 1)  # samples the pre-image 20 + 30 / 1.5
     40.0
-    >>> zo = motion_blur(np.tile(np.arange(512.0), (8, 1)), -0.2, kind="zoom", center=(200, 4),
+    >>> zo = motion_blur(np.tile(np.arange(512.0), (8, 1)), -0.2, kind="zoom", center=(4, 200),
     ...                  mode="nearest", backend="numpy")
     >>> round(float(zo[4, 216]), 2)  # zoom-out: samples the pre-image 200 + 16 / 0.8
     220.0
@@ -163,6 +167,6 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
         degrees = rotation_angle(velocity)
         job = make_job(image, output, backend, device, min_ndim=2)
         return apply_rotation(job, degrees, center, bool(displace), mode, cval)
-    u1x, u1y = zoom_factors(velocity)
+    u1y, u1x = zoom_factors(velocity)
     job = make_job(image, output, backend, device, min_ndim=2)
-    return apply_zoom(job, u1x, u1y, center, mode, cval)
+    return apply_zoom(job, u1y, u1x, center, mode, cval)

@@ -21,12 +21,12 @@ def _frame_parameters(velocity, kind, n_frames):
         raise ValueError(f"n_frames must be an integer >= 2, got {n_frames!r}")
     t = np.arange(n) / (n - 1)
     if kind == "uniform":
-        dx, dy = velocity_pair(velocity)
-        return [(float(dx * f), float(dy * f)) for f in t]
+        vy, vx = velocity_pair(velocity)
+        return [(float(vy * f), float(vx * f)) for f in t]
     if kind == "zoom":
-        u1x, u1y = zoom_factors(velocity)
+        u1y, u1x = zoom_factors(velocity)
         # constant zoom rate: the scale grows geometrically, (1 + u1)^t
-        return [((1 + u1x) ** f - 1, (1 + u1y) ** f - 1) for f in t]
+        return [((1 + u1y) ** f - 1, (1 + u1x) ** f - 1) for f in t]
     if kind == "rotation":
         return [float(rotation_angle(velocity) * f) for f in t]
     raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
@@ -44,10 +44,16 @@ def synthesize_motion(image, velocity, n_frames, *, kind="uniform", center=None,
 
     Parameters
     ----------
-    image, velocity, kind, center, displace, mode, cval, channel_axis, backend, device
+    image : array_like or device array
         As in :func:`motion_blur`.
+    velocity : pair of float, or float
+        The whole motion, as in :func:`motion_blur`: ``(vy, vx)`` pixels (rows, cols) for
+        ``kind="uniform"``, the rate ``u1`` or ``(u1_y, u1_x)`` for a zoom, degrees for a
+        rotation.
     n_frames : int
         Number of frames, >= 2.
+    kind, center, displace, mode, cval, channel_axis, backend, device
+        As in :func:`motion_blur` (``center`` is ``(row, col)``).
     progress : callable, optional
         Called with no argument after each frame (e.g. a tqdm bar's ``update``).
 
@@ -55,12 +61,19 @@ def synthesize_motion(image, velocity, n_frames, *, kind="uniform", center=None,
     -------
     ndarray of shape ``(n_frames,) + image.shape`` for numpy input, else a list of device arrays.
 
+    Raises
+    ------
+    ValueError
+        ``n_frames`` < 2 or not an integer, and every error of :func:`motion_blur`.
+    TypeError
+        A non-integer ``n_frames``, non-numeric parameters, an unsupported dtype.
+
     Examples
     --------
     >>> import numpy as np
     >>> from gfgpu.motion import synthesize_motion
     >>> img = np.zeros((16, 512)); img[8, 4] = 1
-    >>> frames = synthesize_motion(img, (30, 0), 4, mode="constant", backend="numpy")
+    >>> frames = synthesize_motion(img, (0, 30), 4, mode="constant", backend="numpy")   # (vy, vx)
     >>> [round(float((f[8] * np.arange(512)).sum()), 3) for f in frames]
     [4.0, 14.0, 24.0, 34.0]
     """
@@ -76,20 +89,38 @@ def synthesize_motion(image, velocity, n_frames, *, kind="uniform", center=None,
     return frames
 
 
-def estimate_translation(frame0, frame1, upsample_factor=20):
-    """Global translation ``(dx, dy)`` that moves ``frame0`` onto ``frame1`` (phase correlation).
+def estimate_translation(frame0, frame1, *, upsample_factor=20):
+    """Global translation ``(dy, dx)`` that moves ``frame0`` onto ``frame1`` (phase correlation).
 
     :func:`skimage.registration.phase_cross_correlation` on the mean-removed frames under a
     Hann window (which suppresses the border discontinuity of non-periodic images), to
     ``1/upsample_factor`` px.  Colour frames ``(H, W, C)`` are registered on their channel mean.
+
+    Parameters
+    ----------
+    frame0, frame1 : array_like
+        Two numpy images of the same shape, grey ``(H, W)`` or colour ``(H, W, C)``.
+    upsample_factor : int, optional
+        Precision ``1/upsample_factor`` px of the estimate.
+
+    Returns
+    -------
+    (float, float)
+        ``(dy, dx)`` in pixels, array-axis order (rows, cols) as :func:`gfgpu.shift`:
+        ``gfgpu.shift(frame0, (dy, dx))`` approximates ``frame1``.
+
+    Raises
+    ------
+    ValueError
+        Frames of different shapes, or not 2-D / colour 3-D.
 
     Examples
     --------
     >>> import numpy as np
     >>> from scipy.ndimage import gaussian_filter
     >>> big = gaussian_filter(np.random.default_rng(0).random((140, 160)), 2.0)
-    >>> estimate_translation(big[20:120, 20:140], big[17:117, 15:135])
-    (5.0, 3.0)
+    >>> estimate_translation(big[20:120, 20:140], big[17:117, 15:135])   # content 3 rows down, 5 cols right
+    (3.0, 5.0)
     """
     from skimage.filters import window
     from skimage.registration import phase_cross_correlation
@@ -104,7 +135,7 @@ def estimate_translation(frame0, frame1, upsample_factor=20):
     shift, _, _ = phase_cross_correlation((b - b.mean()) * hann, (a - a.mean()) * hann,
                                           upsample_factor=upsample_factor)
     dy, dx = (float(s) for s in shift)
-    return dx, dy
+    return dy, dx
 
 
 def interpolate_frames(frame0, frame1, n, *, velocity=None, mode="nearest", channel_axis=None,
@@ -127,8 +158,9 @@ def interpolate_frames(frame0, frame1, n, *, velocity=None, mode="nearest", chan
     n : int
         Number of in-between frames (>= 1).
     velocity : pair of float, optional
-        Displacement ``(dx, dy)`` from ``frame0`` to ``frame1`` in pixels; estimated by phase
-        correlation (:func:`estimate_translation`, 1/20 px) when omitted.
+        Displacement ``(vy, vx)`` from ``frame0`` to ``frame1`` in pixels, array-axis order
+        (rows, cols); estimated by phase correlation (:func:`estimate_translation`, 1/20 px)
+        when omitted.
     mode, channel_axis, backend, device
         As in :func:`motion_blur`; ``mode`` defaults to ``'nearest'`` (content entering at the
         border is extended from the edge).
@@ -140,7 +172,10 @@ def interpolate_frames(frame0, frame1, n, *, velocity=None, mode="nearest", chan
     Raises
     ------
     ValueError
-        Frames of different shapes, ``n < 1``.
+        Frames of different shapes, ``n < 1``, a ``velocity`` that is not a pair of finite
+        numbers.
+    TypeError
+        A non-integer ``n``.
 
     Notes
     -----
@@ -155,7 +190,7 @@ def interpolate_frames(frame0, frame1, n, *, velocity=None, mode="nearest", chan
     >>> from gfgpu.motion import interpolate_frames
     >>> x = np.arange(256.0)
     >>> f0 = np.tile(np.exp(-(x - 120) ** 2 / 18), (8, 1)); f1 = np.tile(np.exp(-(x - 130) ** 2 / 18), (8, 1))
-    >>> mid = interpolate_frames(f0, f1, 1, velocity=(10, 0), backend="numpy")[0]
+    >>> mid = interpolate_frames(f0, f1, 1, velocity=(0, 10), backend="numpy")[0]   # (vy, vx)
     >>> round(float((mid[4] * x).sum() / mid[4].sum()), 3)
     125.0
     """
@@ -172,16 +207,16 @@ def interpolate_frames(frame0, frame1, n, *, velocity=None, mode="nearest", chan
         ca, cb = a, b
         if channel_axis is not None:
             ca, cb = np.moveaxis(a, channel_axis, -1), np.moveaxis(b, channel_axis, -1)
-        dx, dy = estimate_translation(ca, cb)
+        vy, vx = estimate_translation(ca, cb)
     else:
-        dx, dy = velocity_pair(velocity)
+        vy, vx = velocity_pair(velocity)
     a_moved, undo = move_channels(a, channel_axis)
     b_moved, _ = move_channels(b, channel_axis)
     frames = []
     for k in range(1, count + 1):
         t = k / (count + 1)
-        fwd = g_shift(a_moved, (t * dy, t * dx), mode=mode, axes=(-2, -1), backend=backend, device=device)
-        back = g_shift(b_moved, (-(1 - t) * dy, -(1 - t) * dx), mode=mode, axes=(-2, -1),
+        fwd = g_shift(a_moved, (t * vy, t * vx), mode=mode, axes=(-2, -1), backend=backend, device=device)
+        back = g_shift(b_moved, (-(1 - t) * vy, -(1 - t) * vx), mode=mode, axes=(-2, -1),
                        backend=backend, device=device)
         frames.append(undo((1 - t) * fwd + t * back))
     return np.stack(frames)

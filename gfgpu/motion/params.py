@@ -1,4 +1,8 @@
-"""Argument parsing shared by the motion operators (velocities, zoom rates, colour axes)."""
+"""Argument parsing shared by the motion operators (velocities, zoom rates, centres, colour axes).
+
+Every pair is in array-axis order, rows then columns: velocities ``(vy, vx)``, zoom rates
+``(u1_y, u1_x)``, centres ``(row, col)``.
+"""
 
 from __future__ import annotations
 
@@ -8,7 +12,8 @@ import numpy as np
 
 from .._core.validation import finite_scalar
 
-__all__ = ["KINDS", "U1_MIN", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "move_channels"]
+__all__ = ["KINDS", "U1_MIN", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "center_point",
+           "move_channels"]
 
 KINDS = ("uniform", "zoom", "rotation")
 
@@ -24,8 +29,10 @@ def pair(value, name):
 
 
 def velocity_pair(velocity):
+    """``(vy, vx)``: the displacement of a uniform motion, rows (down) then columns (right)."""
     if np.ndim(velocity) == 0:
-        raise ValueError(f"velocity must be a pair (dx, dy) in pixels for kind='uniform', got {velocity!r}")
+        raise ValueError(f"velocity must be a pair (vy, vx) in pixels (rows, cols) for kind='uniform', "
+                         f"got {velocity!r}")
     return pair(velocity, "velocity")
 
 
@@ -42,8 +49,16 @@ def zoom_u1(name, u1):
 
 
 def zoom_factors(velocity):
-    u1x, u1y = pair(velocity, "velocity (zoom u1)")
-    return zoom_u1("velocity (zoom u1)", u1x), zoom_u1("velocity (zoom u1)", u1y)
+    """``(u1_y, u1_x)``: the zoom rates along the rows and the columns (one number: both)."""
+    u1y, u1x = pair(velocity, "velocity (zoom u1)")
+    return zoom_u1("velocity (zoom u1)", u1y), zoom_u1("velocity (zoom u1)", u1x)
+
+
+def center_point(center, height, width):
+    """``(row, col)`` of a fixed point; ``None`` is the image centre ``((H - 1)/2, (W - 1)/2)``."""
+    if center is None:
+        return (height - 1) / 2.0, (width - 1) / 2.0
+    return pair(center, "center (row, col)")
 
 
 def move_channels(image, channel_axis):

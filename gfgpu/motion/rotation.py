@@ -11,7 +11,7 @@ from .._core import strips
 from .._core.job import copy_of_input
 from .._core.recursion import plan_lines
 from .._core.validation import finite_scalar
-from .params import pair
+from .params import center_point
 
 __all__ = ["ROTATION_MAX_DEGREES", "rotation_angle", "rotation_shears", "apply_rotation"]
 
@@ -29,10 +29,16 @@ def rotation_angle(velocity):
 def rotation_shears(degrees):
     """``[(axis, rate), ...]``: the three shears whose product is the rotation by ``degrees``.
 
-    A point p (x right, y down) moves to ``c + R (p - c)``, R = [[cos θ, sin θ], [-sin θ, cos θ]]
-    (counter-clockwise on screen for θ > 0), and ``R = X(a) Y(b) X(a)`` with ``a = tan(θ/2)``,
-    ``b = -sin θ`` (Paeth 1986): ``X(a)`` moves row y by ``a (y - y_c)`` along x (axis -1),
-    ``Y(b)`` column x by ``b (x - x_c)`` along y (axis -2).
+    In (x, y) = (column, row) coordinates a point p moves to ``c + R (p - c)``,
+    R = [[cos θ, sin θ], [-sin θ, cos θ]] (counter-clockwise on screen for θ > 0, since y
+    points down), and ``R = X(a) Y(b) X(a)`` with ``a = tan(θ/2)``, ``b = -sin θ`` (Paeth
+    1986): ``X(a)`` moves row y by ``a (y - y_c)`` along x (axis -1), ``Y(b)`` column x by
+    ``b (x - x_c)`` along y (axis -2).
+
+    Examples
+    --------
+    >>> [(axis, round(rate, 4)) for axis, rate in rotation_shears(90.0)]
+    [(-1, 1.0), (-2, -1.0), (-1, 1.0)]
     """
     theta = math.radians(degrees)
     a, b = math.tan(theta / 2.0), -math.sin(theta)
@@ -49,11 +55,9 @@ def _shear_plans(rate, n_lines, centre, n, mode, dtype):
 
 
 def apply_rotation(job, degrees, center, displace, mode, cval):
+    """Rotate ``job``'s image planes by ``degrees`` about ``center = (row, col)`` (default the middle)."""
     height, width = job.shape[-2], job.shape[-1]
-    if center is None:
-        cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
-    else:
-        cx, cy = pair(center, "center")
+    cy, cx = center_point(center, height, width)
     strips.require_whole_image(job, "a rotation (its shears move whole rows and columns)")
     if degrees == 0.0:
         return job.finish(copy_of_input(job))

@@ -12,14 +12,40 @@ __all__ = ["uniform_motion_program"]
 
 
 def uniform_motion_program(ndim, velocity, displace=True):
-    """The :class:`~gfgpu.filters.Program` of a uniform motion by ``velocity = (dx, dy)``."""
+    """The :class:`~gfgpu._core.program.Program` of a uniform motion on ``(..., H, W)`` arrays.
+
+    Parameters
+    ----------
+    ndim : int
+        Number of dimensions of the array (>= 2; the image plane is the last two axes).
+    velocity : pair of float
+        ``(vy, vx)``: the displacement in pixels during the exposure, rows (down) then columns
+        (right), array-axis order.
+    displace : bool, optional
+        True: content moves by ``velocity``; False: blurred in place (see
+        :func:`gfgpu.motion.motion_blur`).
+
+    Returns
+    -------
+    Program
+
+    Raises
+    ------
+    ValueError
+        ``ndim < 2``, or a ``velocity`` that is not a pair of finite numbers.
+
+    Examples
+    --------
+    >>> len(uniform_motion_program(2, (0.0, 12.5)).steps), len(uniform_motion_program(2, (0, 0)).steps)
+    (1, 0)
+    """
     if ndim < 2:
         raise ValueError(f"motion blur needs an image (at least 2 dimensions), got {ndim}")
-    dx, dy = velocity_pair(velocity)
-    length = max(abs(dx), abs(dy))   # steps of the dominant axis (gfgpu.lines convention)
+    vy, vx = velocity_pair(velocity)
+    length = max(abs(vx), abs(vy))   # steps of the dominant axis (gfgpu._core.lines convention)
     if length == 0.0:
         return Program([])
-    angle = math.atan2(dy, dx)
+    angle = math.atan2(vy, vx)       # radians from +x (columns) toward +y (rows)
     if displace:
         parts = [greens.shift_pass(length)]
     else:

@@ -18,7 +18,7 @@ from .._core import strips
 from .._core.job import copy_of_input
 from .._core.recursion import plan_pass
 from .._core.validation import finite_scalar
-from .params import pair, zoom_u1
+from .params import center_point, zoom_u1
 
 __all__ = ["zoom_cell_weights", "apply_zoom"]
 
@@ -28,7 +28,7 @@ def _affine_z(u1):
 
     Zoom-in (u1 > 0): causal from the fixed point, C = 2/(u1^2 beta).  Zoom-out (u1 < 0):
     anticausal (sources further from the fixed point than the output), C = -2/(u1^2 beta)
-    from the jump condition (science.md §4); both have unit integral since
+    from the jump condition at x0 = s (docs/motion.md); both have unit integral since
     alpha^2 + beta^2 = 2/u1^2.
     """
     alpha = 0.5 - 1.0 / u1
@@ -53,7 +53,7 @@ def zoom_cell_weights(s_out, s_src, u1):
     at distance ``s_out`` (same side) is ``∫ G_U^(1)(s_out, ξ) dξ`` over the pixel's cell
     ``[s_src - 1/2, s_src + 1/2]`` clipped to the kernel's support: ``(0, s_out)`` for a
     zoom-in (``u1 > 0``, eq. 11-12), ``(s_out, inf)`` for a zoom-out (``u1 < 0``, the
-    anticausal bounded solution of eq. 10, science.md §4):
+    anticausal bounded solution of eq. 10, see ``docs/motion.md``):
 
     .. math:: w = \\operatorname{Im}\\Big[\\frac{C}{z}\\big((s/a)^{z} - (s/b)^{z}\\big)\\Big],
        \\quad z = \\alpha + i\\beta,\\ C = \\pm\\frac{2}{u_1^2\\beta}
@@ -330,21 +330,19 @@ def _zoom_maps(batch, height, width, centre, along_x, pad=0, mode="constant"):
     return shear, unshear, batch * across, length
 
 
-def apply_zoom(job, u1x, u1y, center, mode, cval):
+def apply_zoom(job, u1y, u1x, center, mode, cval):
+    """Zoom ``job``'s image planes by the rates ``(u1y, u1x)`` about ``center = (row, col)``."""
     height, width = job.shape[-2], job.shape[-1]
     batch = int(np.prod(job.shape[:-2], dtype=np.int64))
-    if center is None:
-        cx, cy = (width - 1) / 2.0, (height - 1) / 2.0
-    else:
-        cx, cy = pair(center, "center")
-    if not (0.0 <= cx <= width - 1 and 0.0 <= cy <= height - 1):
-        raise ValueError(f"center (x, y) = ({cx}, {cy}) must lie inside the image, 0 <= x <= {width - 1} "
-                         f"and 0 <= y <= {height - 1}: the zoom's line layout splits each line at "
-                         f"the fixed point")
+    cy, cx = center_point(center, height, width)
+    if not (0.0 <= cy <= height - 1 and 0.0 <= cx <= width - 1):
+        raise ValueError(f"center (row, col) = ({cy:g}, {cx:g}) must lie inside the image, "
+                         f"0 <= row <= {height - 1} and 0 <= col <= {width - 1}: the zoom's line layout "
+                         f"splits each line at the fixed point")
     strips.require_whole_image(job, "a zoom (its lines run through the fixed point)")
     be, dtype = job.backend, job.dtype
     cur = job.data
-    for u1, centre, along_x in ((u1x, cx, True), (u1y, cy, False)):
+    for u1, centre, along_x in ((u1x, cx, True), (u1y, cy, False)):   # along the rows, then the columns
         if u1 == 0.0:
             continue
         n = width if along_x else height

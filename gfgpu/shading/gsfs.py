@@ -66,7 +66,7 @@ class ShadingGreen(greens.GreenKernel):
 # GSFS
 # --------------------------------------------------------------------------------------
 def step_length(angle):
-    """Euclidean length (pixels) of one step of a digital line at ``angle`` (DESIGN: lines.py)."""
+    """Euclidean length (pixels) of one step of a digital line at ``angle`` (:mod:`gfgpu._core.lines`)."""
     return 1.0 / max(abs(math.cos(angle)), abs(math.sin(angle)))
 
 
@@ -99,7 +99,7 @@ def _integration_angle(light, direction, estimated):
 
 
 def _line_coordinates(shape, angle):
-    """Digital line index (0-based) and step position of every pixel at ``angle`` (lines.py)."""
+    """Digital line index (0-based) and step position of every pixel at ``angle`` (:mod:`gfgpu._core.lines`)."""
     steep, _, gamma = _line_direction(angle)
     h, w = shape
     yy, xx = np.mgrid[:h, :w]
@@ -199,7 +199,8 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
     Notes
     -----
     *Operator.*  Eq. 30 of DBPS with the second-order matching equation (7) integrated once
-    along γ gives (science.md §2.2) ``Z = u Ī2 / k1 − k0 (x + γy)/(k1 (1+γ²))`` (eq. 30-31)
+    along γ gives (``docs/derivations.md``, "Shape from shading")
+    ``Z = u Ī2 / k1 − k0 (x + γy)/(k1 (1+γ²))`` (eq. 30-31)
     with ``Ī2 = I2 + (u/2)∂_γ I2`` and, in terms of the input, exactly
     ``Ī2 = ½(G_u + H_u) * I1``, i.e. eq. 32 with ``(a, b, c) = (½, -1, ½)``.  The k0 ramp of
     eq. 30 is the integral of the constant k0, so it is removed by filtering ``I1 − k0``.

@@ -54,6 +54,7 @@ def lambertian_shading(depth, light, albedo=1.0):
 
     Examples
     --------
+    >>> import numpy as np
     >>> z = np.zeros((8, 8))
     >>> float(lambertian_shading(z, (1, 0, 1))[4, 4].round(4))
     0.7071
@@ -114,6 +115,7 @@ def estimate_illuminant(image, mask=None, *, exclude_background=True):
 
     Examples
     --------
+    >>> import numpy as np
     >>> yy, xx = np.mgrid[-40:41, -40:41] / 40.0
     >>> z = 40 * np.sqrt(np.clip(1.2 - xx**2 - yy**2, 0, None))
     >>> light, albedo = estimate_illuminant(lambertian_shading(z, (1, 0, 1)))

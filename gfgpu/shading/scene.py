@@ -50,6 +50,7 @@ def noise_sigma(image):
 
     Examples
     --------
+    >>> import numpy as np
     >>> rng = np.random.default_rng(0)
     >>> yy, xx = np.mgrid[:128, :128] / 128.0
     >>> round(noise_sigma(xx * yy + 0.02 * rng.standard_normal((128, 128))), 3)
@@ -93,6 +94,8 @@ def flat_background(image, mask=None):
 
     Examples
     --------
+    >>> import numpy as np
+    >>> from gfgpu.shading import lambertian_shading
     >>> yy, xx = np.mgrid[-32:32, -32:32] + 0.5
     >>> z = 8 * np.exp(-(xx**2 + yy**2) / 50)
     >>> flat = flat_background(lambertian_shading(z, (1, 0, 1)))
@@ -148,6 +151,8 @@ def has_background(image, mask=None):
 
     Examples
     --------
+    >>> import numpy as np
+    >>> from gfgpu.shading import lambertian_shading
     >>> yy, xx = np.mgrid[-32:32, -32:32] + 0.5
     >>> has_background(lambertian_shading(8 * np.exp(-(xx**2 + yy**2) / 100), (1, 0, 1)))
     True

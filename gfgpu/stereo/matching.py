@@ -15,9 +15,9 @@ Three methods share one entry point, :func:`disparity`:
 ``"affine"``
     The same sweep with the chapter's G_U^(2) (eq. 14, σ fixed, x_U swept as
     ``x_U = -σ²/s`` for a shift ``s``), each filtered image divided by the filtered constant
-    image (science notes §5.3).  Point-sampled, G_U^(2) shifts by about ``s + 1/(6s)``
-    rather than ``s`` (DESIGN §2), so this method's sub-pixel values are biased (measured
-    in ``docs/stereo.md``).
+    image to undo its gain ramp.  Point-sampled, G_U^(2) shifts by about ``s + 1/(6s)``
+    rather than ``s`` (never less than 0.86 px; ``docs/derivations.md``, "G_U^(2)"), so this
+    method's sub-pixel values are biased (measured in ``docs/stereo.md``).
 
 Each stage runs on the backend: census, matching cost, path aggregation, selection and the
 sweep's running best are fused kernels (:mod:`gfgpu.stereo.kernels`), whose executable numpy
@@ -67,8 +67,9 @@ def sweep_finish(state, step):
 def fill_holes(disp):
     """Fill NaN pixels from the nearest valid pixel on the same row, the smaller of the two.
 
-    The smaller disparity is the background's, which is what an occlusion hides (the rule of
-    ``../shared/data/stereo/README.md`` and of the Middlebury evaluation's hole filling).
+    The smaller disparity is the background's, which is what an occlusion hides (the
+    Middlebury evaluation's hole filling, also used by ``benchmarks/stereo.py`` for every
+    method).
     Rows without any valid pixel become 0.
 
     Parameters
@@ -180,7 +181,7 @@ def _green_shift(be, image, amount, method, sigma):
 
     ``"uniform"``: the exact discrete G_u shift, unit gain.  ``"affine"``: G_U^(2) (eq. 14)
     with ``x_U = -σ²/amount`` (causal) or its mirror beyond the line's end (anticausal), whose
-    gain ramp is undone by dividing by the filtered constant row (science notes §5.3).
+    gain ramp is undone by dividing by the filtered constant row (``docs/derivations.md``).
     """
     w = image.shape[1]
     ones = np.ones(w, np.float32)
@@ -222,8 +223,9 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
               device=None):
     """Disparity map of the left view of a rectified stereo pair.
 
-    A left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``; ``d`` is returned in
-    pixels, NaN where rejected (uniqueness test or left-right check).
+    A left pixel at column ``x`` of row ``y`` matches the right pixel at column ``x - d`` of the
+    same row; ``d`` is returned in pixels, NaN where rejected (uniqueness test or left-right
+    check).
 
     Parameters
     ----------
@@ -261,12 +263,14 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         (``"uniform"``, ``"affine"``) Disparity step of the sweep, in px (> 0).
     sigma : float, optional
         (``"affine"``) σ of G_U^(2); default ``4 sqrt(W (|d|max + 1))`` so that
-        ``|x_U| = σ²/s`` stays well outside the line (science notes §5.3).
+        ``|x_U| = σ²/s`` stays well outside the line (``|x_U| >> W``, where eq. 14's
+        first-order behaviour holds; ``docs/derivations.md``).
     progress : callable, optional
         Called with a number of completed units of work (for progress bars);
         :func:`disparity_work` gives the total.
     backend, device : optional
-        Where the kernels run (DESIGN §4); inputs are numpy images.
+        Where the kernels run (default: the resolution rule of :mod:`gfgpu.backends`);
+        inputs are numpy images.
 
     Returns
     -------
@@ -284,7 +288,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     -----
     The chapter (§5) matches the left view shifted one way against the right view shifted
     the other while sweeping the shift, with G_U^(2) at σ fixed.  G_U^(2) shifts uniformly
-    by σ²/|x_U| with a gain ramp (science notes §5.2), and large Green shifts blur the
+    by σ²/|x_U| with a gain ramp (``docs/derivations.md``), and large Green shifts blur the
     images and shift textures by more than their first moment (third cumulant ``-u³``: a
     G_u shift by 2 px moves a σ = 1 px random-dot texture by 2.09 px, by 3 px 2.76 px), so the
     sweeps apply the Green shifts to the sub-pixel remainder only (half of it to each view,
@@ -383,8 +387,9 @@ def random_dot_stereogram(disparity_map, seed=0):
     """Rectified random-dot pair with a known left-view disparity (the chapter's Fig. 8).
 
     The right view is a smoothed random-dot field (Gaussian, σ = 1 px) scaled to [0, 255];
-    the left view samples it at ``x - d(x, y)`` (cubic interpolation, nearest extension), so
-    a left pixel ``(x, y)`` matches the right pixel ``(x - d, y)``.
+    row ``y`` of the left view samples row ``y`` of the right view at column ``x - d[y, x]``
+    (cubic interpolation, nearest extension), so a left pixel at column ``x`` matches the
+    right pixel at column ``x - d`` of the same row.
 
     Parameters
     ----------

@@ -1,10 +1,11 @@
 """The OpenCL backend: ``pyopencl.array.Array`` data on any OpenCL device (PoCL on the CPU, GPUs).
 
 PyOpenCL is imported lazily: importing this module neither imports PyOpenCL nor creates a
-context.  The device sources (``gfgpu/backends/opencl/recurse.cl``: the recursion primitive,
-gather and the non-finite check; ``edges.cl``: non-maximum suppression) are built on first
-use, specialised by ``-D`` defines (real type, sections, constant coefficients, lanes,
-layout), and cached per (context, source, defines).  PyOpenCL caches the binaries on disk by source and
+context.  The device sources beside this module (``recurse.cl``: the recursion primitive,
+gather and the non-finite check; ``recurse_lines.cl``: the per-line primitive; ``edges.cl``
+and ``stereo.cl``: the fused kernels, launched from ``edges.py`` and ``stereo.py``) are built
+on first use, specialised by ``-D`` defines (real type, sections, constant coefficients,
+lanes, layout), and cached per (context, source, defines).  PyOpenCL caches the binaries on disk by source and
 options (``PYOPENCL_CACHE_DIR``) and PoCL keeps its own cache (``POCL_CACHE_DIR``), so only
 the first process on a machine pays the compile time.
 """

@@ -1,0 +1,188 @@
+"""Line geometry (gfgpu._core.lines): axis views, axis arguments, directions and the digital
+lines of oblique directions, and the boundary extension of a line by each mode."""
+import math
+
+import numpy as np
+import pytest
+from oracle import NP_PAD, pad_line
+
+from gfgpu._core.lines import _extend, axis_view_shape, direction, normalize_axis, oblique_maps
+from gfgpu._core.recursion import MODES, extension_index
+
+
+# --------------------------------------------------------------------------------------
+# axis lines
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("shape", [(7,), (4, 9), (3, 5, 6), (2, 3, 4, 5), (1, 6, 1), (5, 1)])
+def test_axis_view_shape_lays_out_the_lines_of_an_axis(shape):
+    a = np.arange(int(np.prod(shape))).reshape(shape)
+    for axis in range(len(shape)):
+        (b, n, m), line_axis = axis_view_shape(shape, axis)
+        assert b * n * m == a.size
+        view = a.reshape(b, n, m)
+        # the lines along `axis`, in C order of the other axes: (lines, samples)
+        expect = np.moveaxis(a, axis, -1).reshape(-1, shape[axis])
+        got = np.moveaxis(view, line_axis, -1).reshape(-1, view.shape[line_axis])
+        np.testing.assert_array_equal(got, expect)
+        if axis == len(shape) - 1 or int(np.prod(shape[axis + 1:])) == 1:
+            assert (b, line_axis) == (1, 2) and m == shape[axis]      # contiguous lines: rows
+        else:
+            assert line_axis == 1 and n == shape[axis]
+
+
+def test_normalize_axis():
+    assert [normalize_axis(a, 3) for a in (0, 1, 2, -1, -2, -3)] == [0, 1, 2, 2, 1, 0]
+    assert normalize_axis(np.int64(-1), 2) == 1
+    with pytest.raises(ValueError, match=r"axis=3 is out of range for an array of 3 dimension\(s\)"):
+        normalize_axis(3, 3)
+    with pytest.raises(ValueError, match=r"axis=-4 is out of range"):
+        normalize_axis(-4, 3)
+    with pytest.raises(ValueError, match=r"channel_axis=2 is out of range for an array of 2"):
+        normalize_axis(2, 2, name="channel_axis")
+    for bad in ("x", None, [1]):
+        with pytest.raises(TypeError, match="axis must be an integer"):
+            normalize_axis(bad, 3)
+
+
+# --------------------------------------------------------------------------------------
+# directions
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("degrees", [0, 10, 30, 44.9, 45, 60, 90, 120, 135, 180, -30, -90, -135, 225, 300, 400])
+def test_direction_steps_one_pixel_along_the_dominant_axis(degrees):
+    theta = math.radians(degrees)
+    steep, reverse, gamma = direction(theta)
+    c, s = math.cos(theta), math.sin(theta)
+    assert steep == (abs(s) > abs(c) + 1e-12)
+    assert abs(gamma) <= 1 + 1e-12
+    # one step: +-1 along the dominant axis, gamma along the other, in the direction (cos, sin)
+    sign = -1 if reverse else 1
+    step = (sign * gamma, sign * 1.0) if steep else (sign * 1.0, sign * gamma)     # (dx, dy)
+    norm = math.hypot(*step)
+    assert step[0] / norm == pytest.approx(c, abs=1e-12) and step[1] / norm == pytest.approx(s, abs=1e-12)
+
+
+def test_direction_of_the_axes_and_diagonals():
+    assert direction(0.0) == (False, False, 0.0)
+    steep, reverse, gamma = direction(math.pi / 2)
+    assert steep and not reverse and gamma == pytest.approx(0, abs=1e-15)
+    assert direction(-math.pi / 2)[:2] == (True, True)
+    assert direction(math.pi)[:2] == (False, True)
+    assert direction(math.pi / 4) == (False, False, pytest.approx(1.0))     # ties go to x
+    assert direction(3 * math.pi / 4) == (False, True, pytest.approx(-1.0))
+    for bad, exc in ((float("nan"), ValueError), (float("inf"), ValueError), ("x", TypeError)):
+        with pytest.raises(exc, match="angle"):
+            direction(bad)
+
+
+# --------------------------------------------------------------------------------------
+# oblique digital lines
+# --------------------------------------------------------------------------------------
+SIZES = [(9, 13), (13, 9), (1, 7), (6, 1), (11, 11)]
+ANGLES = [0.0, 0.3, -0.3, math.pi / 4, 1.0, math.pi / 2, 2.0, 3 * math.pi / 4, math.pi, -2.5, -math.pi / 2, 0.05]
+
+
+def _pad_both(a, k, mode, cval):
+    """``a`` extended by ``k`` samples on both ends of axis 0, by numpy.pad."""
+    width = ((k, k),) + ((0, 0),) * (a.ndim - 1)
+    if mode == "constant":
+        return np.pad(a, width, mode="constant", constant_values=cval)
+    if mode == "mirror" and a.shape[0] == 1:
+        return np.pad(a, width, mode="edge")
+    return np.pad(a, width, mode=NP_PAD[mode])
+
+
+def _round(v):
+    return np.floor(np.asarray(v) + 0.5).astype(np.int64)     # the definition's rounding: half up
+
+
+@pytest.mark.parametrize("angle", ANGLES)
+@pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
+def test_every_pixel_lies_on_exactly_one_digital_line(size, angle):
+    h, w = size
+    steep, _, gamma = direction(angle)
+    shear, unshear, lines, steps = oblique_maps(h, w, 1, angle, "reflect")
+    assert steps == (h if steep else w)
+    assert shear.shape == (lines * steps,) and unshear.shape == (h * w,)
+    # each pixel has one place in the (lines, steps) layout, and that place reads the pixel
+    assert len(np.unique(unshear)) == h * w
+    assert ((unshear >= 0) & (unshear < lines * steps)).all()
+    np.testing.assert_array_equal(shear[unshear], np.arange(h * w))
+    # the place of pixel (y, x): line l = y - round(gamma x) at step x (x and y swap if steep)
+    yy, xx = np.mgrid[:h, :w]
+    t, minor = (yy, xx) if steep else (xx, yy)
+    ell = minor - _round(gamma * t)
+    row, step = np.divmod(unshear.reshape(h, w), steps)
+    np.testing.assert_array_equal(step, t)
+    assert len({(r, e) for r, e in zip(row.ravel(), ell.ravel())}) == len(np.unique(ell))    # row <-> l
+    np.testing.assert_array_equal(row - ell, (row - ell).flat[0])          # rows in order of l
+    # no line misses the image, and a gather through both maps is the identity
+    assert set(np.unique(row)) == set(range(lines))
+    img = np.random.default_rng(0).random(h * w)
+    np.testing.assert_array_equal(np.where(shear >= 0, img[shear], np.nan)[unshear], img)
+
+
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("angle", [0.3, -0.7, 2.0, math.pi / 4, -2.5])
+def test_lines_leaving_the_image_continue_through_its_extension(mode, angle):
+    """Beyond the image's minor-axis edges a line reads the image extended by ``mode`` across
+    that axis: what numpy.pad gives."""
+    h, w = 7, 10
+    steep, _, gamma = direction(angle)
+    img = np.random.default_rng(1).random((h, w)) + 1.0
+    shear, _, lines, steps = oblique_maps(h, w, 1, angle, mode)
+    across = w if steep else h
+    r = _round(gamma * np.arange(steps))
+    first = -int(r.max())
+    minor = first + np.arange(lines)[:, None] + r[None, :]          # (lines, steps)
+    margin = int(np.abs(minor).max()) + across
+    cval = -5.0
+    plane = img.T if steep else img                                   # (minor, dominant)
+    padded = _pad_both(plane, margin, mode, cval)
+    expect = padded[minor + margin, np.arange(steps)[None, :]]
+    got = np.where(shear >= 0, img.ravel()[np.maximum(shear, 0)], cval).reshape(lines, steps)
+    np.testing.assert_array_equal(got, expect)
+    assert (shear < 0).any() == (mode == "constant")
+
+
+def test_oblique_maps_for_a_batch_are_cached_and_read_only():
+    h, w, batch, angle = 5, 8, 3, 0.4
+    one = oblique_maps(h, w, 1, angle, "wrap")
+    three = oblique_maps(h, w, batch, angle, "wrap")
+    assert oblique_maps(h, w, batch, angle, "wrap") is three
+    lines, steps = three[2:]
+    assert one[2:] == (lines, steps)
+    s1, u1 = one[0].reshape(lines, steps), one[1]
+    s3, u3 = three[0].reshape(batch, lines, steps), three[1].reshape(batch, h * w)
+    for b in range(batch):
+        np.testing.assert_array_equal(s3[b], np.where(s1 >= 0, s1 + b * h * w, -1))
+        np.testing.assert_array_equal(u3[b], u1 + b * lines * steps)
+    for a in three[:2]:
+        assert not a.flags.writeable and a.dtype == np.int32
+
+
+# --------------------------------------------------------------------------------------
+# the extension of a line by each mode
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 8])
+@pytest.mark.parametrize("mode", MODES)
+def test_extension_index_is_numpy_pad(mode, n):
+    """Sample x0 < 0 of the extended line is sample extension_index(x0) of the line (-1: cval)."""
+    line = np.arange(1.0, n + 1)
+    k = 4 * n + 3                                   # several periods of every mode
+    x0 = np.arange(-k, 0)
+    idx = extension_index(x0, n, mode)
+    assert idx.dtype == np.int64
+    cval = -9.0
+    got = np.where(idx >= 0, line[np.maximum(idx, 0)], cval)
+    np.testing.assert_array_equal(got, pad_line(line, k, mode, cval, "left")[:k])
+    # both sides, as the oblique lines extend across the image
+    both = np.arange(-k, n + k)
+    ext = _extend(both, n, mode)
+    got = np.where(ext >= 0, line[np.maximum(ext, 0)], cval)
+    expect = _pad_both(line, k, mode, cval)
+    np.testing.assert_array_equal(got, expect)
+
+
+def test_extension_index_rejects_unknown_modes():
+    with pytest.raises(ValueError, match="mode must be one of"):
+        extension_index(np.array([-1]), 4, "symmetric")

@@ -1,0 +1,271 @@
+"""Every backend against the numpy specification of everything it runs.
+
+The generic primitives of the :class:`~gfgpu.backends.base.Backend` contract (``recurse``,
+``recurse_lines``, ``gather``) against :func:`gfgpu._core.recursion.run_reference`,
+:func:`~gfgpu._core.recursion.run_reference_lines` and numpy indexing; and every fused kernel
+registered with :mod:`gfgpu.backends.fused` against its ``.spec``, on random inputs: integer
+outputs bit for bit, float outputs to 1e-5 (float32) or 1e-12 (float64) relative.  A kernel
+registered without an input builder here fails :func:`test_every_registered_kernel_is_tested`.
+"""
+import importlib
+import math
+import pkgutil
+
+import numpy as np
+import pytest
+from oracle import relerr
+
+import gfgpu
+from gfgpu import greens
+from gfgpu._core.recursion import MODES, plan_lines, plan_pass, run_reference, run_reference_lines
+from gfgpu.backends import BACKENDS, fused
+
+
+def _import_every_application():
+    """Applications register their kernels when imported: import every gfgpu module (but the
+    device code of the backends, which registers nothing and needs its device library)."""
+    for info in pkgutil.walk_packages(gfgpu.__path__, "gfgpu."):
+        if info.name == "gfgpu.__main__" or info.name.startswith(("gfgpu.backends.warp.",
+                                                                   "gfgpu.backends.opencl.")):
+            continue
+        importlib.import_module(info.name)
+
+
+_import_every_application()
+REGISTERED = sorted(fused.registered())
+TOL = {np.dtype(np.float32): 1e-5, np.dtype(np.float64): 1e-12}
+
+
+def _need_dtype(be, dtype):
+    if np.dtype(dtype) == np.float64 and not be.supports_float64:
+        pytest.skip(f"{be} has no float64")
+
+
+def _compare(got, ref, what):
+    got, ref = np.asarray(got), np.asarray(ref)
+    assert got.shape == ref.shape and got.dtype == ref.dtype, (what, got.shape, got.dtype, ref.shape, ref.dtype)
+    if np.issubdtype(ref.dtype, np.integer):
+        np.testing.assert_array_equal(got, ref, err_msg=what)
+    else:
+        tol = TOL[ref.dtype]
+        scale = float(np.nanmax(np.abs(np.where(np.isfinite(ref), ref, 0)), initial=0.0))
+        np.testing.assert_allclose(got, ref, rtol=tol, atol=tol * scale, equal_nan=True, err_msg=what)
+
+
+# --------------------------------------------------------------------------------------
+# input builders: one per registered kernel name; each runs the kernel and its spec
+# --------------------------------------------------------------------------------------
+BUILDERS = {}
+
+
+def builds(name):
+    def register(fn):
+        BUILDERS[name] = fn
+        return fn
+    return register
+
+
+@builds("stereo.census")
+def _census(be, kernel, rng):
+    for radius in (1, 2, 3):
+        h, w = 11, 19 + radius
+        image = rng.integers(0, 4, (h, w)).astype(np.float32)     # small integers: equal neighbours
+        sentinel = np.full((3, h, w), 0xDEADBEEF, np.uint64)
+        out = be.asarray(sentinel.copy())       # (the numpy backend's asarray does not copy)
+        kernel(be, be.asarray(image), out, 1, radius)
+        ref = sentinel
+        ref[1] = kernel.spec(image, radius)
+        _compare(be.to_host(out), ref, f"census radius {radius}")      # the other planes untouched
+
+
+# (h, w, disparity samples, steps, first step, block, census radius): one and several 16-lane
+# vectors per pixel, partial last vectors, negative and positive disparity ranges
+COST_CASES = [(7, 11, 5, 1, 0, 1, 1), (13, 29, 16, 2, -3, 3, 2), (9, 40, 17, 3, 4, 5, 3), (6, 50, 33, 2, -20, 3, 3)]
+
+
+@builds("stereo.cost")
+def _cost(be, kernel, rng):
+    for h, w, n, steps, first, block, radius in COST_CASES:
+        bits = (2 * radius + 1) ** 2 - 1
+        left = rng.integers(0, 2**bits, (1, h, w), dtype=np.uint64)
+        right = rng.integers(0, 2**bits, (steps, h, w), dtype=np.uint64)
+        out = be.empty((h, w, n), np.int16)
+        kernel(be, be.asarray(left), be.asarray(right), out, first, steps, block, bits)
+        _compare(be.to_host(out), kernel.spec(left[0], right, first, n, steps, block, bits),
+                 f"cost {h}x{w}x{n} steps {steps} first {first} block {block}")
+
+
+@builds("stereo.sgm")
+def _sgm(be, kernel, rng):
+    for (h, w, n), paths in (((9, 13, 5), 8), ((8, 21, 17), 4), ((5, 7, 33), 8), ((1, 12, 3), 8)):
+        cost = rng.integers(0, 49, (h, w, n)).astype(np.int16)
+        for p1, p2 in ((10, 100), (0, 0), (7, 7)):
+            out = be.empty((h, w, n), np.int16)
+            kernel(be, be.asarray(cost), out, p1, p2, paths)
+            _compare(be.to_host(out), kernel.spec(cost, p1, p2, paths), f"sgm {h}x{w}x{n} {paths} paths p={p1},{p2}")
+
+
+@builds("stereo.select")
+def _select(be, kernel, rng):
+    for (h, w, n, steps, d_min, uniqueness), top in (((6, 37, 5, 1, 0, 10), 12), ((6, 37, 17, 2, -3, 5), 12),
+                                                     ((5, 23, 40, 4, -1, 0), 3000), ((4, 19, 48, 2, 9, 15), 40)):
+        agg = rng.integers(0, top, (h, w, n)).astype(np.int16)      # few values: many ties
+        disp, right = be.empty((h, w), np.float32), be.empty((h, w), np.int32)
+        kernel(be, be.asarray(agg), disp, right, d_min, steps, uniqueness)
+        ref_disp, ref_right = kernel.spec(agg, d_min, steps, uniqueness)
+        what = f"select {h}x{w}x{n} steps {steps} d_min {d_min}"
+        _compare(be.to_host(disp), ref_disp, what)
+        _compare(be.to_host(right), ref_right, what)
+
+
+@builds("stereo.sweep")
+def _sweep(be, kernel, rng):
+    for (h, w), radius, d_min in (((9, 17), 1, -1.0), ((12, 10), 2, 2.5)):
+        host = np.full((5, h, w), np.nan, np.float32)
+        host[0] = np.inf
+        state = be.asarray(host.copy())
+        for k in range(6):
+            d = d_min + 0.5 * k
+            offset = math.floor(d)
+            left, right = (rng.random((h, w)).astype(np.float32) for _ in range(2))
+            gain_l, gain_r = (rng.uniform(0.8, 1.2, w).astype(np.float32) for _ in range(2))
+            kernel(be, state, be.asarray(left), be.asarray(right), be.asarray(gain_l), be.asarray(gain_r),
+                   offset, d, radius)
+            host = kernel.spec(host, left, right, gain_l, gain_r, offset, d, radius)
+            _compare(be.to_host(state), host, f"sweep {h}x{w} radius {radius} step d={d}")
+
+
+@builds("edges.nms")
+def _nms(be, kernel, rng):
+    for dtype in (np.float32, np.float64):
+        if np.dtype(dtype) == np.float64 and not be.supports_float64:
+            continue
+        gy, gx = rng.standard_normal((2, 37, 53)).astype(dtype)
+        gy[5, :] = 0                                    # exact zeros and axis-aligned gradients
+        gx[:, 7] = 0
+        for case, (a, b) in {"normal": (gy, gx), "ties": (np.round(2 * gy), np.round(2 * gx)),
+                             "small": (gy[:2, :5], gx[:2, :5])}.items():
+            a, b = np.ascontiguousarray(a, dtype), np.ascontiguousarray(b, dtype)
+            out = be.empty(a.shape, dtype)
+            kernel(be, be.asarray(a), be.asarray(b), out)
+            _compare(be.to_host(out), kernel.spec(a, b), f"nms {np.dtype(dtype).name} {case}")
+
+
+def test_every_registered_kernel_is_tested():
+    assert REGISTERED, "no fused kernel registered: the applications did not import"
+    assert {"stereo.census", "stereo.cost", "stereo.sgm", "stereo.select", "stereo.sweep",
+            "edges.nms"} <= set(REGISTERED)
+    missing = sorted(set(REGISTERED) - set(BUILDERS))
+    stale = sorted(set(BUILDERS) - set(REGISTERED))
+    assert not missing, f"registered fused kernels without an input builder in {__file__}: {missing}"
+    assert not stale, f"input builders for kernels nobody registers: {stale}"
+    for name, kernel in fused.registered().items():
+        assert set(kernel.launchers) == set(BACKENDS), f"{name} runs on {sorted(kernel.launchers)} only"
+        assert callable(kernel.spec) and kernel.spec.__module__ == "gfgpu.backends.specs", name
+
+
+@pytest.mark.parametrize("name", REGISTERED)
+def test_fused_kernel_matches_its_spec(backend, name):
+    kernel = fused.registered()[name]
+    if name not in BUILDERS:
+        pytest.fail(f"fused kernel {name!r} has no input builder in {__file__}")
+    if backend.name not in kernel.launchers:
+        pytest.fail(f"fused kernel {name!r} has no launcher on the {backend.name} backend")
+    BUILDERS[name](backend, kernel, np.random.default_rng(sum(map(ord, name))))
+
+
+# --------------------------------------------------------------------------------------
+# the generic primitives
+# --------------------------------------------------------------------------------------
+PASSES = {
+    "G_u": greens.UniformGreen(2.3).line_pass(),
+    "H_u anticausal": greens.HomogeneousGreen(1.7).line_pass(reverse=True),
+    "shift -3.6": greens.shift_pass(-3.6),
+    "D (two sections)": greens.derivative_passes(1.5)[0],
+    "G_U1": greens.AffineGreen(0.6, -3.5).line_pass(),
+    "G_U2 anticausal": greens.AffineGreenApprox(6.0, 80.0).line_pass(reverse=True),
+}
+# (B, N, M) and the axis of the lines: columns (1) and rows (2), one line, lines of one sample
+LAYOUTS = [((2, 17, 5), 1), ((3, 4, 23), 2), ((1, 1, 40), 2), ((2, 33, 1), 1), ((1, 3, 1), 2)]
+
+
+def _reference_pass(src, axis, line_pass, mode, cval):
+    """run_reference (float64) on every line of a (B, N, M) array."""
+    b, n, m = src.shape
+    x = src.astype(np.float64)
+    if axis == 1:
+        plan = plan_pass(line_pass, n, mode, np.float64)
+        return np.stack([run_reference(x[i], plan, cval) for i in range(b)])
+    plan = plan_pass(line_pass, m, mode, np.float64)
+    return run_reference(x.reshape(b * n, m).T, plan, cval).T.reshape(b, n, m)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("name", list(PASSES))
+def test_recurse_matches_run_reference(backend, name, dtype):
+    _need_dtype(backend, dtype)
+    rng = np.random.default_rng(7)
+    for shape, axis in LAYOUTS:
+        n = shape[axis]
+        if name.startswith("G_U2") and n <= 1:
+            continue
+        for mode in MODES:
+            src = (1.0 + rng.standard_normal(shape)).astype(dtype)
+            plan = plan_pass(PASSES[name], n, mode, dtype)
+            ref = _reference_pass(src, axis, PASSES[name], mode, 0.25)
+            what = f"{name} {shape} axis {axis} {mode}"
+            out = backend.empty(shape, dtype)
+            backend.recurse(backend.asarray(src), out, axis, plan, cval=0.25)
+            got = backend.to_host(out)
+            assert got.dtype == dtype and relerr(got, ref) <= TOL[np.dtype(dtype)], what
+            base = rng.standard_normal(shape).astype(dtype)
+            acc = backend.asarray(base.copy())
+            backend.recurse(backend.asarray(src), acc, axis, plan, cval=0.25, accumulate=True)
+            assert relerr(backend.to_host(acc), ref + base) <= TOL[np.dtype(dtype)], f"{what} accumulate"
+            same = backend.asarray(src.copy())
+            backend.recurse(same, same, axis, plan, cval=0.25)          # dst may be src
+            assert relerr(backend.to_host(same), ref) <= TOL[np.dtype(dtype)], f"{what} in place"
+
+
+LINE_PASSES = [greens.UniformGreen(1.3).line_pass(), None, greens.shift_pass(-2.7), greens.shift_pass(0.35),
+               greens.HomogeneousGreen(2.0).line_pass(reverse=True), greens.shift_pass(9.5), None]
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_recurse_lines_matches_run_reference_lines(backend, dtype):
+    _need_dtype(backend, dtype)
+    rng = np.random.default_rng(8)
+    lines = len(LINE_PASSES)
+    for shape, axis in (((2, 19, lines), 1), ((3, lines, 26), 2), ((1, lines, 1), 2)):
+        n = shape[axis]
+        for mode in MODES:
+            src = (1.0 + rng.standard_normal(shape)).astype(dtype)
+            plans = plan_lines(LINE_PASSES, n, mode, dtype)
+            plans64 = plan_lines(LINE_PASSES, n, mode, np.float64)
+            x = src.astype(np.float64)
+            ref = np.stack([run_reference_lines(x[i] if axis == 1 else x[i].T, plans64, -0.5)
+                            for i in range(shape[0])])
+            ref = ref if axis == 1 else ref.transpose(0, 2, 1)
+            out = backend.empty(shape, dtype)
+            backend.recurse_lines(backend.asarray(src), out, axis, plans, cval=-0.5)
+            what = f"{shape} axis {axis} {mode}"
+            assert relerr(backend.to_host(out), ref) <= TOL[np.dtype(dtype)], what
+            same = backend.asarray(src.copy())
+            backend.recurse_lines(same, same, axis, plans, cval=-0.5)
+            assert relerr(backend.to_host(same), ref) <= TOL[np.dtype(dtype)], f"{what} in place"
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("index_dtype", [np.int32, np.int64])
+def test_gather_matches_numpy_indexing(backend, dtype, index_dtype):
+    _need_dtype(backend, dtype)
+    rng = np.random.default_rng(9)
+    src = rng.standard_normal((2, 9, 13)).astype(dtype)
+    for out_shape in ((5, 7), (2, 13, 9), (1,)):
+        size = int(np.prod(out_shape))
+        index = rng.integers(-3, src.size, size).astype(index_dtype)
+        index[:1] = src.size - 1
+        out = backend.empty(out_shape, dtype)
+        backend.gather(backend.asarray(src), index, 2.5, out)
+        ref = np.where(index < 0, dtype(2.5), src.reshape(-1)[np.maximum(index, 0)]).reshape(out_shape)
+        np.testing.assert_array_equal(backend.to_host(out), ref, err_msg=f"gather into {out_shape}")
