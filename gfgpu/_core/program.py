@@ -12,7 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .lines import axis_view_shape, direction, normalize_axis, oblique_maps
+from .lines import axis_view_shape, direction, normalize_axis
+from .oblique import run_oblique_passes
 from .passes import LinePass
 from .recursion import plan_pass
 from .validation import finite_scalar
@@ -38,29 +39,18 @@ def run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, p
 
     ``src`` and ``dst`` are distinct device arrays of the same shape; ``src`` is not modified.
     """
-    shape = tuple(src.shape)
     if angle is None:
-        view, line_axis = axis_view_shape(shape, axis)
-        n = view[line_axis]
-        s3, d3 = be.reshape(src, view), be.reshape(dst, view)
-        for i, lp in enumerate(passes):
-            be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
-        return dst
-    ya, xa = plane
-    if (ya, xa) != (len(shape) - 2, len(shape) - 1):
-        raise ValueError("oblique filtering needs the image plane on the last two axes of the "
-                         "working array")
-    height, width = shape[-2], shape[-1]
-    batch = int(np.prod(shape[:-2], dtype=np.int64))
-    _, reverse, _ = direction(angle)
-    shear, unshear, lines, steps = oblique_maps(height, width, batch, float(angle), mode)
-    rows_in = be.empty((batch, lines, steps), dtype)
-    rows_out = be.empty((batch, lines, steps), dtype)
-    be.gather(be.reshape(src, (-1,)), shear, cval, be.reshape(rows_in, (-1,)))
+        return run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis)
+    return run_oblique_passes(be, src, dst, dtype, passes, mode, cval, angle, plane)
+
+
+def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis):
+    """``passes`` along array axis ``axis`` (see :func:`run_passes`)."""
+    view, line_axis = axis_view_shape(tuple(src.shape), axis)
+    n = view[line_axis]
+    s3, d3 = be.reshape(src, view), be.reshape(dst, view)
     for i, lp in enumerate(passes):
-        lp = LinePass(lp.sections, lp.tap, lp.reverse != reverse)
-        be.recurse(rows_in, rows_out, 2, plan_pass(lp, steps, mode, dtype), cval, accumulate=i > 0)
-    be.gather(be.reshape(rows_out, (-1,)), unshear, 0.0, be.reshape(dst, (-1,)))
+        be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
     return dst
 
 
