@@ -7,6 +7,10 @@ memory-bound) for, on a SIZE x SIZE float32 image:
   primitive on device-resident arrays (``backend.recurse``) and the public
   ``green_filter`` call (which also checks the input is finite);
 * ``gfgpu.shift`` by (1.5, 2.5) (two passes) and ``gfgpu.gradient`` (u = 1, 8 passes);
+* the public ``gfgpu.shift`` by (3.25, -7.5), numpy in and numpy out, with the Green and the
+  cubic fractional part, beside ``scipy.ndimage.shift`` (order 1 and 3);
+* an accuracy table of ``shift`` (rel. L2 against the exact Fourier shift of a band-limited
+  256 x 256 image, mode wrap) for the shifts of the core issue, every backend, beside scipy;
 * peers: scipy.signal.lfilter with the same 2-pole recursion, scipy.ndimage.convolve1d with
   G_u truncated at 10u, cv2.filter2D with the same truncated kernel (if OpenCV is installed),
   numpy.copyto;
@@ -86,6 +90,45 @@ def bench_backend(be, img, repeat, record):
         lambda: gfgpu.shift(dev, (1.5, 2.5), backend=be), repeat, sync), "2 passes")
     record(f"{tag}: gradient u=1", best_time(
         lambda: gfgpu.gradient(dev, 1.0, backend=be), repeat, sync), "8 passes, 2 outputs")
+    host_out = np.empty_like(img)
+    for interp in ("green", "cubic"):
+        record(f"{tag}: shift (3.25, -7.5), {interp}, numpy in/out", best_time(
+            lambda interp=interp: gfgpu.shift(img, SHIFT, interpolation=interp, output=host_out, backend=be),
+            repeat), "translation: gathers + fractional passes")
+
+
+SHIFT = (3.25, -7.5)
+ACCURACY_SHIFTS = ((0, 10), (0, -7), (3.25, -7.5), (0, 12.5), (-20.75, 0.4), (0.5, 0.5))
+
+
+def band_limited(n, seed=0, width=0.12):
+    rng = np.random.default_rng(seed)
+    ky = np.fft.fftfreq(n)[:, None]
+    kx = np.fft.rfftfreq(n)[None, :]
+    spec = rng.normal(size=(n, n // 2 + 1)) + 1j * rng.normal(size=(n, n // 2 + 1))
+    img = np.fft.irfft2(spec * np.exp(-(ky**2 + kx**2) / width**2), (n, n))
+    return img / img.std()
+
+
+def shift_accuracy(backends):
+    """Markdown rows: rel. L2 of each shift against the exact Fourier shift (mode wrap)."""
+    from scipy import ndimage
+    img = band_limited(256)
+    ky = np.fft.fftfreq(256)[:, None]
+    kx = np.fft.rfftfreq(256)[None, :]
+    names = [f"gfgpu {b.name} {i}" for b in backends for i in ("green", "cubic")]
+    lines = ["| shift (dy, dx) | " + " | ".join(names) + " | scipy order=1 | scipy order=3 |",
+             "|---|" + "---:|" * (len(names) + 2)]
+    for s in ACCURACY_SHIFTS:
+        ref = np.fft.irfft2(np.fft.rfft2(img) * np.exp(-2j * np.pi * (ky * s[0] + kx * s[1])), img.shape)
+
+        def rel(out, ref=ref):
+            return np.linalg.norm(out - ref) / np.linalg.norm(ref)
+        cells = [rel(gfgpu.shift(img.astype(np.float32), s, mode="wrap", interpolation=i, backend=b))
+                 for b in backends for i in ("green", "cubic")]
+        cells += [rel(ndimage.shift(img, s, order=o, mode="grid-wrap")) for o in (1, 3)]
+        lines.append(f"| {s} | " + " | ".join(f"{c:.1e}" for c in cells) + " |")
+    return lines
 
 
 def main(argv=None):
@@ -131,15 +174,22 @@ def main(argv=None):
         pass
     from skimage.filters import sobel
     record("skimage.filters.sobel (gradient magnitude)", best_time(lambda: sobel(img), args.repeat))
+    shifted = np.empty_like(img)
+    for order in (1, 3):
+        record(f"scipy.ndimage.shift {SHIFT}, order={order}", best_time(
+            lambda order=order: ndimage.shift(img, SHIFT, output=shifted, order=order, mode="reflect"),
+            args.repeat), "numpy in/out")
 
     # ---- gfgpu backends ---------------------------------------------------------------
     cold = {}
+    used = []
     for name in args.backends.split(","):
         try:
             be = get_backend(name)
         except Exception as exc:  # report and carry on with the others
             print(f"# {name}: unavailable ({exc})", file=sys.stderr)
             continue
+        used.append(be)
         bench_backend(be, img, args.repeat, record)
         if not args.no_cold:
             cold[name] = cold_compile(name)
@@ -151,6 +201,8 @@ def main(argv=None):
     print("|---|---:|---:|---:|---|")
     for name, (rate, note) in rows.items():
         print(f"| {name} | {rate:,.0f} | {rate / copy:.3f} | {rate / lfilter_rows:.2f} | {note} |")
+    print("\nshift accuracy: rel. L2 against the exact Fourier shift, band-limited 256x256 float32, mode wrap\n")
+    print("\n".join(shift_accuracy(used)))
     if cold:
         print("\n| backend | first call, empty caches (s) | next call (s) |")
         print("|---|---:|---:|")

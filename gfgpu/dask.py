@@ -52,6 +52,7 @@ from ._core import carry
 from ._core.lines import normalize_axis
 from ._core.program import is_axis_angle, run_steps
 from ._core.recursion import check_mode, plan_pass
+from ._core.translation import decay_length, step_offset, window_index, without_offset
 from ._core.validation import finite_cval, work_dtype
 from .backends import Backend, backend_request, check_backend_name, resolve_backend
 from .edges import canny as canny_2d
@@ -242,11 +243,39 @@ def run_program(x, program, *, mode="reflect", cval=0.0, backend=None, device=No
                                             spec, dtype, dtype=dtype)
         elif len(x.chunks[axis]) == 1:
             x = x.map_blocks(_local_task, [(passes, axis, None)], None, mode, cval, spec, dtype, dtype=dtype)
+        elif step_offset(passes) != 0:
+            x = _translated_step(x, passes, axis, mode, cval, spec, dtype)
         else:
             x = _carried_step(x, passes, axis, mode, cval, spec, dtype)
     if not program.steps:
         x = x.map_blocks(_host_block, dtype, dtype=dtype)
     return x
+
+
+def _translated_step(x, passes, axis, mode, cval, spec, dtype):
+    """A translated step along a chunked axis: the translated window gathered lazily (index
+    arithmetic), the passes carried across its chunks, the padding cropped
+    (:mod:`gfgpu._core.translation`)."""
+    n = x.shape[axis]
+    offset = step_offset(passes)
+    identity = len(passes) == 1 and passes[0].is_identity
+    pad = 0 if identity else decay_length(passes, dtype)
+    index = window_index(n, offset, pad, mode)
+    window = da.take(x, np.maximum(index, 0), axis=axis)
+    if (index < 0).any():    # constant mode: samples beyond the line are cval
+        keep = (index >= 0).reshape([-1 if d == axis else 1 for d in range(x.ndim)])
+        window = da.where(keep, window, np.asarray(cval, dtype))
+    window = window.rechunk({axis: max(x.chunks[axis])}).astype(dtype)
+    if identity:   # _host_block checks every block for NaN/inf, as the passes' tasks do
+        return window.rechunk(x.chunks).map_blocks(_host_block, dtype, dtype=dtype)
+    inner = [without_offset(lp) for lp in passes]
+    if len(window.chunks[axis]) == 1:
+        out = window.map_blocks(_local_task, [(inner, axis, None)], None, "nearest", cval, spec, dtype,
+                                dtype=dtype)
+    else:
+        out = _carried_step(window, inner, axis, "nearest", cval, spec, dtype)
+    crop = tuple(slice(pad, pad + n) if d == axis else slice(None) for d in range(x.ndim))
+    return out[crop].rechunk(x.chunks)
 
 
 def _whole_planes(x):
@@ -296,7 +325,8 @@ def green_filter(x, kernel, *, axis=None, angle=None, axes=None, channel_axis=No
     return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
-def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, backend=None, device=None):
+def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, interpolation="green",
+          backend=None, device=None):
     """:func:`gfgpu.shift` on a dask array; exact across chunks along every axis.
 
     Parameters
@@ -305,7 +335,7 @@ def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, b
     shift : float or sequence of float
         Displacement along each axis operated on, array-axis order: ``(dy, dx)`` (rows, cols)
         for an image.
-    mode, cval, axes, channel_axis, backend, device
+    mode, cval, axes, channel_axis, interpolation, backend, device
         As in :func:`gfgpu.shift`.
 
     Returns
@@ -318,7 +348,8 @@ def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, b
         As :func:`gfgpu.shift`, and for a ``x`` that is not a dask array.
     """
     _check_array(x)
-    program = filters.shift_program(x.ndim, shift, axes=axes, channel_axis=channel_axis)
+    program = filters.shift_program(x.ndim, shift, axes=axes, channel_axis=channel_axis,
+                                    interpolation=interpolation)
     return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 

@@ -37,7 +37,7 @@ __all__ = [
     "edge_derivative", "edge_projection",
     "Section", "LinePass", "GreenKernel",
     "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
-    "shift_pass", "derivative_passes", "projection_passes",
+    "shift_pass", "translation_split", "translation_passes", "cubic_shift_passes", "INTERPOLATIONS", "derivative_passes", "projection_passes",
     "EDGE_A", "EDGE_ETA",
 ]
 
@@ -470,3 +470,78 @@ def projection_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
                  for v, w in scales)
     tap = sum(w for _, w in scales) / total
     return (LinePass(secs, tap, False), LinePass(secs, 0.0, True))
+
+
+def translation_split(s):
+    """``(n, f)`` with ``s = n + f``, ``n`` an integer and ``|f| <= 1/2`` (halves toward zero).
+
+    ``n`` is a Python int of any magnitude; fractions below 1e-12 px are dropped (their effect,
+    ``|f|`` times the local slope, is below float64 rounding of the samples).
+    """
+    v = finite_scalar("shift", s)
+    n = int(math.copysign(math.ceil(abs(v) - 0.5), v)) if abs(v) < 2**52 else int(v)
+    f = v - n
+    if abs(f) < 1e-12:
+        f = 0.0
+    return n, f
+
+
+#: fractional interpolators of :func:`translation_passes`
+INTERPOLATIONS = ("green", "cubic")
+
+
+def translation_passes(s, interpolation="green"):
+    """The passes (one step) of the translation by ``s`` samples: integer part by index
+    arithmetic (``LinePass.offset``), fractional part ``|f| <= 1/2`` by ``interpolation``:
+
+    ``"green"``: :func:`shift_pass`, the discrete Green shift G_f (causal for ``f > 0``,
+    anticausal for ``f < 0``; unit DC gain, first moment exactly ``f``);
+    ``"cubic"``: :func:`cubic_shift_passes`, cubic B-spline interpolation.
+
+    Returns an empty list for ``s = 0``.
+    """
+    if interpolation not in INTERPOLATIONS:
+        raise ValueError(f"interpolation must be one of {', '.join(INTERPOLATIONS)}; got {interpolation!r}")
+    n, f = translation_split(s)
+    if f == 0.0:
+        return [] if n == 0 else [LinePass((), 1.0, False, n)]
+    passes = [shift_pass(f)] if interpolation == "green" else cubic_shift_passes(f)
+    return [LinePass(lp.sections, lp.tap, lp.reverse, n) for lp in passes]
+
+
+#: pole of the cubic B-spline interpolation prefilter, sqrt(3) - 2
+_SPLINE_POLE = math.sqrt(3.0) - 2.0
+
+
+def _bspline3(t):
+    t = abs(t)
+    if t < 1.0:
+        return 2.0 / 3.0 - t * t + 0.5 * t**3
+    if t < 2.0:
+        return (2.0 - t) ** 3 / 6.0
+    return 0.0
+
+
+def cubic_shift_passes(f):
+    """The cubic B-spline shift by ``|f| <= 1/2`` as one causal and one anticausal pass.
+
+    Sampling the interpolating cubic spline of the line at ``x - f`` is the filter
+    ``h = p * b_f`` with the spline prefilter ``p[k] = c0 z^|k|`` (``z = sqrt(3) - 2``,
+    ``c0 = -6 z / (1 - z^2)``) and the four or five taps ``b_f[i] = β3(i - f)``; it is geometric
+    beyond ``|m| >= 2`` (``h[m] = A z^m``, ``h[-m] = B z^m``), so it is exactly a direct tap, one
+    pole per direction and a one-sample correction per direction (scipy.ndimage's ``order=3``
+    interpolation, evaluated as recursions: O(1) per sample).
+    """
+    z = _SPLINE_POLE
+    c0 = -6.0 * z / (1.0 - z * z)
+    taps = {i: _bspline3(i - f) for i in range(-2, 3)}
+
+    def h(m):
+        return sum(b * c0 * z ** abs(m - i) for i, b in taps.items())
+    a = sum(b * c0 * z ** (-i) for i, b in taps.items())     # h[m] = a z^m for m >= 2
+    b_ = sum(b * c0 * z**i for i, b in taps.items())         # h[m] = b z^-m for m <= -2
+    causal = LinePass((Section(lam=complex(z), kap=complex(a * z)),
+                       Section(lam=0j, kap=complex(h(1) - a * z))), float(h(0)), False)
+    anticausal = LinePass((Section(lam=complex(z), kap=complex(b_ * z)),
+                           Section(lam=0j, kap=complex(h(-1) - b_ * z))), 0.0, True)
+    return [causal, anticausal]

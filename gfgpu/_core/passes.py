@@ -56,12 +56,21 @@ class Section:
 class LinePass:
     """One pass of recursions along a line: ``sections`` summed, plus ``tap * I[x]``.
 
-    ``reverse=True`` runs it anticausally (right to left).
+    ``reverse=True`` runs it anticausally (right to left).  ``offset`` (an integer) translates
+    the pass's input first: the result at ``x`` is the pass applied to the boundary mode's
+    extension of the line, read at ``x - offset`` (exact index arithmetic, any magnitude;
+    :mod:`gfgpu._core.translation`).  The passes of one step share one offset.
     """
 
     sections: tuple
     tap: float = 0.0
     reverse: bool = False
+    offset: int = 0
+
+    @property
+    def is_identity(self):
+        """True for a pass that only translates (no sections, unit tap)."""
+        return not self.sections and self.tap == 1.0
 
     @property
     def shift_invariant(self):
@@ -72,4 +81,4 @@ class LinePass:
         if not self.reverse or self.shift_invariant:
             return self
         return LinePass(tuple(s if s.kernel is None else Section(kernel=s.kernel.mirrored(n))
-                              for s in self.sections), self.tap, self.reverse)
+                              for s in self.sections), self.tap, self.reverse, self.offset)

@@ -8,14 +8,15 @@ Dask wrappers (:mod:`gfgpu.dask`) all run programs with :func:`run_steps`.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import NamedTuple
 
 import numpy as np
 
 from .lines import axis_view_shape, direction, normalize_axis
 from .oblique import run_oblique_passes
-from .passes import LinePass
 from .recursion import plan_pass
+from .translation import crop_index, decay_length, padded_view, step_offset, translate_index, without_offset
 from .validation import finite_scalar
 
 __all__ = ["Program", "run_passes", "run_steps", "direction_steps", "plane_axes", "axes_list",
@@ -45,12 +46,36 @@ def run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, p
 
 
 def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis):
-    """``passes`` along array axis ``axis`` (see :func:`run_passes`)."""
+    """``passes`` along array axis ``axis`` (see :func:`run_passes`).
+
+    Translated passes (``offset != 0``) gather the translated input by index arithmetic: a
+    pure translation is that one gather; otherwise the passes run on a window padded by their
+    decay length and are cropped (:mod:`gfgpu._core.translation`).
+    """
+    offset = step_offset(passes)
     view, line_axis = axis_view_shape(tuple(src.shape), axis)
     n = view[line_axis]
     s3, d3 = be.reshape(src, view), be.reshape(dst, view)
+    if offset == 0:
+        for i, lp in enumerate(passes):
+            be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
+        return dst
+    if len(passes) == 1 and passes[0].is_identity:
+        be.gather(be.reshape(src, (-1,)), translate_index(view, line_axis, offset, 0, mode), cval,
+                  be.reshape(dst, (-1,)))
+        return dst
+    pad = decay_length(passes, dtype)
+    view, line_axis, padded = padded_view(tuple(src.shape), axis, pad)
+    window = be.empty(padded, dtype)
+    result = be.empty(padded, dtype)
+    be.gather(be.reshape(src, (-1,)), translate_index(view, line_axis, offset, pad, mode), cval,
+              be.reshape(window, (-1,)))
+    # the window's own extension differs from E's, but its influence has decayed below the
+    # plan tolerance at the samples kept: any mode will do
     for i, lp in enumerate(passes):
-        be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
+        plan = plan_pass(without_offset(lp), padded[line_axis], "nearest", dtype)
+        be.recurse(window, result, line_axis, plan, cval, accumulate=i > 0)
+    be.gather(be.reshape(result, (-1,)), crop_index(view, line_axis, pad), 0.0, be.reshape(dst, (-1,)))
     return dst
 
 
@@ -91,7 +116,7 @@ def direction_steps(ndim, passes, angle, axes):
     steep, reverse, gamma = direction(angle)
     if abs(gamma) < 1e-12:
         axis = ya if steep else xa
-        flipped = [LinePass(p.sections, p.tap, p.reverse != reverse) for p in passes]
+        flipped = [replace(p, reverse=p.reverse != reverse) for p in passes]
         return [(flipped, axis, None)], None
     if (ya, xa) != (ndim - 2, ndim - 1):
         raise ValueError("oblique directions need the image plane on the last two axes; move the "

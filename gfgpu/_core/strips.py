@@ -32,6 +32,7 @@ import numpy as np
 from . import carry
 from .program import Program, run_steps
 from .recursion import plan_pass
+from .translation import decay_length, step_offset, window_index, without_offset
 
 __all__ = ["set_working_set", "get_working_set", "working_set", "parse_bytes", "needs_strips",
            "require_whole_image", "run_job", "Strips", "ArrayStore", "NpyStore", "FiniteStore",
@@ -265,11 +266,32 @@ class Strips:
             # read the previous result and rewrite it strip by strip (each strip is read
             # before it is written)
             store, steps = (src, within) if k == 0 else (dst, [])
-            self._across(passes, store, dst, steps, program.plane, bounds)
+            offset = step_offset(passes)
+            if offset == 0:
+                self._across(passes, store, dst, steps, program.plane, bounds, self.mode)
+                continue
+            if k > 0:   # it would read rows of dst that earlier strips have rewritten
+                raise ValueError("a translated step along the first axis must be the first step across strips")
+            self._translated(passes, offset, store, dst, steps, program.plane, rows)
 
-    def _across(self, passes, src, dst, within, plane, bounds):
+    def _translated(self, passes, offset, src, dst, within, plane, rows):
+        """A translated step along the first axis: the passes run on the translated, padded
+        row window (:mod:`gfgpu._core.translation`), written back cropped."""
         n = src.shape[0]
-        segs = [carry.segments(plan_pass(lp, n, self.mode, self.dtype), bounds, self.dtype) for lp in passes]
+        identity = len(passes) == 1 and passes[0].is_identity
+        pad = 0 if identity else decay_length(passes, self.dtype)
+        window = TranslatedStore(src, window_index(n, offset, pad, self.mode), self.cval)
+        out = CroppedStore(dst, pad, n)
+        bounds = list(range(0, n + 2 * pad, rows)) + [n + 2 * pad]
+        if identity:
+            for r0, r1 in self._bar(zip(bounds[:-1], bounds[1:]), len(bounds) - 1):
+                out.write(r0, r1, self._rows(window, r0, r1, within, plane))
+            return
+        self._across([without_offset(lp) for lp in passes], window, out, within, plane, bounds, "nearest")
+
+    def _across(self, passes, src, dst, within, plane, bounds, mode):
+        n = src.shape[0]
+        segs = [carry.segments(plan_pass(lp, n, mode, self.dtype), bounds, self.dtype) for lp in passes]
         ends = [[None] * len(s) for s in segs]
         initial = [0j] * len(segs)
         for p, seg_list in enumerate(segs):            # 1. end and boundary contributions
@@ -320,6 +342,51 @@ def run_job(job, program, mode, cval):
     out = job.output if job.output is not None else np.empty(job.shape, job.dtype)
     Strips(job.backend, job.dtype, mode, cval).run(program, ArrayStore(job.source), ArrayStore(out), limit)
     return out
+
+
+class TranslatedStore:
+    """Rows ``index[q]`` of ``store`` (``-1``: a row of ``cval``), read in runs of consecutive rows."""
+
+    def __init__(self, store, index, cval):
+        self.store, self.index, self.cval = store, np.asarray(index, np.int64), cval
+        self.shape = (len(self.index),) + tuple(store.shape[1:])
+
+    def read(self, r0, r1, dtype):
+        idx = self.index[r0:r1]
+        out = np.empty((len(idx),) + self.shape[1:], dtype)
+        i = 0
+        while i < len(idx):
+            j = i + 1
+            if idx[i] < 0:
+                while j < len(idx) and idx[j] < 0:
+                    j += 1
+                out[i:j] = self.cval
+            else:
+                step = int(idx[j] - idx[i]) if j < len(idx) and idx[j] >= 0 else 1
+                step = step if abs(step) == 1 else 1
+                while j < len(idx) and idx[j] >= 0 and idx[j] - idx[j - 1] == step:
+                    j += 1
+                lo, hi = sorted((int(idx[i]), int(idx[j - 1])))
+                rows = self.store.read(lo, hi + 1, dtype)
+                out[i:j] = rows if step == 1 else rows[::-1]
+            i = j
+        return out
+
+    def sub(self, index):
+        return TranslatedStore(self.store.sub(index), self.index, self.cval)
+
+
+class CroppedStore:
+    """Writes rows ``[pad, pad + n)`` of a padded result into rows ``[0, n)`` of ``store``."""
+
+    def __init__(self, store, pad, n):
+        self.store, self.pad, self.n = store, pad, n
+        self.shape = (n + 2 * pad,) + tuple(store.shape[1:])
+
+    def write(self, r0, r1, values):
+        lo, hi = max(r0, self.pad), min(r1, self.pad + self.n)
+        if hi > lo:
+            self.store.write(lo - self.pad, hi - self.pad, values[lo - r0:hi - r0])
 
 
 class FiniteStore:
