@@ -37,7 +37,8 @@ __all__ = [
     "edge_derivative", "edge_projection",
     "Section", "LinePass", "GreenKernel",
     "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
-    "shift_pass", "translation_split", "translation_passes", "cubic_shift_passes", "INTERPOLATIONS", "derivative_passes", "projection_passes",
+    "shift_pass", "translation_split", "translation_passes", "cubic_shift_passes", "INTERPOLATIONS",
+    "derivative_passes", "projection_passes",
     "EDGE_A", "EDGE_ETA",
 ]
 

@@ -25,6 +25,8 @@ def add_parser(subparsers):
     p.add_argument("--mode", default="reflect", choices=MODES)
     p.add_argument("--dx", type=float, default=0.0, help="displacement toward the right (columns), pixels")
     p.add_argument("--dy", type=float, default=0.0, help="displacement downward (rows), pixels")
+    p.add_argument("--interpolation", choices=("green", "cubic"), default="green",
+                   help="fractional part: the discrete Green shift (default) or a cubic B-spline")
     backend_args(p)
     p.set_defaults(func=run)
 
@@ -38,7 +40,7 @@ def run(args):
     with tqdm(total=1, desc="gfgpu shift", unit="image", disable=None, leave=False) as bar:
         # the library's array-axis order (rows, cols); colour channels are not shifted
         raw = shift(img.astype(np.float32), (args.dy, args.dx), channel_axis=-1 if img.ndim == 3 else None,
-                    mode=args.mode, backend=be)
+                    mode=args.mode, interpolation=args.interpolation, backend=be)
         bar.update(1)
     elapsed = time.perf_counter() - t0
     io.save_png(args.output, io.to_display_8bit(raw, img))
