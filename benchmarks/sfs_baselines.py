@@ -1,6 +1,6 @@
 """Baselines for benchmarks/shading.py: Pentland's linear SFS (1990) and Tsai & Shah (1994).
 
-Both in numpy, from the papers, in gfgpu's conventions (gfgpu/shading.py): ``p = ∂Z/∂x``
+Both in numpy, from the papers, in gfgpu's conventions (gfgpu/shading/): ``p = ∂Z/∂x``
 (columns), ``q = ∂Z/∂y`` (rows, downward), unit normal ``(-p, -q, 1)/sqrt(1 + p² + q²)``,
 unit light ``(l1, l2, l3)`` with ``l3 > 0``, image ``ρ·max(0, n·L)``.
 """

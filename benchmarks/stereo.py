@@ -3,22 +3,28 @@
 Scenes: the four Middlebury pairs in ``benchmarks/data/stereo/`` (tsukuba, venus, teddy, cones;
 non-occluded masks; conventions and terms of use in its README.md) and
 ``skimage.data.stereo_motorcycle()`` (pixels with finite ground truth), plus random-dot
-stereograms with piecewise-constant and slanted disparities (the chapter's Fig. 8).  Metrics:
+stereograms with piecewise-constant and slanted disparities (the chapter's Fig. 8), and a
+camera-size synthetic pair (``synth-1500``: 1000 x 1500, 192 disparities, a smooth random texture
+shifted by a smooth disparity field between 30 and 180 px).  Metrics:
 bad-1 / bad-2 = % of evaluated pixels with |d - gt| > 1 / 2 px, with rejected pixels (holes)
 filled by :func:`gfgpu.stereo.fill_holes` (the smaller of the nearest valid left/right
 neighbours, as that README prescribes) for every method; the share of holes before filling
 is printed too.  Times are per pair, steady state (the best of
-``--repeat`` runs after one warm-up, which also compiles the kernels).
+``--repeat`` runs after one warm-up, which also compiles the kernels).  Each (scene, method)
+runs in a fresh process (``multiprocessing`` spawn), so its peak resident memory (``ru_maxrss``)
+is its own: the table gives the peak and the peak above the process's RSS before the first call
+(imports and the images loaded).
 
 OpenCV settings (from ``benchmarks/data/stereo/README.md``): StereoBM blockSize 15, StereoSGBM
 blockSize 5, P1 = 8·bs², P2 = 32·bs², uniquenessRatio 10, speckle filter 100/2,
-numDisparities = next multiple of 16 above the ground truth's maximum.  gfgpu searches the
-same range.
+numDisparities = next multiple of 16 above the ground truth's maximum; SGBM in its default mode
+(5 directions in one pass) and in full 8-path mode (``MODE_HH``).  gfgpu searches the same range.
 
 Usage::
 
     python benchmarks/stereo.py [--backends opencl warp] [--methods sgm uniform affine]
                                 [--repeat 3] [--figure docs/stereo_scenes.png]
+                                [--scenes tsukuba venus teddy cones motorcycle synth-1500]
     python benchmarks/stereo.py --stages teddy [--backends opencl]   # per-stage times only
 """
 
@@ -26,7 +32,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
 import os
+import resource
 import time
 
 import numpy as np
@@ -82,6 +90,31 @@ def random_dots(kind, shape=(240, 320), seed=0):
     return left.astype(np.uint8), right.astype(np.uint8), gt, mask, float(gt.max())
 
 
+def synthetic(shape=(1000, 1500), seed=0):
+    """Camera-size pair: a smooth random texture (``random_dot_stereogram``) shifted by a smooth
+    disparity field (a sum of broad Gaussians, 30..180 px); 192 disparities searched."""
+    from scipy import ndimage
+    h, w = shape
+    rng = np.random.default_rng(seed + 1)
+    field = ndimage.gaussian_filter(rng.standard_normal((h // 50, w // 50)), 2.0)
+    field = ndimage.zoom(field, (h / field.shape[0], w / field.shape[1]), order=3)[:h, :w]
+    gt = 30 + 150 * (field - field.min()) / np.ptp(field)
+    left, right = random_dot_stereogram(gt, seed)
+    xx = np.arange(w)[None]
+    mask = (xx - gt >= 8) & (xx < w - 8)       # the match inside the right view
+    return left.astype(np.uint8), right.astype(np.uint8), gt, mask, 191.0 - 1
+
+
+def load_scene(scene):
+    if scene in SCENES:
+        return load_middlebury(scene)
+    if scene == "motorcycle":
+        return load_motorcycle()
+    if scene == "synth-1500":
+        return synthetic()
+    return random_dots(scene)
+
+
 def grey(img):
     img = np.asarray(img)
     if img.ndim == 3:
@@ -96,9 +129,10 @@ def opencv_matchers(num_disp):
     bm.setSpeckleWindowSize(100)
     bm.setSpeckleRange(2)
     bs = 5
-    sgbm = cv2.StereoSGBM_create(minDisparity=0, numDisparities=num_disp, blockSize=bs, P1=8 * bs * bs,
-                                 P2=32 * bs * bs, uniquenessRatio=10, speckleWindowSize=100,
-                                 speckleRange=2)
+    sgbm, sgbm_hh = (cv2.StereoSGBM_create(minDisparity=0, numDisparities=num_disp, blockSize=bs,
+                                           P1=8 * bs * bs, P2=32 * bs * bs, uniquenessRatio=10,
+                                           speckleWindowSize=100, speckleRange=2, mode=mode)
+                     for mode in (cv2.STEREO_SGBM_MODE_SGBM, cv2.STEREO_SGBM_MODE_HH))
 
     def run(matcher):
         def match(left, right):
@@ -106,7 +140,7 @@ def opencv_matchers(num_disp):
             raw[raw < 0] = np.nan
             return raw
         return match
-    return {"OpenCV StereoBM": run(bm), "OpenCV StereoSGBM": run(sgbm)}
+    return {"OpenCV StereoBM": run(bm), "OpenCV StereoSGBM": run(sgbm), "OpenCV SGBM 8-path": run(sgbm_hh)}
 
 
 def timed(fn, repeat):
@@ -144,14 +178,15 @@ def stage_times(scene_images, d_max, backend, repeat):
 
     def cost():
         state["cost"] = be.empty((h, w, n), np.int16)
-        stereo_kernels.cost(be, state["cl"], state["cr"], state["cost"], 0, steps, block, (2 * radius + 1) ** 2 - 1)
+        stereo_kernels.cost(be, state["cl"], state["cr"], state["cost"], 0, steps, block)
 
     def aggregate():
         state["agg"] = be.empty((h, w, n), np.int16)
         stereo_kernels.sgm(be, state["cost"], state["agg"], 6 * block**2, 64 * block**2, 8)
 
     def select():
-        stereo_kernels.select(be, state["agg"], be.empty((h, w), np.float32), be.empty((h, w), np.int32), 0, steps, 10)
+        stereo_kernels.select(be, state["agg"], be.empty((h, w), np.float32), be.empty((h, w), np.int32),
+                              be.empty((h, w), np.float32), 0, steps, 10)
 
     times = {}
     for name, fn in (("census + Green shift", census), ("matching cost", cost),
@@ -165,6 +200,28 @@ def stage_times(scene_images, d_max, backend, repeat):
         times[name] = best
     _, times["disparity() total"] = timed(lambda: stereo.disparity(*scene_images, d_max, backend=be), repeat)
     return times
+
+
+def _rss_mb():
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def _run_isolated(scene, name, backends, sweep_backend, repeat):
+    """One (scene, method) in this (fresh) process: (disparity, seconds, peak RSS MB, RSS MB
+    before the first call)."""
+    left, right, gt, mask, top = load_scene(scene)
+    num_disp = 16 * int(np.ceil((top + 1) / 16))
+    d_max = num_disp - 1
+    if name.startswith("OpenCV"):
+        fn = lambda: opencv_matchers(num_disp)[name](left, right)
+    else:
+        method, be = name.split()[1], name.split("(")[1].rstrip(")")
+        fn = lambda: disparity(left, right, d_max, method=method, backend=be)
+    base = _rss_mb()
+    disp, seconds = timed(fn, repeat)
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return disp, seconds, peak, base
 
 
 def scores(disp, gt, mask):
@@ -202,47 +259,40 @@ def main():
         return
 
     rows, shown = [], {}
+    ctx = multiprocessing.get_context("spawn")
     for scene in args.scenes:
-        if scene in SCENES:
-            if not os.path.isdir(os.path.join(DATA, scene)):
-                print(f"skipping {scene}: {DATA} not found")
-                continue
-            left, right, gt, mask, top = load_middlebury(scene)
-        elif scene == "motorcycle":
-            left, right, gt, mask, top = load_motorcycle()
-        else:
-            left, right, gt, mask, top = random_dots(scene)
-        num_disp = 16 * int(np.ceil((top + 1) / 16))
-        d_max = num_disp - 1
-        runs = {}
-        for be in args.backends:
-            runs[f"gfgpu sgm ({be})"] = lambda be=be, lft=left, rgt=right, top=d_max: disparity(
-                lft, rgt, top, backend=be)
-        for method in args.methods:
-            if method != "sgm":
-                runs[f"gfgpu {method} ({args.sweep_backend})"] = lambda m=method, lft=left, rgt=right, \
-                        top=d_max: disparity(lft, rgt, top, method=m, backend=args.sweep_backend)
+        if scene in SCENES and not os.path.isdir(os.path.join(DATA, scene)):
+            print(f"skipping {scene}: {DATA} not found")
+            continue
+        left, right, gt, mask, top = load_scene(scene)
+        big = left.shape[0] * left.shape[1] > 10**6
+        names = [f"gfgpu sgm ({be})" for be in args.backends if not (big and be in ("numpy", "warp"))]
+        names += [f"gfgpu {m} ({args.sweep_backend})" for m in args.methods if m != "sgm" and not big]
         try:
-            runs.update({k: (lambda f=f, lft=left, rgt=right: f(lft, rgt))
-                         for k, f in opencv_matchers(num_disp).items()})
+            import cv2  # noqa: F401
+            names += ["OpenCV StereoBM", "OpenCV StereoSGBM", "OpenCV SGBM 8-path"]
         except ImportError:
             print("OpenCV (cv2) not installed: peers skipped")
-        for name, fn in runs.items():
-            repeat = 1 if ("uniform" in name or "affine" in name or "numpy" in name) else args.repeat
-            disp, seconds = timed(fn, repeat)
+        for name in names:
+            repeat = 1 if ("uniform" in name or "affine" in name or "numpy" in name or big) else args.repeat
+            with ctx.Pool(1) as pool:
+                disp, seconds, peak, base = pool.apply(_run_isolated, (scene, name, args.backends,
+                                                                      args.sweep_backend, repeat))
             b1, b2, holes = scores(disp, gt, mask)
-            rows.append((scene, name, b1, b2, holes, seconds))
+            rows.append((scene, name, b1, b2, holes, seconds, peak, peak - base))
             shown[(scene, name)] = disp
-            print(f"{scene:10s} {name:28s} bad-1 {b1:5.1f}  bad-2 {b2:5.1f}  holes {holes:4.1f}%  {seconds:6.3f} s",
-                  flush=True)
+            print(f"{scene:10s} {name:28s} bad-1 {b1:5.1f}  bad-2 {b2:5.1f}  holes {holes:4.1f}%  "
+                  f"{seconds:6.3f} s  peak RSS {peak:7.0f} MB (+{peak - base:.0f})", flush=True)
         shown[(scene, "left")], shown[(scene, "gt")] = left, np.where(mask | (gt > 0), gt, np.nan)
 
-    print("\n| scene | method | bad-1 % | bad-2 % | holes % | time (s) | time / SGBM |")
-    print("|---|---|---|---|---|---|---|")
-    for scene, name, b1, b2, holes, seconds in rows:
+    print("\n| scene | method | bad-1 % | bad-2 % | holes % | time (s) | time / SGBM | peak RSS (MB) | "
+          "above start (MB) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for scene, name, b1, b2, holes, seconds, peak, extra in rows:
         ref = [r[5] for r in rows if r[0] == scene and r[1] == "OpenCV StereoSGBM"]
         ratio = f"{seconds / ref[0]:.1f}x" if ref else "-"
-        print(f"| {scene} | {name} | {b1:.1f} | {b2:.1f} | {holes:.1f} | {seconds:.3f} | {ratio} |")
+        print(f"| {scene} | {name} | {b1:.1f} | {b2:.1f} | {holes:.1f} | {seconds:.3f} | {ratio} | "
+              f"{peak:.0f} | {extra:.0f} |")
     if args.figure:
         figure(shown, [s for s in args.scenes if (s, "left") in shown], args.backends[0], args.figure)
 

@@ -10,7 +10,10 @@ scheduler address (the same code on one machine or many).
 
 Per-file problems (an unreadable or truncated file, an unsupported pixel type, a filter error)
 never stop the batch: they come back as ``failed`` results with the reason.  Existing outputs are
-skipped (resume) unless ``overwrite``; inputs are never written.
+skipped (resume) unless ``overwrite``; inputs are never written.  Discovery leaves out anything
+that is not a regular file (a FIFO named ``x.png`` would block a reader forever: it is never
+opened) and, given the output folder, the files inside it (a batch's own outputs are not inputs
+of its rerun).
 
 Importing this module starts nothing: Dask is imported only when a cluster is asked for.
 """
@@ -27,9 +30,22 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._core.validation import finite_scalar
+from .backends import resolve_backend
 from .edges import canny
 from .filters import gradient, shift
-from .io import gradient_to_rgb, read_image, save_npy, save_png, to_display_8bit, write_atomic
+from .io import (
+    gradient_to_rgb,
+    has_alpha,
+    premultiply,
+    read_image,
+    regular_file_problem,
+    save_npy,
+    save_png,
+    to_output,
+    unpremultiply,
+    write_atomic,
+    write_image,
+)
 from .motion import motion_blur
 
 __all__ = ["IMAGE_EXTENSIONS", "FORMATS", "OPS", "PARAMETERS", "Job", "Result", "discover_inputs",
@@ -76,6 +92,7 @@ class Result:
     status: str
     message: str = ""
     seconds: float = 0.0
+    ran_on: str = ""       # "backend NAME on DEVICE" of the process that computed it
 
 
 # --------------------------------------------------------------------------------------
@@ -85,7 +102,7 @@ def _is_image_name(name):
     return os.path.splitext(name)[1].lower() in IMAGE_EXTENSIONS
 
 
-def discover_inputs(items):
+def discover_inputs(items, *, exclude=None, skipped=None):
     """Absolute paths of the input files named by ``items``, sorted and de-duplicated.
 
     Parameters
@@ -95,7 +112,17 @@ def discover_inputs(items):
         recursive, hidden files left out), a glob pattern (``*``, ``?``, ``[...]``; ``**`` spans
         directories; every matching file whatever its extension) or a file.  A file that does
         not exist is kept: it fails in :func:`process_file` with the reason, like any other
-        unreadable file.
+        unreadable file.  Anything that exists but is not a regular file (a FIFO, a socket, a
+        device) is left out, never opened.
+    exclude : str or path, optional
+        The batch's output folder: a glob pattern whose fixed part (``imgs`` of
+        ``imgs/**/*.png``) lies strictly above it does not yield its files, so a batch whose
+        outputs lie under its input pattern skips them on a rerun.  Files named explicitly, a
+        directory, or a pattern rooted in the output folder itself are kept (and refused by
+        :func:`plan_jobs` where an output would overwrite them).
+    skipped : list, optional
+        Receives ``(path, reason)`` for each entry left out (not a regular file, or inside
+        ``exclude``).
 
     Returns
     -------
@@ -120,8 +147,11 @@ def discover_inputs(items):
     items = [os.fspath(i) for i in items]
     if not items:
         raise ValueError("inputs: give at least one file, directory or glob pattern")
-    found = {}
+    skipped = [] if skipped is None else skipped
+    outside = os.path.realpath(os.fspath(exclude)) if exclude is not None else None
+    found, left_out = {}, set()
     for item in items:
+        below = False       # the output folder lies strictly below this pattern's fixed root
         if os.path.isdir(item):
             names = sorted(n for n in os.listdir(item) if not n.startswith(".") and _is_image_name(n))
             matches = [os.path.join(item, n) for n in names if not os.path.isdir(os.path.join(item, n))]
@@ -132,12 +162,35 @@ def discover_inputs(items):
             matches = [p for p in glob.glob(item, recursive=True) if not os.path.isdir(p)]
             if not matches:
                 raise ValueError(f"input pattern {item!r} matches no file")
+            root = os.path.realpath(_pattern_root(item))
+            below = outside is not None and outside != root and os.path.commonpath([outside, root]) == root
         else:
             matches = [item]
         for path in matches:
             path = os.path.abspath(path)
+            problem = regular_file_problem(path)
+            reason = None
+            if problem is not None:
+                reason = f"not a regular file ({problem}): not read"
+            elif below and os.path.commonpath([outside, os.path.realpath(path)]) == outside:
+                reason = "inside the output folder"
+            if reason is not None:
+                if path not in left_out:
+                    left_out.add(path)
+                    skipped.append((path, reason))
+                continue
             found.setdefault(os.path.realpath(path), path)
     return sorted(found.values())
+
+
+def _pattern_root(pattern):
+    """The part of a glob pattern before its first component with a wildcard."""
+    parts = []
+    for part in pattern.split(os.sep):
+        if any(c in part for c in "*?["):
+            break
+        parts.append(part)
+    return os.sep.join(parts) or ("." if not pattern.startswith(os.sep) else os.sep)
 
 
 def _probe_image():
@@ -285,17 +338,31 @@ def plan_jobs(inputs, outdir, op, params=None, *, fmt="png", mode="reflect", bac
 # one file (runs in a worker process)
 # --------------------------------------------------------------------------------------
 def _read(path):
+    """The image with its alpha channel, if any (grey + alpha ``(H, W, 2)``, RGBA ``(H, W, 4)``)."""
     img = np.asarray(read_image(path))
     if not (img.dtype.kind in "biu" or img.dtype in (np.float16, np.float32, np.float64)):
         raise TypeError(f"unsupported pixel type {img.dtype} (expected bool, integer or float32/float64 "
                         f"samples)")
-    if img.ndim == 3 and img.shape[-1] in (1, 2):   # grey, or grey + alpha
+    if img.ndim == 3 and img.shape[-1] == 1:
         img = img[..., 0]
-    elif img.ndim == 3 and img.shape[-1] == 4:      # alpha is not image content
-        img = img[..., :3]
-    if not (img.ndim == 2 or (img.ndim == 3 and img.shape[-1] == 3)):
+    if not (img.ndim == 2 or (img.ndim == 3 and img.shape[-1] in (2, 3, 4))):
         raise ValueError(f"expected a grey (H, W) or colour (H, W, 3|4) image, got shape {img.shape}")
     return img
+
+
+def _no_alpha(img):
+    """Colour (or grey) without alpha: gradient and canny see the image content only."""
+    if has_alpha(img):
+        img = img[..., :-1]
+    return img[..., 0] if img.ndim == 3 and img.shape[-1] == 1 else img
+
+
+def _colour_filter(img, apply):
+    """``apply(work)`` on the float image; with alpha, premultiplied (colour x alpha and alpha filtered
+    alike, then colour divided by the filtered alpha), so edges get no dark fringes."""
+    if has_alpha(img):
+        return unpremultiply(apply(premultiply(img, _working(img).dtype)), img.dtype)
+    return apply(_working(img))
 
 
 def _working(img):
@@ -309,13 +376,14 @@ def _channel_axis(img):
 
 def _op_shift(img, p, kw):
     _check_keys("shift", p)
-    raw = shift(_working(img), p["shift"], channel_axis=_channel_axis(img), **kw)   # (dy, dx); colour per channel
-    return raw, lambda: to_display_8bit(raw, img)
+    raw = _colour_filter(img, lambda work: shift(work, p["shift"], channel_axis=_channel_axis(img),
+                                                  **kw))                        # (dy, dx); colour per channel
+    return raw, lambda: to_output(raw, img, "x.png")
 
 
 def _op_gradient(img, p, kw):
     _check_keys("gradient", p)
-    work = _working(img)
+    work = _working(_no_alpha(img))
     grey = work.mean(axis=-1) if work.ndim == 3 else work   # one gradient per pixel
     gy, gx = gradient(grey, p.get("u", 1.0), **kw)
     return np.stack([gy, gx]), lambda: gradient_to_rgb(gy, gx)
@@ -323,7 +391,7 @@ def _op_gradient(img, p, kw):
 
 def _op_canny(img, p, kw):
     _check_keys("canny", p)
-    work = img
+    img = work = _no_alpha(img)
     if img.dtype.kind in "iu":   # canny's convention: integers scaled to [0, 1] by the dtype's maximum
         work = img.astype(np.float32) / np.iinfo(img.dtype).max
     work = _working(work)
@@ -340,8 +408,9 @@ def _op_blur(img, p, kw):
     else:
         how = dict(kind="uniform", displace=not p.get("keep_position", False))
         velocity = tuple(p["velocity"])                                  # (vy, vx)
-    raw = motion_blur(_working(img), velocity, channel_axis=_channel_axis(img), **how, **kw)
-    return raw, lambda: to_display_8bit(raw, img)
+    raw = _colour_filter(img, lambda work: motion_blur(work, velocity, channel_axis=_channel_axis(img), **how,
+                                                       **kw))
+    return raw, lambda: to_output(raw, img, "x.png")
 
 
 _OPERATORS = {"shift": _op_shift, "gradient": _op_gradient, "canny": _op_canny, "blur": _op_blur}
@@ -349,12 +418,18 @@ _OPERATORS = {"shift": _op_shift, "gradient": _op_gradient, "canny": _op_canny, 
 
 def _write(path, fmt, raw, display):
     if fmt == "png":
-        save_png(path, display())
+        image = display()
+        if image.dtype == np.uint8 and not has_alpha(image):
+            save_png(path, image)
+        else:
+            write_image(path, image)
     elif fmt == "npy":
         save_npy(path, raw)
+    elif np.ndim(raw) in (2, 3) and (np.ndim(raw) == 2 or np.shape(raw)[-1] <= 4):
+        write_image(path, raw)                 # tifffile: the raw samples, alpha as an extra sample
     else:
-        import imageio.v3 as iio
-        write_atomic(path, lambda tmp: iio.imwrite(tmp, raw, extension=".tiff"))
+        import tifffile
+        write_atomic(path, lambda tmp: tifffile.imwrite(tmp, raw))   # gradient's (2, H, W)
 
 
 def process_file(job):
@@ -378,10 +453,16 @@ def process_file(job):
     Any other key (such as the ``by`` of earlier versions) fails the file with a
     ``ValueError``; :func:`check_parameters` reports it once before a batch.
 
-    Images are read with imageio (TIFF through tifffile).  Alpha channels are dropped;
-    integer and bool images are filtered in float32, float32/float64 in their own type.
-    ``png`` writes the 8-bit display image (:func:`gfgpu.io.to_display_8bit`: rounded and
-    clipped to the input's range); ``npy`` and ``tiff`` the raw result.
+    Images are read with :func:`gfgpu.io.read_image` (imageio's Pillow plugin, TIFF through
+    tifffile: upright, CMYK as RGB; animations, multi-page TIFFs, complex samples and anything
+    but a regular file fail the file).  ``shift`` and ``blur`` keep an alpha channel, filtered
+    premultiplied (colour x alpha and alpha alike, then divided by the filtered alpha where it
+    is > 0: no dark fringes); ``gradient`` and ``canny`` ignore it.  Integer and bool images
+    are filtered in float32, float32/float64 in their own type.  ``png`` writes the image at
+    the input's depth (:func:`gfgpu.io.to_output`: uint8 and uint16 rounded and clipped, 16-bit
+    PNG for 16-bit input; other types the 8-bit display conversion
+    :func:`gfgpu.io.to_display_8bit`); ``npy`` and ``tiff`` the raw result.  The output's
+    folder is created if needed.
 
     Parameters
     ----------
@@ -425,12 +506,15 @@ def process_file(job):
         if job.fmt not in FORMATS:
             raise ValueError(f"fmt must be one of {', '.join(FORMATS)}; got {job.fmt!r}")
         img = _read(job.input)
-        raw, display = _OPERATORS[job.op](img, job.params,
-                                          dict(mode=job.mode, backend=job.backend, device=job.device))
+        os.makedirs(os.path.dirname(os.path.abspath(job.output)), exist_ok=True)
+        be = resolve_backend(job.backend, job.device)
+        raw, display = _OPERATORS[job.op](img, job.params, dict(mode=job.mode, backend=be))
         _write(job.output, job.fmt, raw, display)
     except Exception as exc:   # per-file problems are results: the rest of the batch goes on
         return result("failed", f"{type(exc).__name__}: {exc}")
-    return result("ok")
+    done = result("ok")
+    done.ran_on = f"backend {be.name} on {be.device}"
+    return done
 
 
 # --------------------------------------------------------------------------------------
@@ -535,10 +619,15 @@ def _run_on_dask(jobs, workers, scheduler, bar):
 
 
 def summarize(results, seconds=None):
-    """``(text, exit_code)``: counts, each failure with its reason; exit code 1 if any failed."""
+    """``(text, exit_code)``: counts, each failure with its reason, each input left out before
+    planning (a skipped result without output, e.g. a FIFO) with its reason; exit code 1 if any
+    failed."""
     counts = {s: sum(r.status == s for r in results) for s in ("ok", "skipped", "failed")}
     head = f"{len(results)} file(s): {counts['ok']} ok, {counts['skipped']} skipped, {counts['failed']} failed"
     if seconds is not None:
         head += f" in {seconds:.1f} s"
-    lines = [head] + [f"  failed: {r.input}: {r.message}" for r in results if r.status == "failed"]
+    ran_on = sorted({r.ran_on for r in results if r.ran_on})
+    lines = [head] + [f"  ran on {where}" for where in ran_on]
+    lines += [f"  skipped: {r.input}: {r.message}" for r in results if r.status == "skipped" and not r.output]
+    lines += [f"  failed: {r.input}: {r.message}" for r in results if r.status == "failed"]
     return "\n".join(lines), int(counts["failed"] > 0)

@@ -53,7 +53,7 @@ from ._core.lines import normalize_axis
 from ._core.program import is_axis_angle, run_steps
 from ._core.recursion import check_mode, plan_pass
 from ._core.translation import decay_length, step_offset, window_index, without_offset
-from ._core.validation import finite_cval, work_dtype
+from ._core.validation import finite_cval, flag, work_dtype
 from .backends import Backend, backend_request, check_backend_name, resolve_backend
 from .edges import canny as canny_2d
 from .motion import motion_blur as motion_blur_2d
@@ -120,7 +120,8 @@ def _local_task(block, steps, plane, mode, cval, spec, dtype):
     be = _backend(spec)
     host = _host_block(block, dtype)
     with _device_section(be):
-        return be.to_host(run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane))
+        return be.to_host(run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane,
+                                    shape=host.shape)).reshape(host.shape)
 
 
 def _segment(lp, n, mode, dtype, start, stop):
@@ -158,8 +159,8 @@ def _finish_task(block, *states, passes, n, mode, dtype, start, stop, axis, spec
     segs = [_segment(lp, n, mode, dtype, start, stop) for lp in passes]
     with _device_section(be):
         y = be.empty(host.shape, dtype)
-        carry.zero_state_pass(be, be.host_view(host), y, axis, segs)
-        out = be.to_host(y)
+        carry.zero_state_pass(be, be.host_view(host), y, axis, segs, shape=host.shape)
+        out = be.to_host(y).reshape(host.shape)
     for seg, state in zip(segs, states):
         carry.add_correction(seg, out, state, axis)
     return out
@@ -467,7 +468,7 @@ def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode
                           mode=mode, cval=cval, backend=backend, device=device)
         return da.moveaxis(out, 0, ch)
     if kind == "uniform":
-        program = uniform_motion_program(x.ndim, velocity, bool(displace))
+        program = uniform_motion_program(x.ndim, velocity, flag("displace", displace))
         return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
@@ -479,7 +480,7 @@ def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode
     spec = _backend_spec(backend, device)
     kw = dict(velocity=velocity, kind=kind, center=center, mode=mode, cval=cval)
     if kind == "rotation":
-        kw["displace"] = bool(displace)
+        kw["displace"] = flag("displace", displace)
     return _whole_planes(x).map_blocks(_plane_task, motion_blur_2d, spec, dtype, kw, dtype=dtype)
 
 

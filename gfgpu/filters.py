@@ -26,7 +26,7 @@ from ._core.job import Job, apply_program
 from ._core.lines import normalize_axis
 from ._core.program import Program, axes_list, direction_steps, is_axis_angle, per_axis, plane_axes
 from ._core.recursion import check_mode
-from ._core.validation import finite_cval, positive
+from ._core.validation import finite_cval, flag, positive, scale
 from .backends import resolve_backend
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "make_job",
@@ -175,9 +175,18 @@ def green_filter(input, kernel, *, axis=None, angle=None, axes=None, channel_axi
         ``channel_axis``.
     angle : float, optional
         Filter along the image-plane direction at this angle instead of along ``axis``:
-        radians from +x (the column axis, to the right) toward +y (the row axis, down); see
-        :mod:`gfgpu._core.lines` for the digital lines used and the units of kernel lengths
-        along them.
+        radians from +x (the column axis, to the right) toward +y (the row axis, down).  The
+        lines follow the continuous direction ``y = ℓ + x tan(angle)`` (x and y swapped when
+        steeper than 45°), one step of the dominant axis at a time: kernel lengths and
+        positions (``u``, ``x_U``) are in those steps.  The image is sheared so that the lines
+        become rows (whole pixels by index arithmetic, the sub-pixel rest by a second-order
+        allpass along each column) and sheared back (:mod:`gfgpu._core.oblique`): cost O(1)
+        per pixel whatever the kernel's length; no displacement is quantised (every pixel's
+        impulse centroid is exact to 1e-5 px in float32).  The two resamplings cost, against
+        the same operator applied along the exact direction, about 1e-2 rel. L2 on a natural
+        image and 5e-3 on a band-limited one, more for detail near Nyquist across the
+        direction (``docs/derivations.md``, "Oblique directions").  Axis-aligned angles run
+        as plain, exact axis passes.
     axes : pair of int, optional
         With ``angle``: the axes operated on, i.e. the image plane as ``(row axis, column
         axis)``; default the last two axes other than ``channel_axis``.
@@ -267,7 +276,7 @@ def green_filter_program(ndim, kernel, *, axis=None, angle=None, axes=None, chan
     if not isinstance(kernel, greens.GreenKernel):
         raise TypeError(f"kernel must be a gfgpu.greens kernel (UniformGreen, HomogeneousGreen, "
                         f"AffineGreen, AffineGreenApprox), got {type(kernel).__name__}")
-    passes = [kernel.line_pass(reverse=bool(anticausal))]
+    passes = [kernel.line_pass(reverse=flag("anticausal", anticausal))]
     if angle is None:
         if axes is not None:
             raise ValueError(f"axes={axes!r} names the image plane of angle=; give angle, or use axis= for "
@@ -382,7 +391,7 @@ def derivative_program(ndim, u, *, axis=None, axes=None, channel_axis=None, a=gr
         raise ValueError(f"axis {axis} must be one of axes {ax}")
     ratio = positive("projection_scale", projection_scale)
     d_passes = list(greens.derivative_passes(u, a, eta, single_scale))
-    p_passes = list(greens.projection_passes(positive("u", u) * ratio, a, eta, single_scale))
+    p_passes = list(greens.projection_passes(scale("u", u) * ratio, a, eta, single_scale))
     steps = [(p_passes, other, None) for other in ax if other != d_axis]
     steps.append((d_passes, d_axis, None))
     return Program(steps)

@@ -30,7 +30,8 @@ from functools import lru_cache
 import numpy as np
 
 from ._core.passes import LinePass, Section
-from ._core.validation import finite_scalar, positive
+from ._core.shiftfit import shift_coefficients_many as _shift_coefficients_many
+from ._core.validation import finite_scalar, positive, scale
 
 __all__ = [
     "g_uniform", "h_homogeneous", "g_affine", "g_affine_approx", "d_uniform",
@@ -81,7 +82,7 @@ def g_uniform(x, u):
     >>> float(g_uniform(1.0, 1.0))  # doctest: +ELLIPSIS
     0.6191...
     """
-    u = positive("u", u)
+    u = scale("u", u)
     x = np.asarray(x, dtype=np.float64)
     t = np.where(x > 0, x, 0.0) / u
     return np.where(x > 0, (2.0 / u) * np.sin(t) * np.exp(-t), 0.0)
@@ -95,7 +96,7 @@ def h_homogeneous(x, u):
     At the jump ``x = 0`` the value is the mean of the one-sided limits, ``1/u`` (the
     trapezoid convention: with it the discrete sum approximates ``∫H_u = 1`` to O(u^-2)).
     """
-    u = positive("u", u)
+    u = scale("u", u)
     x = np.asarray(x, dtype=np.float64)
     t = np.where(x > 0, x, 0.0) / u
     return np.where(x > 0, (2.0 / u) * np.cos(t) * np.exp(-t), np.where(x == 0, 1.0 / u, 0.0))
@@ -155,13 +156,13 @@ def g_affine_approx(x, x0, sigma, x_U):
 
 def d_uniform(x, u):
     """Single-scale differentiator D_u (eq. 19): ``-(1/u^2) exp(-|x|/u) sin(x/u)``."""
-    u = positive("u", u)
+    u = scale("u", u)
     x = np.asarray(x, dtype=np.float64)
     return -(1.0 / u**2) * np.exp(-np.abs(x) / u) * np.sin(x / u)
 
 
 def edge_weights(u, a, eta):
-    u = positive("u", u)
+    u = scale("u", u)
     a = positive("a", a)
     eta = positive("eta", eta)
     big_a = 2.0 / (u * eta**2 * (1.0 + a))
@@ -252,7 +253,7 @@ class UniformGreen(GreenKernel):
     u: float
 
     def __post_init__(self):
-        object.__setattr__(self, "u", positive("u", self.u))
+        object.__setattr__(self, "u", scale("u", self.u))
 
     shift_invariant = True
 
@@ -271,7 +272,7 @@ class HomogeneousGreen(GreenKernel):
     u: float
 
     def __post_init__(self):
-        object.__setattr__(self, "u", positive("u", self.u))
+        object.__setattr__(self, "u", scale("u", self.u))
 
     shift_invariant = True
 
@@ -368,11 +369,6 @@ class AffineGreenApprox(GreenKernel):
 # --------------------------------------------------------------------------------------
 # discrete operators built from G_u: shift, derivative D, projection P
 # --------------------------------------------------------------------------------------
-def _geometric_moments(lam):
-    """Σ_{m>=1} m^k lam^(m-1) for k = 0, 1, 2."""
-    return 1 / (1 - lam), 1 / (1 - lam) ** 2, (1 + lam) / (1 - lam) ** 3
-
-
 @lru_cache(maxsize=256)
 def shift_coefficients(u):
     """Taps ``w[0] = tap``, ``w[m] = Re(K lam^(m-1))`` of the discrete shift by ``u``.
@@ -382,29 +378,25 @@ def shift_coefficients(u):
     exact constraints ``Σ w = 1`` and ``Σ m w = u``, with a strong penalty pulling the
     variance to that of the pixel-integrated continuous kernel, 1/12 (``u(1-u)``, the linear
     interpolation variance, below u ≈ 0.092 where 1/12 is not reachable with small taps).
+    Computed by :func:`shift_coefficients_many`, so a scalar call and a batch agree.
     """
-    lam = np.exp(complex(-1.0, 1.0) / u)
-    h = 0.5 / u
-    tap_cell = 1.0 - math.exp(-h) * (math.sin(h) + math.cos(h))
-    k_cell = (1 - 1j) * np.sqrt(lam) * (1 - lam)
-    s0, s1, s2 = _geometric_moments(lam)
-    constraints = np.array([[1.0, s0.real, -s0.imag], [0.0, s1.real, -s1.imag]])
-    target = np.array([1.0, u])
-    var = u * (1 - u) if (u < 0.5 and u * (1 - u) < 1 / 12) else 1 / 12
-    second = np.array([0.0, s2.real, -s2.imag])
-    norm = np.linalg.norm(second)
-    second, second_target = second / norm, (var + u * u) / norm
-    # tap-space Gram matrix of (tap, Re K, Im K)
-    abs2, z2 = 1 / (1 - abs(lam) ** 2), 1 / (1 - lam**2)
-    rr, ii, ri = 0.5 * (abs2 + z2.real), 0.5 * (abs2 - z2.real), 0.5 * z2.imag
-    gram = np.array([[1.0, 0, 0], [0, rr, -ri], [0, -ri, ii]])
-    prior = np.array([tap_cell, k_cell.real, k_cell.imag])
-    rho = 1e4 * max(1.0, np.abs(gram).max())
-    quad = gram + rho * np.outer(second, second)
-    lin = gram @ prior + rho * second * second_target
-    kkt = np.block([[quad, constraints.T], [constraints, np.zeros((2, 2))]])
-    sol = np.linalg.lstsq(kkt, np.concatenate([lin, target]), rcond=None)[0]
-    return complex(lam), complex(sol[1], sol[2]), float(sol[0])
+    lam, kap, tap = shift_coefficients_many(np.array([u], np.float64))
+    return complex(lam[0]), complex(kap[0]), float(tap[0])
+
+
+def shift_coefficients_many(u):
+    """:func:`shift_coefficients` for an array of ``u > 0`` at once: ``(lam, kap, tap)`` arrays.
+
+    One batched float64 solve (:mod:`gfgpu._core.shiftfit`) instead of one per ``u``: what
+    per-line plans (shears, oblique passes) need for thousands of lines.
+
+    Examples
+    --------
+    >>> lam, kap, tap = shift_coefficients_many([0.25, 3.0])
+    >>> lam.shape, bool(abs(complex(kap[1]) - shift_coefficients(3.0)[1]) < 1e-15)
+    ((2,), True)
+    """
+    return _shift_coefficients_many(u)
 
 
 def shift_pass(u):
@@ -433,7 +425,7 @@ def derivative_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
     (point-sampled), normalised so that ``-Σ m D[m] = 1`` (unit ramp response).
     """
     if single_scale:
-        u = positive("u", u)
+        u = scale("u", u)
         scales = ((u, 1.0),)
     else:
         u, a, eta, _, big_k = edge_weights(u, a, eta)
@@ -457,7 +449,7 @@ def projection_passes(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False):
     ``q_u`` alone.
     """
     if single_scale:
-        u = positive("u", u)
+        u = scale("u", u)
         scales = ((u, u),)
     else:
         u, a, eta, _, big_k = edge_weights(u, a, eta)

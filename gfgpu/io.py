@@ -1,21 +1,37 @@
-"""Image files: reading (with bundled examples), display conversions and atomic writes.
+"""Image files: reading (with bundled examples), writing at the input's bit depth, display
+conversions and atomic writes.
+
+Reading (:func:`read_image`): imageio's Pillow plugin and tifffile, the image upright (EXIF
+orientation), CMYK converted to RGB, one image per file (animations, multi-page TIFFs and complex
+samples are refused), never opening anything but a regular file.  Writing (:func:`write_image`,
+:func:`save_image`): the format named by the extension (:data:`IMAGE_FORMATS`; any other is
+refused), at the input's depth (:func:`to_output`).
 
 Every output is written to a temporary file in the destination's directory and renamed into
 place, so an interrupted run never leaves a partial file; inputs are never written.  Errors are
-``OSError`` (unreadable or unwritable files) or ``ValueError`` (bad names or contents); the
-command line turns them into one-line messages.
+``OSError`` (unreadable or unwritable files; :class:`OutputError` when an output could not be
+written) or ``ValueError`` (bad names or contents); the command line turns them into one-line
+messages.
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
+import re
+import socket
+import stat
 import tempfile
+import time
 from importlib import resources
 
 import numpy as np
 
-__all__ = ["EXAMPLES", "example_image", "read_image", "write_atomic", "save_png", "save_npy",
-           "to_display_8bit", "gradient_to_rgb", "colourise_disparity", "write_pfm", "read_pfm"]
+__all__ = ["EXAMPLES", "IMAGE_FORMATS", "OutputError", "example_image", "read_image", "regular_file_problem",
+           "image_format", "check_output", "write_atomic", "remove_stale_temporaries", "write_image",
+           "to_output", "save_image", "save_png", "save_npy", "has_alpha", "alpha_scale", "premultiply",
+           "unpremultiply", "to_display_8bit", "gradient_to_rgb", "colourise_disparity", "write_pfm", "read_pfm",
+           "write_ply", "disparity_to_png16", "colour_bar"]
 
 #: bundled example images (gfgpu/data/NAME.png)
 EXAMPLES = ("camera",)
@@ -30,30 +46,249 @@ def example_image(name):
         return iio.imread(p)
 
 
+#: extensions of the image formats read and written (compared case-insensitively) and the format
+#: each names; an output's format is chosen from its extension, any other extension is refused
+IMAGE_FORMATS = {".png": "PNG", ".tif": "TIFF", ".tiff": "TIFF", ".jpg": "JPEG", ".jpeg": "JPEG", ".bmp": "BMP"}
+
+_TIFF_MAGIC = (b"II*\x00", b"MM\x00*", b"II+\x00", b"MM\x00+")
+_PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+#: Pillow modes read as RGB (colour spaces that are not RGB samples)
+_TO_RGB = ("CMYK", "YCbCr", "LAB", "HSV")
+#: TIFF/EXIF orientation (tag 274) -> the numpy operation that shows the image upright
+_ORIENT = {2: lambda a: a[:, ::-1], 3: lambda a: a[::-1, ::-1], 4: lambda a: a[::-1],
+           5: lambda a: a.swapaxes(0, 1), 6: lambda a: np.rot90(a, -1), 7: lambda a: np.rot90(a[::-1], -1),
+           8: lambda a: np.rot90(a, 1)}
+
+
+class OutputError(OSError):
+    """An output could not be written (the work was done): a full disk, an I/O error, ...
+
+    Raised by :func:`write_atomic` (and so by every writer here) with the output's own path in
+    the message, never the temporary file's; the command line exits with status 1 for it.
+    """
+
+
+def _file_kind(mode):
+    for test, kind in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+                       (stat.S_ISSOCK, "a socket"), (stat.S_ISCHR, "a character device"),
+                       (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return kind
+    return "not a regular file"
+
+
+def regular_file_problem(path):
+    """``None`` if ``path`` is a regular file (or names nothing), else what it is ("a FIFO
+    (named pipe)", "a directory", ...).  Only ``stat``: a FIFO is never opened (that would block)."""
+    try:
+        mode = os.stat(path).st_mode
+    except OSError:
+        return None
+    return None if stat.S_ISREG(mode) else _file_kind(mode)
+
+
 def read_image(path):
-    """The image file ``path`` as an array (bit depth and channels as stored).
+    """The image file ``path`` as an array, upright, at the bit depth it was stored in.
+
+    Samples keep their type (uint8, uint16, float32, ...) and channels (grey ``(H, W)``, grey +
+    alpha ``(H, W, 2)``, RGB ``(H, W, 3)``, RGBA ``(H, W, 4)``).  The EXIF orientation (JPEG,
+    PNG, ...; TIFF's Orientation tag) is applied; CMYK, YCbCr and LAB images are converted to
+    RGB (palette images too).  TIFF is read with tifffile, the other formats with imageio's
+    Pillow plugin; a 16-bit colour PNG, which Pillow reads at 8 bits only, with imageio's
+    OpenCV plugin (``opencv-python-headless``) or not at all.
 
     Raises
     ------
     OSError
         The file cannot be opened (``FileNotFoundError``, ``PermissionError``, ...).
     ValueError
-        Its contents cannot be decoded as an image (the message names the file).
+        Not a regular file (a FIFO, a directory, a device: never opened), an empty file, contents
+        that cannot be decoded (corrupt, truncated, an unknown format, a decompression bomb), a
+        file of several images (an animated GIF or PNG, a multi-page TIFF: gfgpu processes one
+        image per file) or complex samples.  The message names the file and says why, in one line.
     """
     import imageio.v3 as iio
+    name = os.fspath(path)
+    st = os.stat(name)                                  # FileNotFoundError, PermissionError
+    if not stat.S_ISREG(st.st_mode):
+        raise ValueError(f"cannot read image {name!r}: it is {_file_kind(st.st_mode)}, not a regular file "
+                         f"(not opened)")
+    if st.st_size == 0:
+        raise ValueError(f"cannot read image {name!r}: the file is empty (0 bytes)")
+    with open(name, "rb") as f:                         # PermissionError
+        head = f.read(32)
     try:
-        return iio.imread(path)
-    except OSError:
-        raise
-    except ValueError as exc:
-        raise ValueError(f"cannot read image {os.fspath(path)!r}: {exc}") from None
+        if head[:4] in _TIFF_MAGIC:
+            return _read_tiff(name)
+        return _read_pillow(iio, name, head)
+    except _Refused as exc:
+        raise ValueError(f"cannot read image {name!r}: {exc}") from None
+    except Exception as exc:    # Pillow raises OSError, ValueError, SyntaxError, DecompressionBombError, ...
+        cause = _root_cause(exc)
+        if not isinstance(cause, (OSError, ValueError, SyntaxError, EOFError, MemoryError, IndexError, KeyError)) \
+                and type(cause).__name__ != "DecompressionBombError":
+            raise
+        raise ValueError(f"cannot read image {name!r}: {_reason(cause)}") from None
+
+
+def _root_cause(exc):
+    """The error a plugin wrapped (imageio re-raises Pillow's errors as its own)."""
+    seen = {id(exc)}
+    while True:
+        inner = exc.__cause__ or exc.__context__
+        if inner is None or id(inner) in seen or "unknown error occurred" not in str(exc):
+            return exc
+        seen.add(id(inner))
+        exc = inner
+
+
+class _Refused(Exception):
+    """A readable file gfgpu does not process (several frames, complex samples, ...)."""
+
+
+def _reason(exc):
+    """One line saying why a decoder failed (imageio appends lines of plugin hints)."""
+    if type(exc).__name__ == "DecompressionBombError":
+        return f"{exc} (Pillow's limit PIL.Image.MAX_IMAGE_PIXELS; raise it only for a file you trust)"
+    if isinstance(exc, MemoryError):
+        return "not enough memory to decode it"
+    lines = [line.strip() for line in str(exc).splitlines() if line.strip()]
+    unknown = ("Could not find a backend", "cannot identify image file", "can not handle the given uri")
+    if not lines or any(text in lines[0] for text in unknown):
+        return "not a readable image (corrupt, or an unsupported format)"
+    return lines[0]
+
+
+def _read_pillow(iio, name, head):
+    props = iio.improps(name, plugin="pillow", index=None)
+    if props.is_batch and props.n_images != 1:
+        raise _Refused(f"it holds {props.n_images} frames (an animation or a multi-page file); gfgpu "
+                       f"processes one image per file: extract the frames first")
+    if head[:8] == _PNG_MAGIC and head[12:16] == b"IHDR" and head[24] == 16 and head[25] in (2, 4, 6):
+        return _read_png16_colour(iio, name, head[25])
+    mode = iio.immeta(name, plugin="pillow").get("mode")
+    image = iio.imread(name, plugin="pillow", index=0, rotate=True, mode="RGB" if mode in _TO_RGB else None)
+    return np.asarray(image)
+
+
+def _read_png16_colour(iio, name, colour_type):
+    try:
+        import cv2
+    except ImportError:
+        raise _Refused("a 16-bit colour PNG, which Pillow reads at 8 bits only: install "
+                       "opencv-python-headless to read it at 16 bits, or convert it to a 16-bit TIFF") from None
+    image = np.asarray(iio.imread(name, plugin="opencv", flags=cv2.IMREAD_UNCHANGED))
+    if colour_type == 4 and image.ndim == 3 and image.shape[-1] == 4:   # grey + alpha, expanded by OpenCV
+        image = image[..., [0, 3]]
+    return image
+
+
+def _read_tiff(name):
+    import tifffile
+    with tifffile.TiffFile(name) as tif:
+        series = tif.series
+        frames = sum(len(s.pages) for s in series) if series else len(tif.pages)
+        if frames != 1:
+            raise _Refused(f"it holds {frames} images (a multi-page TIFF); gfgpu processes one image per "
+                           f"file: split the pages first")
+        page = series[0].pages[0] if series else tif.pages[0]
+        image = page.asarray()
+        if image.dtype.kind == "c":
+            raise _Refused(f"complex samples ({image.dtype}); gfgpu filters real images: write the real and "
+                           f"imaginary parts as two files")
+        if page.axes.startswith("S") and image.ndim == 3:        # planar configuration: samples first
+            image = np.moveaxis(image, 0, -1)
+        if page.photometric == tifffile.PHOTOMETRIC.SEPARATED and image.ndim == 3 and image.shape[-1] >= 4:
+            top = np.iinfo(image.dtype).max if image.dtype.kind in "iu" else 1.0   # CMYK -> RGB
+            ink = image[..., :4].astype(np.float64) / top
+            rgb = (1 - ink[..., :3]) * (1 - ink[..., 3:4]) * top
+            image = (np.rint(rgb) if image.dtype.kind in "iu" else rgb).astype(image.dtype)
+        tag = page.tags.get("Orientation")
+    if tag is not None and tag.value in _ORIENT:
+        image = np.ascontiguousarray(_ORIENT[tag.value](image))
+    return image
+
+
+def image_format(path, name="output"):
+    """The format (``'PNG'``, ``'TIFF'``, ``'JPEG'``, ``'BMP'``) that ``path``'s extension names;
+    ``ValueError`` naming ``name`` and the path for any other extension."""
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if ext not in IMAGE_FORMATS:
+        raise ValueError(f"{name} {os.fspath(path)}: unknown image format {ext or '(no extension)'!r}; use "
+                         f"{', '.join(IMAGE_FORMATS)}")
+    return IMAGE_FORMATS[ext]
+
+
+def _temp_prefix():
+    """``.gfgpu-HOST-PID-``: whose temporary file it is, so a later run can tell a stale one."""
+    host = re.sub(r"[^A-Za-z0-9.]", "_", socket.gethostname())[:40] or "host"
+    return f".gfgpu-{host}-{os.getpid()}-"
+
+
+_TEMP_NAME = re.compile(r"^\.gfgpu-(?:(?P<host>[A-Za-z0-9._]+)-(?P<pid>\d+)-)?[A-Za-z0-9_]{8}(?:\.[^.]*)?$")
+
+
+def check_output(path, *, name="output", extensions=None):
+    """Fail at once (before any work) if ``path`` cannot be written; returns it.
+
+    Checks that its extension is one of ``extensions`` (if given), that it is not a directory,
+    that its folder exists (it is not created), is a directory, and that a file can be created
+    there: a hidden temporary file is created and removed at once, which also catches read-only
+    file systems and pseudo file systems such as ``/proc``.
+
+    Raises
+    ------
+    ValueError
+        Another extension.
+    OSError
+        ``IsADirectoryError``, ``FileNotFoundError`` (a missing folder), ``NotADirectoryError``,
+        ``PermissionError`` or another error creating a file there; the message names ``name``
+        and the path.
+    """
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        raise IsADirectoryError(f"{name} {p}: is a directory, not a file name")
+    if extensions is not None:
+        ext = os.path.splitext(p)[1].lower()
+        if ext not in extensions:
+            raise ValueError(f"{name} {p}: the extension must be {' or '.join(extensions)}, got "
+                             f"{ext or 'none'}")
+    folder = os.path.dirname(os.path.abspath(p))
+    if not os.path.exists(folder):
+        raise FileNotFoundError(f"{name} {p}: the folder {folder} does not exist (it is not created)")
+    if not os.path.isdir(folder):
+        raise NotADirectoryError(f"{name} {p}: {_nearest_file(folder)} is not a directory")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=_temp_prefix())
+    except OSError as exc:
+        raise type(exc)(f"{name} {p}: cannot create a file in {folder} "
+                        f"({exc.strerror or exc})") from None
+    os.close(fd)
+    os.unlink(tmp)
+    return p
+
+
+def _nearest_file(folder):
+    while folder and not os.path.exists(folder):
+        folder = os.path.dirname(folder)
+    return folder
 
 
 def write_atomic(path, write):
-    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it to ``path``."""
+    """Call ``write(tmp)`` on a temporary file beside ``path``, then rename it to ``path``.
+
+    The temporary file is ``.gfgpu-HOST-PID-XXXXXXXX<ext>`` in ``path``'s folder (which must
+    exist: it is not created) and is removed if ``write`` fails; only a hard kill can leave one,
+    and :func:`remove_stale_temporaries` removes those.  An ``OSError`` while creating, writing
+    or renaming (a missing or read-only folder, a full disk) becomes an :class:`OutputError`
+    naming ``path``, not the temporary file; other exceptions of ``write`` pass unchanged.
+    """
+    path = os.fspath(path)
     folder = os.path.dirname(os.path.abspath(path)) or "."
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=os.path.splitext(path)[1], prefix=".gfgpu-")
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, suffix=os.path.splitext(path)[1], prefix=_temp_prefix())
+    except OSError as exc:
+        raise _output_error(path, exc) from None
     os.close(fd)
     try:
         write(tmp)
@@ -62,14 +297,158 @@ def write_atomic(path, write):
         os.umask(umask)
         os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise _output_error(path, exc) from None
         raise
 
 
+def _output_error(path, exc):
+    err = OutputError(f"cannot write {path}: {exc.strerror or exc}")
+    err.errno = exc.errno
+    return err
+
+
+def remove_stale_temporaries(folder, *, max_age=86400.0):
+    """Remove the temporary files that killed runs of gfgpu left in ``folder``; their paths.
+
+    Only files named as :func:`write_atomic` names them (``.gfgpu-HOST-PID-XXXXXXXX<ext>``, or
+    ``.gfgpu-XXXXXXXX<ext>`` of earlier versions), and only stale ones: written by a process of
+    this host that no longer runs, or (another host's, or no process id) last modified more than
+    ``max_age`` seconds ago.  A process of this host that still runs keeps its files, whatever
+    their age.  Nothing else is touched; a missing folder has none.
+    """
+    folder = os.fspath(folder)
+    try:
+        names = os.listdir(folder)
+    except (FileNotFoundError, NotADirectoryError):
+        return []
+    host = _temp_prefix().split("-")[1]
+    now, removed = time.time(), []
+    for entry in names:
+        m = _TEMP_NAME.match(entry)
+        if m is None:
+            continue
+        path = os.path.join(folder, entry)
+        try:
+            st = os.lstat(path)
+        except OSError:
+            continue
+        if not stat.S_ISREG(st.st_mode):
+            continue
+        if m["pid"] is not None and m["host"] == host:
+            stale = not _process_alive(int(m["pid"]))
+        else:
+            stale = now - st.st_mtime > max_age
+        if stale:
+            with contextlib.suppress(OSError):
+                os.unlink(path)
+                removed.append(path)
+    return removed
+
+
+def _process_alive(pid):
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:       # PermissionError: someone else's live process
+        return True
+    return True
+
+
+def write_image(path, image):
+    """Write the array ``image`` in the format of ``path``'s extension, atomically.
+
+    ``.png``: uint8 or uint16, grey, grey + alpha, RGB or RGBA (a 16-bit colour PNG needs
+    ``opencv-python-headless``; Pillow writes 16-bit grey only).  ``.tif``/``.tiff`` (tifffile):
+    any real sample type, alpha as an unassociated extra sample.  ``.jpg``/``.jpeg`` and
+    ``.bmp``: uint8 grey or RGB; an alpha channel is dropped (neither format keeps it).
+
+    Raises
+    ------
+    ValueError
+        Another extension, or samples the format cannot hold (e.g. float in a PNG).
+    OutputError
+        The file could not be written (see :func:`write_atomic`).
+    """
+    fmt = image_format(path)
+    arr = np.asarray(image)
+    channels = 1 if arr.ndim == 2 else arr.shape[-1]
+    if arr.ndim not in (2, 3) or channels not in (1, 2, 3, 4):
+        raise ValueError(f"cannot write an array of shape {arr.shape} as an image (grey, grey + alpha, RGB "
+                         f"or RGBA)")
+    if fmt == "TIFF":
+        import tifffile
+        if arr.dtype.kind not in "biuf":
+            raise ValueError(f"cannot write {arr.dtype} samples as TIFF")
+        kw = dict(photometric="rgb" if channels in (3, 4) else "minisblack")
+        if channels in (2, 4):
+            kw["extrasamples"] = ["unassalpha"]
+        write_atomic(path, lambda tmp: tifffile.imwrite(tmp, arr, **kw))
+        return
+    import imageio.v3 as iio
+    if fmt in ("JPEG", "BMP") and channels in (2, 4):
+        arr = arr[..., :-1]
+        channels -= 1
+    if arr.ndim == 3 and channels == 1:
+        arr = arr[..., 0]
+    allowed = (np.uint8, np.uint16) if fmt == "PNG" else (np.uint8,)
+    if arr.dtype not in allowed:
+        raise ValueError(f"{fmt} holds {' or '.join(np.dtype(t).name for t in allowed)} samples, not "
+                         f"{arr.dtype}; write a .tif for other sample types")
+    ext = os.path.splitext(os.fspath(path))[1].lower()
+    if arr.dtype == np.uint16 and arr.ndim == 3:
+        try:
+            import cv2  # noqa: F401  (imageio's OpenCV plugin)
+        except ImportError:
+            raise ValueError("a 16-bit colour PNG needs opencv-python-headless (Pillow writes 16-bit grey "
+                             "only); write a .tif instead") from None
+        write_atomic(path, lambda tmp: iio.imwrite(tmp, arr, plugin="opencv", extension=ext))
+        return
+    write_atomic(path, lambda tmp: iio.imwrite(tmp, arr, extension=ext))
+
+
+def _round_clip(values, dtype):
+    info = np.iinfo(dtype)
+    return np.clip(np.rint(np.nan_to_num(values, nan=0.0)), info.min, info.max).astype(dtype)
+
+
+def to_output(result, original, path):
+    """The filtered ``result`` of the image ``original``, in the samples written to ``path``.
+
+    What was read is written at its depth: uint8 input gives uint8 (rounded, clipped);
+    uint16 input gives uint16 in a PNG or TIFF and ``round(v / 257)`` 8-bit in a JPEG or BMP;
+    other integer input keeps its type in a TIFF; float input gives float32 in a TIFF (float64
+    input, float64); otherwise (float or other integers into PNG, JPEG, BMP) the 8-bit display
+    conversion :func:`to_display_8bit`.
+    """
+    fmt = image_format(path)
+    src = np.asarray(original).dtype
+    res = np.asarray(result)
+    if src == np.uint8:
+        return _round_clip(res, np.uint8)
+    if src == np.uint16:
+        return _round_clip(res, np.uint16) if fmt in ("PNG", "TIFF") else _round_clip(res / 257.0, np.uint8)
+    if fmt == "TIFF" and src.kind in "iu":
+        return _round_clip(res, src)
+    if fmt == "TIFF" and src.kind == "f":
+        return res.astype(np.float64 if src == np.float64 else np.float32)
+    return to_display_8bit(res, original)
+
+
+def save_image(path, result, original):
+    """Write ``result``, the filtered ``original``, to ``path`` at the original's depth
+    (:func:`to_output`, :func:`write_image`)."""
+    write_image(path, to_output(result, original, path))
+
+
 def save_png(path, image):
-    """Write an 8-bit (or 16-bit) image as PNG, atomically."""
+    """Write an 8-bit (or 16-bit grey) image as PNG, atomically (whatever ``path``'s extension)."""
     import imageio.v3 as iio
     write_atomic(path, lambda tmp: iio.imwrite(tmp, image, extension=".png"))
 
@@ -82,13 +461,46 @@ def save_npy(path, array):
     write_atomic(path, write)
 
 
+def has_alpha(image):
+    """Whether ``image`` (channels last) is grey + alpha ``(H, W, 2)`` or RGBA ``(H, W, 4)``."""
+    return np.ndim(image) == 3 and np.shape(image)[-1] in (2, 4)
+
+
+def alpha_scale(dtype):
+    """The alpha value of an opaque pixel: the integer type's maximum, 1 for floats and bool."""
+    dtype = np.dtype(dtype)
+    return float(np.iinfo(dtype).max) if dtype.kind in "iu" else 1.0
+
+
+def premultiply(image, dtype=np.float32):
+    """``(colour * a, alpha)`` of an image with alpha last, as ``dtype`` (``a`` = alpha / its
+    opaque value), so that a linear filter of all channels gives no dark fringes at edges."""
+    x = np.asarray(image).astype(dtype)
+    a = x[..., -1:] / alpha_scale(np.asarray(image).dtype)
+    return np.concatenate([x[..., :-1] * a, x[..., -1:]], axis=-1)
+
+
+def unpremultiply(result, original_dtype):
+    """Inverse of :func:`premultiply` on filtered channels: colour divided by the filtered alpha
+    where it is > 0 (colour 0 where the result is transparent); alpha as filtered."""
+    res = np.asarray(result)
+    a = res[..., -1:] / alpha_scale(original_dtype)
+    colour = np.divide(res[..., :-1], a, out=np.zeros_like(res[..., :-1]), where=a > 0)
+    return np.concatenate([colour, res[..., -1:]], axis=-1)
+
+
 def to_display_8bit(result, original):
-    """Display conversion of a filtered image: round and clip to the input's value range."""
-    if original.dtype == np.uint8:
-        return np.clip(np.rint(result), 0, 255).astype(np.uint8)
+    """Display conversion of a filtered image to uint8: uint8 input rounded and clipped; uint16
+    input ``round(v / 257)`` (its full range, so a flat image keeps its grey level); other
+    input stretched from its value range to 0..255 (a flat one to 0)."""
+    dtype = np.asarray(original).dtype
+    if dtype == np.uint8:
+        return _round_clip(result, np.uint8)
+    if dtype == np.uint16:
+        return _round_clip(np.asarray(result) / 257.0, np.uint8)
     lo, hi = float(np.min(original)), float(np.max(original))
     scale = 255.0 / (hi - lo) if hi > lo else 1.0
-    return np.clip(np.rint((result - lo) * scale), 0, 255).astype(np.uint8)
+    return _round_clip((np.asarray(result) - lo) * scale, np.uint8)
 
 
 def gradient_to_rgb(gy, gx):
@@ -139,3 +551,117 @@ def read_pfm(path):
     if data.size != w * h:
         raise ValueError(f"{path}: truncated PFM ({data.size} of {w * h} samples)")
     return data.reshape(h, w)[::-1].astype(np.float32)
+
+
+def write_ply(path, points, colors=None, *, binary=True):
+    """Write a point cloud as a PLY file (vertices ``x, y, z`` float32, optional ``red, green,
+    blue`` uchar), through the ``plyfile`` package; points with a NaN coordinate are dropped.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output file (written atomically).
+    points : (..., 3) array_like
+        Coordinates, e.g. the (H, W, 3) output of :func:`gfgpu.stereo.reproject_to_3d`.
+    colors : (..., 3) or (...) array_like, optional
+        Colour per point, same leading shape (grey is repeated); uint8, or floats in [0, 1]
+        if float.
+    binary : bool, optional
+        Binary little-endian (default) or ASCII PLY.
+
+    Returns
+    -------
+    int
+        The number of points written.
+
+    Raises
+    ------
+    ValueError
+        ``points`` not of shape (..., 3), or ``colors`` of another leading shape.
+    OSError
+        The file cannot be written.
+
+    Examples
+    --------
+    >>> import numpy as np, os, tempfile
+    >>> pts = np.array([[[0, 0, 1], [np.nan, 0, 1]], [[1, 2, 3], [4, 5, 6]]], np.float32)
+    >>> path = os.path.join(tempfile.mkdtemp(), "cloud.ply")
+    >>> write_ply(path, pts, np.full((2, 2), 200, np.uint8))
+    3
+    """
+    from plyfile import PlyData, PlyElement
+    pts = np.asarray(points, np.float32)
+    if pts.ndim < 1 or pts.shape[-1] != 3:
+        raise ValueError(f"points must have shape (..., 3), got {pts.shape}")
+    keep = np.isfinite(pts).all(axis=-1)
+    fields = [("x", "f4"), ("y", "f4"), ("z", "f4")]
+    cols = None
+    if colors is not None:
+        c = np.asarray(colors)
+        if c.shape == pts.shape[:-1]:
+            c = np.repeat(c[..., None], 3, axis=-1)
+        if c.shape[:-1] != pts.shape[:-1] or c.shape[-1] not in (3, 4):
+            raise ValueError(f"colors must have shape {pts.shape[:-1]} or {pts.shape[:-1] + (3,)}, got {c.shape}")
+        c = c[..., :3]
+        if c.dtype.kind == "f":
+            c = np.clip(np.rint(c * 255), 0, 255)
+        cols = c.astype(np.uint8)[keep]
+        fields += [("red", "u1"), ("green", "u1"), ("blue", "u1")]
+    vert = np.empty(int(keep.sum()), dtype=fields)
+    for i, name in enumerate("xyz"):
+        vert[name] = pts[keep][:, i]
+    if cols is not None:
+        for i, name in enumerate(("red", "green", "blue")):
+            vert[name] = cols[:, i]
+    data = PlyData([PlyElement.describe(vert, "vertex")], text=not binary, byte_order="<")
+    write_atomic(path, lambda tmp: data.write(tmp))
+    return int(vert.size)
+
+
+def disparity_to_png16(disp):
+    """A disparity map as a 16-bit image in the KITTI convention: ``round(d * 256)``, 0 = invalid.
+
+    NaN, non-positive and too large disparities (``d * 256 > 65535``) become 0 (KITTI has no
+    negative disparities; a disparity of exactly 0 is indistinguishable from invalid there).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> disparity_to_png16(np.array([[1.5, np.nan, 0.0, 300.0]], np.float32))
+    array([[384,   0,   0,   0]], dtype=uint16)
+    """
+    d = np.asarray(disp, np.float64)
+    v = np.rint(np.nan_to_num(d, nan=0.0) * 256)
+    return np.where((v > 0) & (v <= 65535), v, 0).astype(np.uint16)
+
+
+def colour_bar(height, d_min, d_max, width=48):
+    """(height, width, 3) uint8 vertical Turbo bar from ``d_max`` (top) to ``d_min`` (bottom),
+    with tick marks and the two end values written in a 3x5 pixel font (digits, '-', '.')."""
+    t = np.linspace(1, 0, height)[:, None].repeat(width // 2, axis=1)
+    bar = colourise_disparity(d_min + t * (d_max - d_min), d_min, d_max)
+    out = np.zeros((height, width, 3), np.uint8)
+    out[:, :width // 2] = bar
+    for frac in (0, 0.25, 0.5, 0.75, 1):
+        y = int(round(frac * (height - 1)))
+        out[y, width // 2:width // 2 + 4] = 255
+    _draw_text(out, f"{d_max:g}", 2, width // 2 + 6)
+    _draw_text(out, f"{d_min:g}", height - 8, width // 2 + 6)
+    return out
+
+
+_FONT = {"0": "111101101101111", "1": "010110010010111", "2": "111001111100111", "3": "111001111001111",
+         "4": "101101111001001", "5": "111100111001111", "6": "111100111101111", "7": "111001001001001",
+         "8": "111101111101111", "9": "111101111001111", "-": "000000111000000", ".": "000000000000010"}
+
+
+def _draw_text(img, text, top, left):
+    for i, ch in enumerate(text):
+        glyph = _FONT.get(ch)
+        if glyph is None:
+            continue
+        g = np.array([int(b) for b in glyph], bool).reshape(5, 3)
+        y0, x0 = top, left + 4 * i
+        if y0 < 0 or y0 + 5 > img.shape[0] or x0 + 3 > img.shape[1]:
+            return
+        img[y0:y0 + 5, x0:x0 + 3][g] = 255

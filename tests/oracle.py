@@ -77,41 +77,6 @@ def direct_axis(image, kernel, axis, mode, cval=0.0, anticausal=False):
     out = np.stack([direct_line(l, kernel, mode, cval, anticausal) for l in flat])
     return np.moveaxis(out.reshape(img.shape), -1, axis)
 
-
-def direct_oblique(image, kernel, angle, mode, cval=0.0, anticausal=False):
-    """Direct summation along the digital lines of an image-plane direction (2-D image).
-
-    Independent of gfgpu.lines: the image is padded across the minor axis with numpy.pad,
-    each line is read from the padded image and summed with the closed form.
-    """
-    img = np.asarray(image, np.float64)
-    c, s = np.cos(angle), np.sin(angle)
-    steep = abs(s) > abs(c) + 1e-12
-    if steep:   # transpose: dominant axis becomes x
-        img = img.T
-        c, s = s, c
-    reverse = c < 0
-    gamma = s / c
-    h, w = img.shape
-    r = np.floor(gamma * np.arange(w) + 0.5).astype(int)
-    margin = int(np.abs(r).max()) + 1
-    if mode == "constant":
-        padded = np.pad(img, ((margin, margin), (0, 0)), mode="constant", constant_values=cval)
-    elif mode == "mirror" and h == 1:
-        padded = np.pad(img, ((margin, margin), (0, 0)), mode="edge")
-    else:
-        padded = np.pad(img, ((margin, margin), (0, 0)), mode=NP_PAD[mode])
-    out = np.zeros_like(img)
-    cols = np.arange(w)
-    for y in range(h):
-        for x in range(w):
-            ell = y - r[x]
-            line = padded[ell + r + margin, cols]
-            res = direct_line(line, kernel, mode, cval, anticausal=(reverse != anticausal))
-            out[y, x] = res[x]
-    return out.T if steep else out
-
-
 def relerr(out, ref):
     out = np.asarray(out, np.float64)
     ref = np.asarray(ref, np.float64)

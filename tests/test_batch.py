@@ -350,3 +350,93 @@ def test_local_cluster_two_workers(images, tmp_path, capsys):
                                       np.load(tmp_path / "here" / f"{name}.npy"))
     assert not leftovers(tmp_path / "dask")
     assert tree_digest(images) == before
+
+
+# --------------------------------------------------------------------------------------
+# files (issue 16, items 9, 10, 12): own outputs, special files, leftovers, depth and alpha
+# --------------------------------------------------------------------------------------
+def test_output_folder_inside_the_input_pattern_is_skipped_on_rerun(images, capsys):
+    """``gfgpu batch shift 'imgs/**/*.png' -o imgs/out`` twice: the rerun does not take its own
+    outputs as inputs (before: "would overwrite an input")."""
+    pattern, out = str(images / "**" / "*.png"), images / "out"
+    before = tree_digest(images)
+    assert run_cli("shift", pattern, "-o", out, "--dx", 1, "--backend", "numpy") == 0
+    assert "3 ok, 0 skipped, 0 failed" in capsys.readouterr().out
+    outputs = tree_digest(out)
+    assert run_cli("shift", pattern, "-o", out, "--dx", 1, "--backend", "numpy") == 0
+    text = capsys.readouterr().out
+    assert "left out 3 file(s) inside the output folder" in text and "0 ok, 3 skipped, 0 failed" in text
+    assert tree_digest(out) == outputs and tree_digest(images) == before
+    # a pattern rooted in the output folder itself names its files: still refused, not skipped
+    fails_with(capsys, "overwrite an input", "shift", str(images / "*.png"), "-o", images, "--dx", 1)
+
+
+def test_a_fifo_named_like_an_image_is_skipped_and_reported(images, tmp_path):
+    """Run as a separate process with a timeout: opening the FIFO would block forever."""
+    import subprocess
+    import sys
+    os.mkfifo(images / "pipe.png")
+    res = subprocess.run([sys.executable, "-m", "gfgpu", "batch", "shift", str(images), str(images / "*.png"),
+                          "-o", str(tmp_path / "out"), "--dx", "1", "--backend", "numpy", "-q"],
+                         capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    assert "4 file(s): 3 ok, 1 skipped, 0 failed" in res.stdout, res.stdout    # the FIFO: reported once
+    assert f"skipped: {images / 'pipe.png'}: not a regular file (a FIFO (named pipe)): not read" in res.stdout
+    assert sorted(os.listdir(tmp_path / "out")) == ["c1.png", "c2.png", "g.png"]
+    job = batch.Job(str(images / "pipe.png"), str(tmp_path / "p.npy"), "shift", {"shift": (1, 1)}, "npy")
+    r = batch.process_file(job)                                          # never opened here either
+    assert r.status == "failed" and "FIFO" in r.message
+
+
+def test_temporaries_of_a_killed_batch_are_removed_on_the_next_run(images, tmp_path, capsys):
+    """SIGKILL a batch while it writes: its .gfgpu-HOST-PID-* temporary stays; the next run removes
+    it (its process is gone), and keeps what is not a gfgpu temporary."""
+    import signal
+    import subprocess
+    import sys
+    import textwrap
+    out = tmp_path / "out"
+    code = textwrap.dedent(f"""
+        import time, numpy as np, gfgpu.io, gfgpu.cli
+        real = np.save
+        def slow(f, arr, **kw):
+            real(f, arr, **kw)
+            print("writing", flush=True)
+            time.sleep(60)
+        np.save = slow
+        gfgpu.cli.main(["batch", "shift", {str(images)!r}, "-o", {str(out)!r}, "--dx", "1", "--format", "npy",
+                        "--backend", "numpy", "-q"])
+    """)
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "writing"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(30)
+    stale = leftovers(out)
+    assert len(stale) == 1 and f"-{proc.pid}-" in stale[0]
+    (out / ".gfgpu-notes.txt").write_text("not ours")
+    assert run_cli("shift", images, "-o", out, "--dx", 1, "--format", "npy", "--backend", "numpy") == 0
+    captured = capsys.readouterr()
+    assert "removed 1 temporary file(s) of an interrupted run" in captured.err
+    assert "3 ok, 0 skipped, 0 failed" in captured.out
+    assert leftovers(out) == [".gfgpu-notes.txt"]
+
+
+def test_batch_keeps_depth_and_alpha(tmp_path, rng):
+    folder = tmp_path / "in"
+    folder.mkdir()
+    flat16 = np.full((12, 16), 40000, np.uint16)
+    iio.imwrite(folder / "flat16.png", flat16)
+    rgba = np.zeros((12, 16, 4), np.uint8)
+    rgba[3:9, 4:12] = (200, 100, 50, 255)
+    iio.imwrite(folder / "rgba.png", rgba)
+    assert run_cli("blur", folder, "-o", tmp_path / "out", "--dx", 3, "--backend", "numpy") == 0
+    out16 = iio.imread(tmp_path / "out" / "flat16.png")
+    assert out16.dtype == np.uint16 and (out16 == 40000).all()        # not stretched to black
+    res = iio.imread(tmp_path / "out" / "rgba.png")
+    assert res.shape == (12, 16, 4)
+    partly = (res[..., 3] > 20) & (res[..., 3] < 235)
+    assert partly.any()
+    np.testing.assert_allclose(res[partly][:, :3], np.broadcast_to([200, 100, 50], (partly.sum(), 3)), atol=3)
+    assert run_cli("shift", folder / "rgba.png", "-o", tmp_path / "npy", "--dx", 1, "--format", "npy",
+                   "--backend", "numpy") == 0
+    assert np.load(tmp_path / "npy" / "rgba.npy").shape == (12, 16, 4)

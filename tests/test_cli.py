@@ -111,3 +111,243 @@ def test_each_command_names_its_backend(argv, small_png, tmp_path, capsys):
     assert main([*args, "--backend", "numpy"]) == 0, capsys.readouterr().err
     name = argv[0] if argv[0] != "batch" else "batch"
     assert f"gfgpu {name}: backend numpy on host" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------------------
+# files and the command line (issue 16, items 9-11)
+# --------------------------------------------------------------------------------------
+def cli(argv):
+    """``main`` with every argument as a string, as the shell passes them."""
+    return main([str(a) for a in argv])
+
+
+def one_line_error(capsys, code, expect_code, command, pattern):
+    """The command returned ``expect_code`` with one line ``gfgpu COMMAND: ...`` matching ``pattern``."""
+    import re
+    err = capsys.readouterr().err.strip()
+    assert code == expect_code, err
+    assert "\n" not in err and err.startswith(f"gfgpu {command}: ") and re.search(pattern, err), err
+    return err
+
+
+@pytest.mark.parametrize("argv, option", [
+    (("shift", "{img}", "-o", "{link}", "--dx", 1), "-o"),
+    (("shift", "{img}", "-o", "{hard}", "--dx", 1), "-o"),
+    (("shift", "{link}", "-o", "{img}", "--dx", 1), "-o"),
+    (("shift", "{img}", "-o", "{out}/o.png", "--npy", "{npy}", "--dx", 1), "--npy"),
+    (("gradient", "{img}", "-o", "{img}"), "-o"),
+    (("gradient", "{img}", "-o", "{out}/o.png", "--npy", "{npy}"), "--npy"),
+    (("blur", "{img}", "-o", "{hard}", "--dx", 2), "-o"),
+    (("depth", "{img}", "-o", "{out}/o.png", "--relief", "{link}"), "--relief"),
+    (("depth", "{img}", "-o", "{out}/o.png", "--npy", "{npy}"), "--npy"),
+    (("disparity", "{img}", "{img2}", "-o", "{hard}", "--max-disparity", 4), "-o"),
+])
+def test_no_command_writes_an_input(tmp_path, capsys, argv, option):
+    """Also through a symbolic or a hard link, and for every extra output."""
+    import imageio.v3 as iio
+    src = tmp_path / "in.png"
+    iio.imwrite(src, (np.random.default_rng(1).random((16, 20)) * 255).astype(np.uint8))
+    src2 = tmp_path / "in2.png"
+    src2.write_bytes(src.read_bytes())
+    (tmp_path / "link.png").symlink_to(src)
+    os.link(src, tmp_path / "hard.png")
+    data = np.save(tmp_path / "data.npy", np.zeros(3)) or tmp_path / "data.npy"
+    os.link(data, tmp_path / "in.npy")   # --npy names an input (a hard link of it)
+    names = dict(img=src, img2=src2, link=tmp_path / "link.png", hard=tmp_path / "hard.png", out=tmp_path,
+                 npy=tmp_path / "in.npy")
+    before = {n: (tmp_path / n).read_bytes() for n in ("in.png", "in2.png", "in.npy")}
+    args = [str(a).format(**names) for a in argv]
+    if option == "--npy":   # --npy names an input file: make it one
+        args = [str(a).format(**names) for a in argv[:1]] + [str(tmp_path / "in.npy")] + \
+               [str(a).format(**names) for a in argv[2:]]
+    code = cli([*args, "--backend", "numpy"])
+    one_line_error(capsys, code, 2, argv[0], rf"{option} .*(refusing to overwrite|would overwrite) the input")
+    assert {n: (tmp_path / n).read_bytes() for n in before} == before
+    assert (tmp_path / "link.png").is_symlink() and os.path.samefile(tmp_path / "hard.png", src)
+
+
+def test_frames_never_write_an_input(tmp_path, capsys, small_png):
+    folder = tmp_path / "f"
+    folder.mkdir()
+    src = folder / "frame_001.png"
+    src.write_bytes(small_png.read_bytes())
+    code = cli(["frames", str(src), "-o", str(folder), "--dx", 2, "-n", 3, "--backend", "numpy"])
+    one_line_error(capsys, code, 2, "frames", "would overwrite the input")
+    assert src.read_bytes() == small_png.read_bytes() and sorted(os.listdir(folder)) == ["frame_001.png"]
+
+
+@pytest.mark.parametrize("argv, pattern", [
+    (("gradient", "{img}", "-o", "{out}.png", "-u", 0), r"argument -u: must be > 0, got '0'"),
+    (("gradient", "{img}", "-o", "{out}.png", "-u", "nan"), r"argument -u: must be a finite number, got 'nan'"),
+    (("depth", "{img}", "-o", "{out}.png", "-u", "-2"), r"argument -u: must be > 0"),
+    (("shift", "{img}", "-o", "{out}.png", "--dx", "nan"), r"argument --dx: must be a finite number"),
+    (("shift", "{img}", "-o", "{out}.png", "--dy", "1e400"), r"argument --dy: must be a finite number, got '1e400'"),
+    (("blur", "{img}", "-o", "{out}.png", "--zoom", "inf"), r"argument --zoom: must be a finite number"),
+    (("frames", "{img}", "-o", "{out}", "--dx", 2, "--fps", "nan"), r"argument --fps: must be a finite number"),
+    (("frames", "{img}", "-o", "{out}", "--dx", 2, "-n", 0), r"argument -n/--frames: must be >= 1"),
+    (("shift", "{img}", "-o", "{out}.png", "--dx", "one"), r"argument --dx: expected a number, got 'one'"),
+    (("disparity", "{img}", "{img}", "-o", "{out}.png", "--max-disparity", 0),
+     r"argument --max-disparity: must be >= 1"),
+])
+def test_bad_option_values_are_one_line_usage_errors(tmp_path, capsys, small_png, argv, pattern):
+    args = [str(a).format(img=small_png, out=tmp_path / "result") for a in argv]
+    with pytest.raises(SystemExit) as info:
+        cli([*args, "--backend", "numpy"])
+    one_line_error(capsys, info.value.code, 2, argv[0], pattern)
+    assert sorted(os.listdir(tmp_path)) == ["small.png"]
+
+
+def test_an_unknown_device_names_the_option(tmp_path, capsys, small_png):
+    code = cli(["shift", str(small_png), "-o", str(tmp_path / "o.png"), "--dx", 1, "--backend", "numpy",
+                 "--device", "gpu7"])
+    one_line_error(capsys, code, 2, "shift", r"--device gpu7: .*host")
+    code = cli(["shift", str(small_png), "-o", str(tmp_path / "o.png"), "--dx", 1, "--device", "gpu7"])
+    one_line_error(capsys, code, 2, "shift", r"--device gpu7: ")
+    assert not (tmp_path / "o.png").exists()
+
+
+@pytest.mark.parametrize("output, pattern", [
+    ("{tmp}/missing/x.png", r"-o .*missing/x\.png: the folder .*missing does not exist \(it is not created\)"),
+    ("{img}/x.png", r"small\.png is not a directory"),
+    ("/proc/x.png", r"-o /proc/x\.png: cannot create a file in /proc"),
+    ("{tmp}", r"is a directory"),
+    ("{tmp}/x.txt", r"-o .*x\.txt: the extension must be \.png or \.tif or \.tiff or \.jpg or \.jpeg or \.bmp"),
+    ("{tmp}/x", r"the extension must be .*, got none"),
+])
+def test_output_paths_are_checked_before_any_work(tmp_path, capsys, small_png, monkeypatch, output, pattern):
+    import gfgpu.cli.shift as shift_command
+    monkeypatch.setattr(shift_command, "shift", lambda *a, **k: pytest.fail("computed before checking -o"))
+    out = output.format(tmp=tmp_path, img=small_png)
+    code = cli(["shift", str(small_png), "-o", out, "--dx", 1, "--backend", "numpy"])
+    one_line_error(capsys, code, 2, "shift", pattern)
+    assert not (tmp_path / "missing").exists() and sorted(os.listdir(tmp_path)) == ["small.png"]
+
+
+def test_npy_must_end_in_npy_and_differ_from_the_output(tmp_path, capsys, small_png):
+    code = cli(["shift", str(small_png), "-o", str(tmp_path / "x.png"), "--npy", str(tmp_path / "x.png"),
+                 "--dx", 1, "--backend", "numpy"])
+    one_line_error(capsys, code, 2, "shift", r"--npy and -o name the same file")
+    code = cli(["gradient", str(small_png), "-o", str(tmp_path / "x.png"), "--npy", str(tmp_path / "raw.png"),
+                 "--backend", "numpy"])
+    one_line_error(capsys, code, 2, "gradient", r"--npy .*raw\.png: the extension must be \.npy, got \.png")
+    assert sorted(os.listdir(tmp_path)) == ["small.png"]
+
+
+def test_disparity_output_in_proc_fails_at_once():
+    t0 = __import__("time").perf_counter()
+    res = run("disparity", "--example", "motorcycle", "--method", "uniform", "-o", "/proc/d.png", "--backend", "numpy")
+    assert res.returncode == 2 and res.stderr.strip().startswith("gfgpu disparity: -o /proc/d.png: ")
+    assert "Traceback" not in res.stderr and len(res.stderr.strip().splitlines()) == 1
+    assert __import__("time").perf_counter() - t0 < 30          # the work (37 s before) never starts
+
+
+def test_a_full_disk_is_failed_work(tmp_path, capsys, small_png, monkeypatch):
+    """Exit status 1 (the work was done, its output could not be written), one line naming the output."""
+    import errno
+
+    import imageio.v3 as iio
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(iio, "imwrite", full)
+    code = cli(["shift", str(small_png), "-o", str(tmp_path / "o.png"), "--dx", 1, "--backend", "numpy", "-q"])
+    one_line_error(capsys, code, 1, "shift", rf"cannot write {tmp_path / 'o.png'}: No space left on device$")
+    assert sorted(os.listdir(tmp_path)) == ["small.png"]          # no temporary file left
+
+
+@pytest.mark.parametrize("content, pattern", [
+    (b"", r"the file is empty \(0 bytes\)"),
+    (b"\x89PNG\r\n\x1a\n\x00\x00\x00\rIHDR", r"(?i)not a readable image|truncated|broken"),
+    (b"GIF89a nonsense", r"not a readable image|truncated"),
+])
+def test_corrupt_inputs_are_one_line(tmp_path, content, pattern):
+    bad = tmp_path / "bad.png"
+    bad.write_bytes(content)
+    res = run("shift", bad, "-o", tmp_path / "o.png", "--dx", 1, "--backend", "numpy", "-q")
+    assert res.returncode == 2 and "Traceback" not in res.stderr
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"gfgpu shift: cannot read image {str(bad)!r}: "), res.stderr
+    import re
+    assert re.search(pattern, lines[0]) and "plugin" not in lines[0], lines[0]
+
+
+def test_decompression_bomb_is_one_line(tmp_path, capsys, small_png, monkeypatch):
+    from PIL import Image
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 100)
+    code = cli(["gradient", str(small_png), "-o", str(tmp_path / "o.png"), "--backend", "numpy", "-q"])
+    one_line_error(capsys, code, 2, "gradient", r"small\.png.*decompression bomb")
+
+
+def test_output_format_follows_the_extension(tmp_path, small_png):
+    from test_io import magic_of
+    for name, fmt in (("o.png", "PNG"), ("o.tif", "TIFF"), ("o.jpg", "JPEG"), ("o.bmp", "BMP")):
+        for argv in (("shift", "--dx", 1), ("gradient",), ("blur", "--dx", 3)):
+            out = tmp_path / f"{argv[0]}-{name}"
+            assert cli([argv[0], str(small_png), "-o", str(out), *map(str, argv[1:]), "--backend", "numpy",
+                         "-q"]) == 0
+            assert magic_of(out) == fmt, out
+
+
+def test_sixteen_bit_and_float_inputs_keep_their_depth(tmp_path):
+    import imageio.v3 as iio
+    import tifffile
+    flat = np.full((20, 24), 30000, np.uint16)
+    iio.imwrite(tmp_path / "flat16.png", flat)
+    assert cli(["shift", str(tmp_path / "flat16.png"), "-o", str(tmp_path / "o16.png"), "--dx", 1.5,
+                 "--backend", "numpy", "-q"]) == 0
+    out = iio.imread(tmp_path / "o16.png")
+    assert out.dtype == np.uint16 and (out == 30000).all()          # not black, not 8-bit
+    ramp = np.linspace(0, 1, 20 * 24, dtype=np.float32).reshape(20, 24)
+    tifffile.imwrite(tmp_path / "f.tif", ramp)
+    assert cli(["blur", str(tmp_path / "f.tif"), "-o", str(tmp_path / "b.tif"), "--dx", 4, "--backend", "numpy",
+                 "-q"]) == 0
+    raw = tifffile.imread(tmp_path / "b.tif")
+    ref = gfgpu.motion_blur(ramp, (0.0, 4.0), backend="numpy")
+    assert raw.dtype == np.float32
+    np.testing.assert_array_equal(raw, ref)
+    assert cli(["blur", str(tmp_path / "f.tif"), "-o", str(tmp_path / "b.png"), "--dx", 4, "--backend", "numpy",
+                 "-q"]) == 0
+    np.testing.assert_array_equal(iio.imread(tmp_path / "b.png"), gfgpu.io.to_display_8bit(ref, ramp))
+
+
+@pytest.mark.parametrize("command, motion", [("shift", ("--dx", 2.5)), ("blur", ("--dx", 6)),
+                                             ("frames", ("--dx", 6, "-n", 3))])
+def test_alpha_is_kept_without_dark_fringes(tmp_path, command, motion):
+    """An opaque orange square on transparent black: filtered premultiplied, the edge pixels keep the
+    square's colour and only their alpha falls (a plain filter would darken them)."""
+    import imageio.v3 as iio
+    rgba = np.zeros((24, 32, 4), np.uint8)
+    rgba[6:18, 10:22] = (230, 120, 20, 255)
+    iio.imwrite(tmp_path / "sq.png", rgba)
+    out = tmp_path / ("o" if command == "frames" else "o.png")
+    assert cli([command, str(tmp_path / "sq.png"), "-o", str(out), *map(str, motion), "--backend", "numpy",
+                 "-q"]) == 0
+    res = iio.imread(out / "frame_002.png" if command == "frames" else out)
+    assert res.shape == (24, 32, 4)
+    partly = (res[..., 3] > 20) & (res[..., 3] < 235)
+    assert partly.any()
+    np.testing.assert_allclose(res[partly][:, :3], np.broadcast_to([230, 120, 20], (partly.sum(), 3)), atol=3)
+    assert res[..., 3].min() == 0 and res[..., 3].max() >= 200
+
+
+def test_cmyk_jpeg_exif_orientation_and_multi_frame_inputs(tmp_path, capsys):
+    import imageio.v3 as iio
+    from PIL import Image
+    Image.new("CMYK", (16, 12), (0, 255, 255, 0)).save(tmp_path / "cmyk.jpg", quality=100)
+    assert cli(["shift", str(tmp_path / "cmyk.jpg"), "-o", str(tmp_path / "c.png"), "--dx", 1,
+                 "--backend", "numpy", "-q"]) == 0
+    np.testing.assert_allclose(iio.imread(tmp_path / "c.png")[6, 8], [255, 0, 0], atol=3)   # RGB, red
+    a = (np.arange(12 * 16) % 251).astype(np.uint8).reshape(12, 16)
+    im = Image.fromarray(a)
+    exif = im.getexif()
+    exif[0x0112] = 6                                   # stored sideways: shown rotated 90 degrees clockwise
+    im.save(tmp_path / "side.png", exif=exif)
+    assert cli(["shift", str(tmp_path / "side.png"), "-o", str(tmp_path / "s.png"), "--backend", "numpy",
+                 "-q"]) == 0
+    np.testing.assert_array_equal(iio.imread(tmp_path / "s.png"), np.rot90(a, -1))
+    iio.imwrite(tmp_path / "anim.gif", np.stack([np.full((8, 8, 3), v, np.uint8) for v in (0, 90, 180)]),
+                duration=100, loop=0)
+    code = cli(["blur", str(tmp_path / "anim.gif"), "-o", str(tmp_path / "b.png"), "--dx", 2, "--backend",
+                 "numpy", "-q"])
+    one_line_error(capsys, code, 2, "blur", r"anim\.gif'?: it holds 3 frames .*extract the frames first")

@@ -139,7 +139,7 @@ def test_local_cluster_two_worker_processes(rng):
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0",
                                   silence_logs=40) as cluster, distributed.Client(cluster) as client:
         lazy = gd.derivative(da.from_array(img, chunks=(25, 45)), 1.0, axis=0, backend="numpy")
-        out = client.compute(lazy).result()
+        out = client.compute(lazy).result(timeout=300)   # a lost worker fails the test, never hangs it
         workers = client.run(lambda: __import__("os").getpid())
     assert len(set(workers.values())) == 2
     _close(out, ref)

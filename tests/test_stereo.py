@@ -64,7 +64,7 @@ def test_affine_sweep_bias_is_the_sampling_bias(backend):
     for true_d in (1.6, 2.6):
         left, right, _ = random_dot_pair(lambda yy, xx, t=true_d: np.full_like(xx, t))
         d = stereo.disparity(left, right, 4, method="affine", sweep_step=0.25, window=7, backend=backend)
-        results.append(float(np.median(d[:, 12:])))
+        results.append(float(np.nanmedian(d[:, 12:])))
     assert 0.5 < results[1] - results[0] < 1.5
 
 
@@ -76,7 +76,65 @@ def test_backends_agree(backend):
     np.testing.assert_allclose(out[np.isfinite(ref)], ref[np.isfinite(ref)], atol=1e-5)
     sweep_ref = stereo.disparity(left, right, 6, method="uniform", backend="numpy")
     sweep = stereo.disparity(left, right, 6, method="uniform", backend=backend)
-    assert np.mean(np.abs(sweep - sweep_ref) < 1e-3) > 0.99   # float32 window sums may tie-break apart
+    same = (np.abs(sweep - sweep_ref) < 1e-3) | (np.isnan(sweep) & np.isnan(sweep_ref))
+    assert np.mean(same) > 0.99   # float32 window sums may tie-break apart
+
+
+def shifted_pair(shift, shape=(48, 96), seed=0):
+    """An exact-shift pair, ``left[y, x] = right[y, x - shift]``, cut from one smooth random
+    texture (so the band where ``x - shift`` leaves the right view has no match at all)."""
+    h, w = shape
+    rng = np.random.default_rng(seed)
+    big = ndimage.gaussian_filter(rng.random((h, w + 40)), 1.0)
+    big = (big - big.min()) / np.ptp(big) * 255
+    right = big[:, 20:20 + w]
+    left = big[:, 20 - shift:20 - shift + w]
+    return left.astype(np.float32), right.astype(np.float32)
+
+
+VALIDITY_CASES = [(m, dt) for m in stereo.METHODS for dt in ("float32", "uint8")]
+
+
+@pytest.mark.parametrize("method,dtype", VALIDITY_CASES, ids=lambda v: str(v))
+def test_no_match_is_nan(backend, method, dtype):
+    # issue 14, item 1: a pixel whose match lies outside the other view, or whose cost has no
+    # unique minimum, is NaN -- left band for positive disparities, right band for negative
+    # ones, images narrower than the range, flat pairs -- on every backend, for every method
+    left, right = (np.rint(a).astype(dtype) for a in shifted_pair(9))
+    d, conf = stereo.disparity(left, right, 16, method=method, return_confidence=True, backend=backend)
+    assert np.isnan(d[:, :9]).all()                       # x - 9 < 0: no right pixel
+    ok = np.isfinite(d)
+    assert np.abs(d[ok] - 9).max() <= 0.25
+    assert ok[:, 16:].mean() >= 0.97                      # away from the band
+    assert ((conf > 0) == ok).all() and conf.max() <= 1
+    # the mirror: true d = -9 in [-16, 4]; the right band x >= W - 9 has no match
+    d = stereo.disparity(right, left, 4, min_disparity=-16, method=method, backend=backend)
+    ok = np.isfinite(d)
+    assert np.isnan(d[:, -9:]).all()
+    assert np.abs(d[ok] + 9).max() <= 0.25
+    assert ok[:, :-16].mean() >= 0.97
+    # a flat pair has no unique minimum anywhere
+    flat = np.full((24, 40), 7, dtype)
+    assert np.isnan(stereo.disparity(flat, flat, 8, method=method, backend=backend)).all()
+    # narrow: the range reaches beyond the width; no candidate left of x = 9, and none at all
+    # for a range that starts beyond it
+    left, right = (np.rint(a).astype(dtype) for a in shifted_pair(9, (24, 24)))
+    d = stereo.disparity(left, right, 30, method=method, backend=backend)
+    assert np.isnan(d[:, :9]).all() and np.nanmax(np.abs(d - 9)) <= 0.35 and np.isfinite(d).any()
+    assert np.isnan(stereo.disparity(left, right, 40, min_disparity=25, method=method,
+                                     backend=backend)).all()
+
+
+def test_no_match_same_maps_on_every_backend(backend):
+    # the integer stages are bit-identical (tests/backends/test_fused.py); the final maps too
+    for shift, lo, hi in ((9, 0, 16), (-9, -16, 4)):
+        left, right = shifted_pair(abs(shift))
+        if shift < 0:
+            left, right = right, left
+        ref = stereo.disparity(left, right, hi, min_disparity=lo, backend="numpy")
+        out = stereo.disparity(left, right, hi, min_disparity=lo, backend=backend)
+        np.testing.assert_array_equal(np.isnan(out), np.isnan(ref))
+        np.testing.assert_allclose(out, ref, atol=1e-5, equal_nan=True)
 
 
 def test_kernels_match_reference(backend):
@@ -90,18 +148,20 @@ def test_kernels_match_reference(backend):
     ref_l = specs.census_transform_reference(img_l, 2)
     np.testing.assert_array_equal(backend.to_host(cl)[0], ref_l)
     cost = backend.empty((h, w, n), np.int16)
-    stereo_kernels.cost(backend, cl, cr, cost, -3, 2, 3, 24)
-    ref_cost = specs.census_cost_reference(ref_l, backend.to_host(cr), -3, n, 2, 3, 24)
+    stereo_kernels.cost(backend, cl, cr, cost, -3, 2, 3)
+    ref_cost = specs.census_cost_reference(ref_l, backend.to_host(cr), -3, n, 2, 3)
     np.testing.assert_array_equal(backend.to_host(cost), ref_cost)
     agg = backend.empty((h, w, n), np.int16)
     stereo_kernels.sgm(backend, cost, agg, 20, 150, 8)
     ref_agg = specs.sgm_aggregate_reference(ref_cost, 20, 150, 8)
     np.testing.assert_array_equal(backend.to_host(agg), ref_agg)
     disp, right = backend.empty((h, w), np.float32), backend.empty((h, w), np.int32)
-    stereo_kernels.select(backend, agg, disp, right, -2, 2, 5)
-    ref_d, ref_r = specs.select_disparity_reference(ref_agg, -2, 2, 5)
+    margin = backend.empty((h, w), np.float32)
+    stereo_kernels.select(backend, agg, disp, right, margin, -2, 2, 5)
+    ref_d, ref_r, ref_m = specs.select_disparity_reference(ref_agg, -2, 2, 5)
     np.testing.assert_allclose(backend.to_host(disp), ref_d, atol=1e-5)
     np.testing.assert_array_equal(backend.to_host(right), ref_r)
+    np.testing.assert_allclose(backend.to_host(margin), ref_m, atol=1e-6)
 
 
 # (h, w, disparity samples, steps, first step, block, census radius, paths): one and several
@@ -138,10 +198,9 @@ def test_cost_and_aggregation_match_reference(backend, case):
     cl, cr, ref_l, ref_r = _census_pair(backend, h, w, steps, radius, seed=n)
     np.testing.assert_array_equal(backend.to_host(cl)[0], ref_l)
     np.testing.assert_array_equal(backend.to_host(cr), ref_r)
-    bits = (2 * radius + 1) ** 2 - 1
     cost = backend.empty((h, w, n), np.int16)
-    stereo_kernels.cost(backend, cl, cr, cost, first, steps, block, bits)
-    ref_cost = specs.census_cost_reference(ref_l, ref_r, first, n, steps, block, bits)
+    stereo_kernels.cost(backend, cl, cr, cost, first, steps, block)
+    ref_cost = specs.census_cost_reference(ref_l, ref_r, first, n, steps, block)
     np.testing.assert_array_equal(backend.to_host(cost), ref_cost)
     for p1, p2 in ((10, 100), (0, 0), (7, 7)):
         agg = backend.empty((h, w, n), np.int16)
@@ -155,11 +214,16 @@ def test_select_matches_reference_with_ties(backend, n, steps, d_min):
     # small integer costs: many ties, which both views must break towards the first k
     h, w = 6, 37
     agg = np.random.default_rng(n).integers(0, 12, (h, w, n)).astype(np.int16)
+    # out of view as the cost kernel leaves it: a left band (positive d) and a right band
+    view = specs.in_view_reference(w, d_min * steps, n, steps, 1)
+    agg[:, ~view] = specs.OUT_OF_VIEW
     disp, right = backend.empty((h, w), np.float32), backend.empty((h, w), np.int32)
-    stereo_kernels.select(backend, backend.asarray(agg), disp, right, d_min, steps, 5)
-    ref_d, ref_r = specs.select_disparity_reference(agg, d_min, steps, 5)
+    margin = backend.empty((h, w), np.float32)
+    stereo_kernels.select(backend, backend.asarray(agg), disp, right, margin, d_min, steps, 5)
+    ref_d, ref_r, ref_m = specs.select_disparity_reference(agg, d_min, steps, 5)
     np.testing.assert_allclose(backend.to_host(disp), ref_d, atol=1e-5)
     np.testing.assert_array_equal(backend.to_host(right), ref_r)
+    np.testing.assert_allclose(backend.to_host(margin), ref_m, atol=1e-6)
 
 
 def test_opencl_line_aggregation_matches_reference(monkeypatch, require_backend):
@@ -167,8 +231,9 @@ def test_opencl_line_aggregation_matches_reference(monkeypatch, require_backend)
     # GPU variant on whatever OpenCL device there is
     be = require_backend("opencl")
     monkeypatch.setattr(be, "kind", "gpu")
-    for h, w, n, *_, paths in KERNEL_CASES[2:5]:
+    for h, w, n, steps, first, block, _, paths in KERNEL_CASES[2:5]:
         cost = np.random.default_rng(n).integers(0, 60, (h, w, n)).astype(np.int16)
+        cost[:, ~specs.in_view_reference(w, first, n, steps, block // 2)] = specs.OUT_OF_VIEW
         agg = be.empty((h, w, n), np.int16)
         stereo_kernels.sgm(be, be.asarray(cost), agg, 9, 70, paths)
         np.testing.assert_array_equal(be.to_host(agg), specs.sgm_aggregate_reference(cost, 9, 70, paths))
@@ -189,12 +254,12 @@ def test_lr_check_and_colour():
     rgb_r = np.repeat(right[..., None], 3, axis=2).astype(np.uint8)
     d = stereo.disparity(rgb_l, rgb_r, 16, backend="numpy")
     plain = stereo.disparity(rgb_l[..., 0], rgb_r[..., 0], 16, backend="numpy")
-    np.testing.assert_array_equal(d, plain)                # colour is averaged to grey
+    np.testing.assert_array_equal(d, plain)                # colour: its luminance (grey stays grey)
     assert 0 < np.isnan(d).mean() < 0.2
     filled = stereo.fill_holes(d)
     assert np.isfinite(filled).all()
     no_check = stereo.disparity(left, right, 16, lr_check=False, uniqueness=0, backend="numpy")
-    assert np.isfinite(no_check).all()
+    assert np.isfinite(no_check[:, 17:]).mean() > 0.99     # only exact ties rejected there
 
 
 def test_lr_check_rule():
@@ -214,9 +279,13 @@ def test_bad_inputs():
     img = np.zeros((20, 30), np.float32)
     with pytest.raises(ValueError, match="one shape"):
         stereo.disparity(img, np.zeros((20, 31)), 5, backend="numpy")
-    for bad in (0, -3, 30, 31):
+    for bad in (0, -3, 4097):
         with pytest.raises(ValueError, match="max_disparity"):
             stereo.disparity(img, img, bad, backend="numpy")
+    with pytest.raises(ValueError, match="min_disparity"):
+        stereo.disparity(img, img, 5, min_disparity=-20000, backend="numpy")
+    with pytest.raises(TypeError, match="return_confidence"):
+        stereo.disparity(img, img, 5, return_confidence="yes", backend="numpy")
     with pytest.raises(ValueError, match="min_disparity"):
         stereo.disparity(img, img, 5, min_disparity=5, backend="numpy")
     with pytest.raises(TypeError, match="max_disparity"):
@@ -250,8 +319,130 @@ def test_cli_writes_png(tmp_path):
                "--pfm", str(tmp_path / "d.pfm"), "--backend", "numpy"])
     assert rc == 0
     png = iio.imread(out)
-    assert png.shape == left.shape + (3,) and png.dtype == np.uint8
+    assert png.shape == (left.shape[0], left.shape[1] + 4 + 64, 3) and png.dtype == np.uint8   # + colour bar
     raw = np.load(tmp_path / "d.npy")
     assert raw.shape == left.shape and np.nanmedian(raw) == pytest.approx(4.0, abs=0.25)
     pfm = io.read_pfm(tmp_path / "d.pfm")
     np.testing.assert_array_equal(np.isnan(pfm), np.isnan(raw))
+
+
+# --------------------------------------------------------------------------------------
+# what comes next to the map: confidence, depth, point clouds, memory, the range estimate
+# --------------------------------------------------------------------------------------
+def test_confidence_every_method(backend):
+    left, right, truth = random_dot_pair(square)
+    for method in stereo.METHODS:
+        d, conf = stereo.disparity(left, right, 16, method=method, return_confidence=True, backend=backend)
+        assert conf.dtype == np.float32 and conf.shape == d.shape
+        assert ((conf > 0) == np.isfinite(d)).all() and conf.min() >= 0 and conf.max() <= 1
+        plain = stereo.disparity(left, right, 16, method=method, backend=backend)
+        np.testing.assert_array_equal(plain, d)
+
+
+def test_disparity_to_depth_and_q():
+    d = np.array([[8.0, np.nan, -1.0], [0.0, 16.0, 4.0]], np.float32)
+    z = stereo.disparity_to_depth(d, 400, 0.2)
+    np.testing.assert_allclose(z, [[10, np.nan, np.nan], [np.nan, 5, 20]], equal_nan=True)
+    np.testing.assert_allclose(stereo.disparity_to_depth(d, 400, 0.2, doffs=8)[1, 0], 10)
+    q = stereo.stereo_q(400, 0.2, (1.0, 2.0))
+    pts = stereo.reproject_to_3d(d, q)
+    np.testing.assert_allclose(pts[..., 2][d > 0], z[d > 0], rtol=1e-6)
+    assert np.isnan(pts[0, 1]).all() and np.isnan(pts[1, 0]).all() and pts[0, 2, 2] < 0   # NaN, W = 0, behind
+    np.testing.assert_allclose(pts[0, 0], [(0 - 2) * 10 / 400, (0 - 1) * 10 / 400, 10], rtol=1e-6)
+    for bad in (0, -1, np.inf):
+        with pytest.raises(ValueError, match="focal_px"):
+            stereo.disparity_to_depth(d, bad, 1)
+    with pytest.raises(ValueError, match="q must be"):
+        stereo.reproject_to_3d(d, np.eye(3))
+    with pytest.raises(ValueError, match="center"):
+        stereo.stereo_q(1, 1, (1, 2, 3))
+
+
+def test_reproject_matches_opencv():
+    cv2 = pytest.importorskip("cv2")
+    rng = np.random.default_rng(0)
+    d = rng.uniform(1, 30, (7, 9)).astype(np.float32)
+    q = stereo.stereo_q(500, 0.12, (3.2, 4.1), cx_right=5.0)
+    ours = stereo.reproject_to_3d(d, q)
+    ref = cv2.reprojectImageTo3D(d, q)
+    np.testing.assert_allclose(ours, ref, rtol=1e-5, atol=1e-6)
+
+
+def test_ply_png16_colour_bar(tmp_path):
+    plyfile = pytest.importorskip("plyfile")
+    from gfgpu import io
+    pts = np.arange(24, dtype=np.float32).reshape(2, 4, 3)
+    pts[0, 1] = np.nan
+    cols = np.arange(24, dtype=np.uint8).reshape(2, 4, 3)
+    assert io.write_ply(tmp_path / "c.ply", pts, cols) == 7
+    v = plyfile.PlyData.read(tmp_path / "c.ply")["vertex"]
+    np.testing.assert_array_equal(v["z"], pts.reshape(-1, 3)[[0, 2, 3, 4, 5, 6, 7], 2])
+    np.testing.assert_array_equal(v["red"], cols.reshape(-1, 3)[[0, 2, 3, 4, 5, 6, 7], 0])
+    with pytest.raises(ValueError, match="points"):
+        io.write_ply(tmp_path / "x.ply", np.zeros((4, 2)))
+    png = io.disparity_to_png16(np.array([[0.5, np.nan, 255.99, -2]], np.float32))
+    np.testing.assert_array_equal(png, [[128, 0, 65533, 0]])
+    bar = io.colour_bar(100, 0, 63)
+    assert bar.shape == (100, 48, 3) and bar.dtype == np.uint8 and (bar[:, 30:] == 255).any()   # labels
+
+
+def test_cli_ply_png16_confidence(tmp_path):
+    pytest.importorskip("plyfile")
+    import imageio.v3 as iio
+    import plyfile
+
+    from gfgpu.cli import main
+    left, right, _ = random_dot_pair(square)
+    iio.imwrite(tmp_path / "l.png", left.astype(np.uint8))
+    iio.imwrite(tmp_path / "r.png", right.astype(np.uint8))
+    rc = main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "d.png"),
+               "--png16", str(tmp_path / "d16.png"), "--ply", str(tmp_path / "c.ply"), "--focal", "100",
+               "--baseline", "0.5", "--confidence", str(tmp_path / "c.npy"), "--fill", "--backend", "numpy"])
+    assert rc == 0
+    png = iio.imread(tmp_path / "d.png")
+    assert png.shape[0] == left.shape[0] and png.shape[1] > left.shape[1]     # the colour bar
+    d16 = iio.imread(tmp_path / "d16.png")
+    assert d16.dtype == np.uint16 and abs(np.median(d16[:, 30:]) - 4 * 256) < 26   # filled, background 4 px
+    z = plyfile.PlyData.read(tmp_path / "c.ply")["vertex"]["z"]
+    assert np.median(z) == pytest.approx(100 * 0.5 / 4, rel=0.02)
+    conf = np.load(tmp_path / "c.npy")
+    assert conf.shape == left.shape and 0 <= conf.min() and conf.max() <= 1
+    assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "e.png"),
+                 "--ply", str(tmp_path / "e.ply"), "--backend", "numpy"]) != 0     # no camera given
+
+
+def test_fill_smooth_edges_has_no_streaks():
+    rng = np.random.default_rng(0)
+    d = np.full((40, 60), 10.0, np.float32) + rng.normal(0, 1, (40, 60)).astype(np.float32)
+    d[:, :12] = np.nan                                   # the left band
+    d[10:14, 30:33] = np.nan                             # an occlusion: the row rule
+    rows = stereo.fill_holes(d)
+    smooth = stereo.fill_holes(d, edges="smooth")
+    np.testing.assert_array_equal(smooth[10:14, 30:33], rows[10:14, 30:33])
+    # row-copied band: each row repeats its own edge value; smooth: neighbouring rows blend
+    assert np.abs(np.diff(smooth[:, :8], axis=0)).mean() < 0.3 * np.abs(np.diff(rows[:, :8], axis=0)).mean()
+    assert np.isfinite(smooth).all()
+    with pytest.raises(ValueError, match="edges"):
+        stereo.fill_holes(d, edges="nope")
+
+
+def test_memory_estimate_and_budget():
+    import gfgpu
+    img = np.random.default_rng(0).random((64, 80)).astype(np.float32)
+    need = stereo.disparity_memory(img.shape, 16, backend="numpy")
+    assert need > 64 * 80 * 33 * 6
+    with gfgpu.working_set("1M"), pytest.raises(ValueError, match="working set"):
+        stereo.disparity(img, img, 16, backend="numpy")
+    with gfgpu.working_set(4 * need):
+        stereo.disparity(img, img, 16, backend="numpy")
+
+
+def test_estimate_max_disparity():
+    truth = np.full((96, 320), 37.0)
+    left, right = stereo.random_dot_stereogram(truth, seed=4)
+    est = stereo.estimate_max_disparity(left, right, backend="numpy")
+    assert 37 < est <= 63 and (est + 1) % 16 == 0
+    tiny = np.zeros((20, 30), np.float32)
+    assert stereo.estimate_max_disparity(tiny, tiny, backend="numpy") == 7      # W // 4 fallback
+    with pytest.raises(ValueError, match="factor"):
+        stereo.estimate_max_disparity(left, right, factor=1)

@@ -196,13 +196,14 @@ def add_correction(seg, out, state, axis=0):
     rows += _traversal(corr, seg.reverse).reshape(rows.shape).astype(out.dtype, copy=False)
 
 
-def zero_state_pass(backend, src, dst, axis, segs_of_passes):
+def zero_state_pass(backend, src, dst, axis, segs_of_passes, shape=None):
     """Zero-state responses of a step's passes (summed) on device arrays ``src``, ``dst``.
 
     ``segs_of_passes``: one :class:`Segment` per pass, all covering the block's extent along
-    ``axis``.  ``dst`` may not be ``src``.
+    ``axis``.  ``dst`` may not be ``src``.  ``shape``: the arrays' logical shape (default
+    ``src.shape``; devices may fold leading axes).
     """
-    view, line_axis = axis_view_shape(tuple(src.shape), axis)
+    view, line_axis = axis_view_shape(tuple(src.shape) if shape is None else tuple(shape), axis)
     s3, d3 = backend.reshape(src, view), backend.reshape(dst, view)
     for i, seg in enumerate(segs_of_passes):
         backend.recurse(s3, d3, line_axis, seg.plan, 0.0, accumulate=i > 0)

@@ -46,7 +46,11 @@ class Job:
                             f"array or choose another device (no silent downcast)")
         self.output = output
         if output is not None and isinstance(output, (type, np.dtype, str)):
-            out_dtype = np.dtype(output)
+            try:
+                out_dtype = np.dtype(output)
+            except TypeError:
+                raise TypeError(f"output must be an array or a float dtype, got {output!r}") from None
+            out_dtype = out_dtype.newbyteorder("=") if out_dtype.kind == "f" else out_dtype
             if out_dtype not in (np.float32, np.float64):
                 raise TypeError(f"output dtype must be float32 or float64, got {out_dtype}")
             if out_dtype.itemsize < self.dtype.itemsize:
@@ -79,9 +83,17 @@ class Job:
         return int(np.prod(self.shape, dtype=np.int64)) * self.dtype.itemsize
 
     def _check_output(self, output):
+        if not (isinstance(output, np.ndarray) or (not self.host_input and self.backend.owns(output))):
+            raise TypeError(f"output must be a numpy array, the input's kind of device array or a dtype "
+                            f"(float32/float64), got {type(output).__name__}")
         if tuple(output.shape) != self.shape:
             raise ValueError(f"output must have the input's shape {self.shape}, got {tuple(output.shape)}")
         odt = np.dtype(output.dtype) if isinstance(output, np.ndarray) else self.backend.dtype_of(output)
+        if isinstance(output, np.ndarray):
+            if not output.flags.writeable:
+                raise ValueError("output is read-only")
+            # a non-native byte order (e.g. '>f4' from FITS) is written through numpy's conversion
+            odt = odt.newbyteorder("=") if odt.kind == "f" else odt
         if odt not in (np.float32, np.float64):
             raise TypeError(f"output must be float32 or float64, got {odt}")
         if odt.itemsize < self.dtype.itemsize:
@@ -111,7 +123,7 @@ class Job:
         """Return ``result`` (a device array of self.shape) in the caller's array kind."""
         be = self.backend
         if self.host_input:
-            host = be.to_host(result)
+            host = be.to_host(result).reshape(self.shape)   # devices may fold leading axes
             if self.output is not None:
                 if host is not self.output:
                     self.output[...] = host
@@ -143,7 +155,7 @@ def apply_program(job, program, mode, cval):
     for i, (passes, axis, angle) in enumerate(steps):
         nxt = bufs[i % 2]
         run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle,
-                   plane=program.plane)
+                   plane=program.plane, shape=job.shape)
         cur = nxt
     return job.finish(cur)
 

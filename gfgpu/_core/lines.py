@@ -3,32 +3,36 @@
 Axis lines need no data movement: an N-D C-contiguous array is viewed as ``(B, N, M)`` with
 the filtered axis in the middle (or as ``(1, B, N)`` when it is the last axis).
 
-Oblique lines follow the chapter's lines ``y + γx`` as *digital lines*: for a direction at
-angle ``θ`` whose dominant axis is x (``|cos θ| >= |sin θ|``), line ``ℓ`` visits the pixels
-``(x, ℓ + r[x])`` for every column ``x``, with ``r[x] = floor(γx + 1/2)`` and ``γ = tan θ``
-(x and y swap roles for steep directions).  Each pixel lies on exactly one line, every line
-has one sample per column, and the recursion steps one pixel along the dominant axis, so
-kernel lengths along an oblique line are measured in steps of that axis (the chapter's
-convention: ``u`` is the x-component of the flow).  Lines that leave the image through its
-top or bottom continue through the image extended by ``mode`` across that axis (what an
-explicitly padded image would give); at the two ends of the dominant axis the line is
-extended along itself by the recursion's boundary state.  No interpolation is involved, so
-the operator along each line is exact; the price is that the minor-axis displacement of a
-feature is quantised to whole pixels per line (use axis passes for sub-pixel shifts).
+Oblique lines follow the chapter's lines ``y = ℓ + γx`` along the continuous direction: for a
+direction at angle ``θ`` whose dominant axis is x (``|cos θ| >= |sin θ|``, ``γ = tan θ``;
+x and y swap roles for steep directions), line ``ℓ`` passes through ``(x, ℓ + γx)`` at every
+column ``x``.  The recursion steps one column at a time, so kernel lengths along an oblique line
+are measured in steps of the dominant axis (the chapter's convention: ``u`` is the
+x-component of the flow).  The image is *sheared* so that these lines become rows: column
+``x`` is read at ``ℓ + γx``, split (:func:`shear_offsets`) into an integer part ``r[x]``,
+done here by a gather (index arithmetic, exact), and a remaining sub-pixel delay ``d[x] =
+γx - r[x]``, done by :mod:`gfgpu._core.oblique` with a fractional-delay filter along the column;
+after the passes along the rows the image is sheared back the same way.  Lines that leave the
+image through its top or bottom continue through the image extended by ``mode`` across that
+axis (what an explicitly padded image would give); at the two ends of the dominant axis a line
+is extended along itself by the recursion's boundary state.
 
-The gather maps below lay the lines out as the rows of a ``(B, lines, steps)`` array, so the
-oblique case runs the same row primitive as the axis case.
+:func:`shear_maps` gives the two gathers: the sheared layout is a ``(B, lines, steps)`` array
+(or ``(B, steps, lines)``) whose line ``q`` holds ``ℓ = first + q`` read at integer offsets
+``r[x]``, with ``margin`` extra lines beyond the ones the output reads on either side (room for
+the delay filters' decay), so the oblique case runs the same row primitive as the axis case.
 """
 
 from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
 from .recursion import extension_index
-from .validation import finite_scalar
+from .validation import finite_scalar, integer
 
 
 def axis_view_shape(shape, axis):
@@ -42,10 +46,8 @@ def axis_view_shape(shape, axis):
 
 
 def normalize_axis(axis, ndim, name="axis"):
-    try:
-        a = int(axis)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be an integer, got {axis!r}") from None
+    """``axis`` in ``[0, ndim)``; ``TypeError`` for a non-integer, ``ValueError`` out of range."""
+    a = integer(name, axis)
     if not -ndim <= a < ndim:
         raise ValueError(f"{name}={axis} is out of range for an array of {ndim} dimension(s)")
     return a % ndim
@@ -66,44 +68,112 @@ def _extend(idx, size, mode):
     return out
 
 
+#: largest |angle| (radians) accepted: float64 spacing there is 1e-10 rad
+MAX_ANGLE = 1e6
+
+
 def direction(angle):
     """``(steep, reverse, gamma)`` of a direction: dominant axis y if steep, traversal sense."""
     theta = finite_scalar("angle", angle)   # radians
+    if abs(theta) > MAX_ANGLE:
+        raise ValueError(f"angle must lie within ±{MAX_ANGLE:g} radians, got {angle!r} (beyond, float64 cannot "
+                         f"place a direction to better than 1e-9 rad)")
     c, s = math.cos(theta), math.sin(theta)
     if abs(c) >= abs(s) - 1e-12:
         return False, c < 0, s / c
     return True, s < 0, c / s
 
 
-@lru_cache(maxsize=8)
-def oblique_maps(height, width, batch, angle, mode):
-    """Gather indices ``(shear, unshear, lines)`` for an oblique direction.
+#: the sub-pixel remainder of the shear lies in ``[DELAY_MIN, DELAY_MIN + 1)`` (or is 0)
+DELAY_MIN = 2.05
 
-    ``shear`` (size ``batch*lines*steps``) fills the row layout from the ``(batch, height,
-    width)`` image (-1 where the extension is ``cval``); ``unshear`` (size ``batch*height*
-    width``) reads each pixel back from the row layout.
+
+def shear_offsets(steps, gamma):
+    """``(r, d)`` for ``t < steps``: ``γ t = r[t] + d[t]``, ``r`` an integer and the delay ``d``
+    either 0 (``γ t`` an integer: no resampling) or in ``[DELAY_MIN, DELAY_MIN + 1)``.
+
+    The delay is kept near 2.5 samples because the column filter that realises it, a
+    second-order allpass (:mod:`gfgpu._core.oblique`), is accurate for delays between 2 and 3
+    and well conditioned away from 2.
+    """
+    exact = gamma * np.arange(steps)
+    r = np.floor(exact - (DELAY_MIN - 1)).astype(np.int64) - 1
+    d = exact - r
+    whole = np.abs(exact - np.round(exact)) < 1e-12
+    r[whole] = np.round(exact[whole]).astype(np.int64)
+    d[whole] = 0.0
+    return r, d
+
+
+class ShearMaps(NamedTuple):
+    """Gathers of a sheared layout (:func:`shear_maps`)."""
+
+    shear: np.ndarray      # layout sample -> source pixel (flat, -1: cval)
+    unshear: np.ndarray    # pixel -> layout sample (flat)
+    lines: int
+    steps: int
+    delay: np.ndarray      # (steps,) d[t]: the column's remaining sub-pixel delay (0: none)
+    transposed: bool       # layout (batch, steps, lines) instead of (batch, lines, steps)
+
+
+@lru_cache(maxsize=8)
+def shear_maps(height, width, batch, angle, mode, margin, transposed=False):
+    """The sheared layout of an oblique direction (module docstring), as two gathers.
+
+    Line ``q`` of the layout (row ``q`` of ``(batch, lines, steps)``, or column ``q`` of
+    ``(batch, steps, lines)`` when ``transposed``) holds, at step ``t`` (dominant axis), the
+    pixel at minor coordinate ``first + q + r[t]``, extended by ``mode`` beyond the image (-1
+    in ``shear`` where that is ``cval``).  Pixel ``(minor m, step t)`` is read back from line
+    ``m - r[t] - first``.  The lines span the ones read back plus ``margin`` on each side.
+    Arrays are read-only and cached.
     """
     steep, _, gamma = direction(angle)
     steps, across = (height, width) if steep else (width, height)
-    t = np.arange(steps)
-    r = np.floor(gamma * t + 0.5).astype(np.int64)
-    first = -int(r.max())
-    lines = across - int(r.min()) - first
-    ell = first + np.arange(lines)
-    minor = ell[:, None] + r[None, :]                      # (lines, steps)
-    minor_ext = _extend(minor, across, mode)
-    if steep:   # dominant axis y: pixel (y=t, x=minor)
-        flat = np.where(minor_ext >= 0, t[None, :] * width + minor_ext, -1)
-    else:       # dominant axis x: pixel (y=minor, x=t)
-        flat = np.where(minor_ext >= 0, minor_ext * width + t[None, :], -1)
-    itype = np.int32 if batch * max(lines * steps, height * width) < 2**31 else np.int64
+    r, d = shear_offsets(steps, gamma)
+    margin = int(margin)
+    first = -int(r.max()) - margin
+    lines = across - int(r.min()) + int(r.max()) + 2 * margin
     plane = height * width
-    shear = (flat[None] + np.where(flat[None] >= 0, np.arange(batch)[:, None, None] * plane, 0)).astype(itype)
-    # unshear: pixel (y, x) sits on line index (minor - r[t]) - first, at step t
-    yy, xx = np.meshgrid(np.arange(height), np.arange(width), indexing="ij")
-    tt, mm = (yy, xx) if steep else (xx, yy)
-    pos = (mm - r[tt] - first) * steps + tt
-    unshear = (pos[None] + np.arange(batch)[:, None, None] * (lines * steps)).astype(itype)
-    for a in (shear, unshear):
+    total = batch * max(lines * steps, plane)
+    itype = np.int32 if total < 2**31 - 1 else np.int64
+    # the source pixel of minor coordinate c = lo + k, as a flat index without the step term
+    # (-1 - steps*tstride where the extension is cval: stays negative after adding the step)
+    lo = first + int(r.min())
+    span = np.arange(lo, first + lines - 1 + int(r.max()) + 1)
+    ext = _extend(span, across, mode)
+    stride = 1 if steep else width           # pixel (minor c, step t): c * stride + t * tstride
+    tstride = width if steep else 1
+    base = np.where(ext >= 0, ext * stride, -1 - steps * tstride).astype(itype)
+    t = np.arange(steps, dtype=itype)
+    q = np.arange(lines, dtype=itype)
+    shift = (r - int(r.min())).astype(itype)         # line q at step t: base[q + shift[t]]
+    if transposed:
+        idx = shift[:, None] + q[None, :]
+        flat = base[idx]
+        del idx
+        flat += (t * tstride)[:, None]
+    else:
+        idx = q[:, None] + shift[None, :]
+        flat = base[idx]
+        del idx
+        flat += (t * tstride)[None, :]
+    np.maximum(flat, -1, out=flat)
+    if batch > 1:
+        offsets = (np.arange(batch, dtype=itype) * plane).reshape((batch,) + (1,) * flat.ndim)
+        flat = np.where(flat[None] >= 0, flat[None] + offsets, -1).astype(itype, copy=False)
+    # unshear: pixel (minor m, step t) sits on line m - r[t] - first, at step t; built in the
+    # image's own (height, width) order
+    mm = np.arange(across, dtype=itype)
+    start = (r + first).astype(itype)
+    if transposed:      # layout (steps, lines): t * lines + m - r[t] - first
+        lead, inner = t * lines - start, mm
+    else:               # layout (lines, steps): (m - r[t] - first) * steps + t
+        lead, inner = t - start * steps, mm * steps
+    pos = lead[:, None] + inner[None, :] if steep else inner[:, None] + lead[None, :]
+    if batch > 1:
+        pos = pos[None] + (np.arange(batch, dtype=itype) * (lines * steps)).reshape(batch, 1, 1)
+    shear = flat.reshape(-1)
+    unshear = pos.reshape(-1)
+    for a in (shear, unshear, d):
         a.setflags(write=False)
-    return shear.reshape(-1), unshear.reshape(-1), lines, steps
+    return ShearMaps(shear, unshear, lines, steps, d, bool(transposed))

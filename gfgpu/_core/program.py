@@ -35,17 +35,24 @@ class Program(NamedTuple):
     plane: tuple | None = None
 
 
-def run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, plane=None):
+def run_passes(be, src, dst, dtype, passes, mode, cval, axis=None, angle=None, plane=None, shape=None):
     """Apply ``passes`` (summed: the first writes, the rest accumulate) along an axis or direction.
 
     ``src`` and ``dst`` are distinct device arrays of the same shape; ``src`` is not modified.
+    ``shape`` is the arrays' logical shape (default ``src.shape``; a device may store arrays of
+    many dimensions with their leading axes folded).
     """
+    shape = tuple(src.shape) if shape is None else tuple(shape)
     if angle is None:
-        return run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis)
+        return run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape)
+    if tuple(plane) != (len(shape) - 2, len(shape) - 1):
+        raise ValueError("oblique filtering needs the image plane on the last two axes of the working array")
+    # the plane is the last two axes, also of a device array whose leading axes are folded
+    plane = (len(src.shape) - 2, len(src.shape) - 1)
     return run_oblique_passes(be, src, dst, dtype, passes, mode, cval, angle, plane)
 
 
-def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis):
+def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
     """``passes`` along array axis ``axis`` (see :func:`run_passes`).
 
     Translated passes (``offset != 0``) gather the translated input by index arithmetic: a
@@ -53,7 +60,7 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis):
     decay length and are cropped (:mod:`gfgpu._core.translation`).
     """
     offset = step_offset(passes)
-    view, line_axis = axis_view_shape(tuple(src.shape), axis)
+    view, line_axis = axis_view_shape(shape, axis)
     n = view[line_axis]
     s3, d3 = be.reshape(src, view), be.reshape(dst, view)
     if offset == 0:
@@ -65,7 +72,7 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis):
                   be.reshape(dst, (-1,)))
         return dst
     pad = decay_length(passes, dtype)
-    view, line_axis, padded = padded_view(tuple(src.shape), axis, pad)
+    view, line_axis, padded = padded_view(shape, axis, pad)
     window = be.empty(padded, dtype)
     result = be.empty(padded, dtype)
     be.gather(be.reshape(src, (-1,)), translate_index(view, line_axis, offset, pad, mode), cval,
@@ -79,15 +86,17 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis):
     return dst
 
 
-def run_steps(be, data, dtype, steps, mode, cval, plane=None):
+def run_steps(be, data, dtype, steps, mode, cval, plane=None, shape=None):
     """Apply ``steps`` in turn to the device array ``data`` (kept); the last result is returned.
 
-    The strip executor and the Dask tasks run their in-block steps with this.
+    The strip executor and the Dask tasks run their in-block steps with this; ``shape`` as in
+    :func:`run_passes`.
     """
+    shape = tuple(data.shape) if shape is None else tuple(shape)
     cur = data
     for passes, axis, angle in steps:
-        nxt = be.empty(tuple(data.shape), dtype)
-        run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane)
+        nxt = be.empty(shape, dtype)
+        run_passes(be, cur, nxt, dtype, passes, mode, cval, axis=axis, angle=angle, plane=plane, shape=shape)
         cur = nxt
     return cur
 
@@ -116,7 +125,9 @@ def direction_steps(ndim, passes, angle, axes):
     steep, reverse, gamma = direction(angle)
     if abs(gamma) < 1e-12:
         axis = ya if steep else xa
-        flipped = [replace(p, reverse=p.reverse != reverse) for p in passes]
+        # a reversed direction runs the passes the other way; offsets count along the direction
+        flipped = [replace(p, reverse=p.reverse != reverse, offset=-p.offset if reverse else p.offset)
+                   for p in passes]
         return [(flipped, axis, None)], None
     if (ya, xa) != (ndim - 2, ndim - 1):
         raise ValueError("oblique directions need the image plane on the last two axes; move the "

@@ -104,22 +104,15 @@ class PassPlan:
 
 
 def _initial_weights(section, n, mode, tol):
-    """omega (length <= n) and omega_c for one section, by summing the kernel over x0 < 0."""
+    """omega (length <= n) and omega_c for one section, by summing the kernel over x0 < 0.
+
+    Shift-invariant sections sum in closed form over the periods of the extension (geometric
+    series), so cost and accuracy do not depend on how slowly the section decays.
+    """
     if section.shift_invariant:
-        lam, kap = complex(section.lam), complex(section.kap)
-        mag = abs(lam)
-        if mode in ("constant", "nearest"):
-            total = kap / (1 - lam)
-            return (np.zeros(0, np.complex128), total) if mode == "constant" else \
-                (np.array([total]), 0j)
-        # Kc(0, -m) = kap lam^(m-1), m >= 1; sum one period at a time is not needed: the
-        # terms decay geometrically, so sum until below tol (at most a few periods).
-        m_max = 1 if mag == 0 else int(min(_MAX_EXTENSION, math.ceil(math.log(tol) / math.log(mag)) + 1))
-        m = np.arange(1, m_max + 1)
-        weights = kap * np.power(lam, (m - 1).astype(np.float64))
-        idx = extension_index(-m, n, mode)
-        omega = np.bincount(idx, weights.real, minlength=n) + 1j * np.bincount(idx, weights.imag, minlength=n)
-        return omega, 0j
+        omega, omega_c = _line_initial_weights(np.array([complex(section.lam)]), np.array([complex(section.kap)]),
+                                               n, mode, tol)
+        return omega[0], complex(omega_c[0])
     # shift-variant: Kc(0, x0) = (Π_{x0<x<0} lam[x]) kap[x0], over the domain x0 > x_min
     lo = section.x_min
     count = _MAX_EXTENSION if not math.isfinite(lo) else int(math.ceil(-lo)) - 1
@@ -231,7 +224,7 @@ class LinePlans:
     kap: np.ndarray      # (m,) complex128
     tap: np.ndarray      # (m,) float64
     reverse: np.ndarray  # (m,) bool
-    omega: np.ndarray    # (m, L) complex128
+    omega: np.ndarray    # (m, L) complex64 for float32 plans, else complex128 (computed in complex128)
     omega_c: np.ndarray  # (m,) complex128
     n: int
 
@@ -243,7 +236,9 @@ class LinePlans:
         """Real arrays for kernels: lam, kap (m, 2), tap (m,), reverse (m,) int32,
         omega (m, L, 2), omega_c (m, 2)."""
         def split(z):
-            return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-1).astype(dtype))
+            z = np.ascontiguousarray(z)
+            pairs = z.view(z.real.dtype).reshape(z.shape + (2,))      # no copy
+            return pairs if pairs.dtype == dtype else pairs.astype(dtype)
         return (split(self.lam), split(self.kap), np.ascontiguousarray(self.tap, dtype),
                 self.reverse.astype(np.int32), split(self.omega), split(self.omega_c))
 
@@ -252,6 +247,7 @@ def plan_lines(line_passes, n, mode, dtype):
     """:class:`LinePlans` from one :class:`~gfgpu._core.passes.LinePass` per line (None: identity).
 
     Each pass must have one shift-invariant section; boundary modes as in :func:`plan_pass`.
+    The coefficients are read from the passes; the plans are built by :func:`line_plans`.
     """
     check_mode(mode)
     m = len(line_passes)
@@ -259,21 +255,128 @@ def plan_lines(line_passes, n, mode, dtype):
     kap = np.zeros(m, np.complex128)
     tap = np.ones(m)
     reverse = np.zeros(m, bool)
-    omega_c = np.zeros(m, np.complex128)
-    omegas = [np.zeros(0, np.complex128)] * m
+    identity = np.ones(m, bool)
     for i, lp in enumerate(line_passes):
         if lp is None:
             continue
         if len(lp.sections) != 1 or not lp.sections[0].shift_invariant:
             raise ValueError("per-line plans take passes of one shift-invariant section")
-        plan = plan_pass(lp, n, mode, dtype)     # cached: lines with equal passes share it
-        lam[i], kap[i], tap[i], reverse[i] = plan.lam[0, 0], plan.kap[0, 0], plan.tap, plan.reverse
-        omegas[i], omega_c[i] = plan.omega[0], plan.omega_c[0]
-    length = max((len(o) for o in omegas), default=0)
-    omega = np.zeros((m, length), np.complex128)
-    for i, o in enumerate(omegas):
-        omega[i, :len(o)] = o
-    return LinePlans(lam, kap, tap, reverse, omega, omega_c, int(n))
+        sec = lp.sections[0]
+        lam[i], kap[i], tap[i], reverse[i], identity[i] = sec.lam, sec.kap, lp.tap, lp.reverse, False
+    return line_plans(lam, kap, tap, reverse, n, mode, dtype, identity)
+
+
+def line_plans(lam, kap, tap, reverse, n, mode, dtype, identity=None):
+    """:class:`LinePlans` from per-line arrays, vectorised over the lines.
+
+    Line ``i`` runs the single shift-invariant section ``lam[i]``, ``kap[i]`` with direct term
+    ``tap[i]``, reversed where ``reverse[i]``; lines where ``identity`` is true (default: none)
+    pass their input through (``tap = 1``, zero coefficients).  ``|lam| < 1`` is required.
+
+    The initial states are the geometric series of :func:`plan_pass` summed in closed form
+    over the periods of the extension (wrap: n, reflect: 2n, mirror: 2n - 2), so the cost is
+    O(lines x L) array arithmetic, ``L`` being the longest initial window kept: weights below
+    ``tol`` relative to a line's largest are dropped at its end, as :func:`plan_pass` does.
+    """
+    check_mode(mode)
+    n = int(n)
+    lam = np.array(lam, np.complex128).reshape(-1)
+    m = len(lam)
+    kap = np.array(np.broadcast_to(kap, (m,)), np.complex128)
+    tap = np.array(np.broadcast_to(tap, (m,)), np.float64)
+    reverse = np.array(np.broadcast_to(reverse, (m,)), bool)
+    ident = np.zeros(m, bool) if identity is None else np.array(np.broadcast_to(identity, (m,)), bool)
+    lam[ident], kap[ident], tap[ident], reverse[ident] = 0, 0, 1.0, False
+    mag = np.abs(lam)
+    if (mag >= 1).any():
+        raise ValueError("per-line plans need decaying sections (|lam| < 1)")
+    tol = TOL[np.dtype(dtype)]
+    store = np.complex64 if np.dtype(dtype) == np.float32 else np.complex128
+    omega, omega_c = _line_initial_weights(lam, kap, n, mode, tol, store)
+    omega[ident], omega_c[ident] = 0, 0
+    return LinePlans(lam, kap, tap, reverse, omega, omega_c, n)
+
+
+def _powers(lam, k):
+    """``lam[:, None] ** k[None, :]`` for integers ``k >= 0`` (``0 ** 0 = 1``), as exp(k log lam)."""
+    k = np.asarray(k, np.float64)
+    zero = lam == 0
+    log = np.log(np.where(zero, 1.0, lam))
+    out = np.exp(log[:, None] * k[None, :])
+    return np.where(zero[:, None], (k == 0)[None, :].astype(np.float64), out)
+
+
+_BLOCK = 64
+
+
+def _geometric(lam, coef, first, count):
+    """``coef[:, None] * lam[:, None] ** (first + arange(count))`` (``first`` an integer >= 0).
+
+    The product of a table of ``lam^b`` (b < 64) and one of ``lam^(first + 64 a)``, each a
+    running product of at most ``max(64, count/64)`` factors, so the relative rounding stays
+    below ``(64 + count/64)`` float64 ulps whatever the exponent.
+    """
+    rows = len(lam)
+    blocks = -(-count // _BLOCK)
+    low = np.empty((rows, _BLOCK), np.complex128)
+    low[:, 0] = 1.0
+    low[:, 1:] = lam[:, None]
+    np.cumprod(low, axis=1, out=low)
+    high = np.empty((rows, blocks), np.complex128)
+    high[:, 0] = coef * _powers(lam, [first])[:, 0]
+    high[:, 1:] = _powers(lam, [_BLOCK])
+    np.cumprod(high, axis=1, out=high)
+    return (high[:, :, None] * low[:, None, :]).reshape(rows, -1)[:, :count]
+
+
+def _line_initial_weights(lam, kap, n, mode, tol, store=np.complex128, chunk=64):
+    """omega (lines, L) and omega_c (lines,) of single shift-invariant sections (see
+    :func:`line_plans`): ``omega[i, j] = Σ_{m >= 1, e(-m) = j} kap_i lam_i^(m-1)``, summed in
+    closed form over the periods of the extension.
+
+    Line i's terms fall below ``tol`` after ``cut_i`` samples (``|lam|^m < tol``, as
+    :func:`plan_pass` sums them); its window is computed to ``min(n, cut_i + 1)`` samples (wrap:
+    at the end of the line, where its first terms sit) and left zero beyond, in chunks of lines
+    of similar reach, so the work is about Σ_i min(n, cut_i) rather than lines x n.  Each chunk
+    is computed in complex128 and stored as ``store`` (complex64 for float32 plans).
+    """
+    m = len(lam)
+    total = kap / (1 - lam)
+    if mode == "constant":
+        return np.zeros((m, 0), store), total
+    if mode == "nearest" or n == 1:
+        return total[:, None].astype(store), np.zeros(m, np.complex128)
+    mag = np.abs(lam)
+    safe = np.where((mag > 0) & (mag < 1), mag, 0.5)
+    cut = np.where(mag > 0, np.ceil(np.log(tol) / np.log(safe)) + 1, 1)
+    reach = np.minimum(n, cut + 1).astype(np.int64)
+    width = n if mode == "wrap" else int(reach.max(initial=0))
+    omega = np.zeros((m, width), store)
+    period = {"wrap": n, "reflect": 2 * n, "mirror": 2 * n - 2}[mode]
+    amp = kap / (1 - _powers(lam, [period])[:, 0])
+    order = np.argsort(reach, kind="stable")
+    for c0 in range(0, m, chunk):
+        rows = order[c0:c0 + chunk]
+        k = int(reach[rows].max())
+        lr, ar = lam[rows], amp[rows]
+        if mode == "wrap":
+            # j holds m = n - j (j >= 1) or n (j = 0), plus periods: lam^(n-1-j), j >= n - k
+            omega[rows, n - k:] = _geometric(lr, ar, 0, k)[:, ::-1]
+            continue
+        if mode == "reflect":
+            # -1 -> 0, ..., -n -> n-1, -(n+1) -> n-1, ..., -2n -> 0: m = j + 1 or 2n - j
+            block = _geometric(lr, ar, 0, k)
+            if k == n:
+                block += _geometric(lr, ar, n, n)[:, ::-1]              # lam^(2n-1-j)
+        else:
+            # mirror: -1 -> 1, ..., -(n-1) -> n-1, -n -> n-2, ..., -(2n-2) -> 0
+            block = np.empty((len(rows), k), np.complex128)
+            block[:, 0] = ar * _powers(lr, [period - 1])[:, 0]           # m = 2n - 2
+            block[:, 1:] = _geometric(lr, ar, 0, k - 1)                 # m = j: lam^(j-1)
+            if k == n and n > 2:
+                block[:, 1:n - 1] += _geometric(lr, ar, n - 1, n - 2)[:, ::-1]   # lam^(2n-3-j)
+        omega[rows, :k] = block
+    return omega, np.zeros(m, np.complex128)
 
 
 def run_reference_lines(lines, plans: LinePlans, cval=0.0, out=None):

@@ -232,13 +232,14 @@ class Strips:
 
     def _within(self, host, steps, plane):
         """Apply in-strip steps to a host strip; return a device array."""
-        return run_steps(self.be, self.be.host_view(host), self.dtype, steps, self.mode, self.cval, plane)
+        return run_steps(self.be, self.be.host_view(host), self.dtype, steps, self.mode, self.cval, plane,
+                         shape=host.shape)
 
     def _rows(self, store, r0, r1, steps, plane):
         if r1 <= r0:
             return np.zeros((0,) + store.shape[1:], self.dtype)
         host = store.read(r0, r1, self.dtype)
-        return self.be.to_host(self._within(host, steps, plane)) if steps else host
+        return self.be.to_host(self._within(host, steps, plane)).reshape(host.shape) if steps else host
 
     def run(self, program, src, dst, limit):
         shape = src.shape
@@ -307,9 +308,10 @@ class Strips:
             # ``host`` must outlive the device work reading it: CPU devices read it in place
             host = src.read(r0, r1, self.dtype)
             x = self._within(host, within, plane)
-            y = be.empty((r1 - r0,) + tuple(src.shape[1:]), self.dtype)
-            carry.zero_state_pass(be, x, y, 0, [s[i] for s in segs])
-            out = be.to_host(y)
+            block = (r1 - r0,) + tuple(src.shape[1:])
+            y = be.empty(block, self.dtype)
+            carry.zero_state_pass(be, x, y, 0, [s[i] for s in segs], shape=block)
+            out = be.to_host(y).reshape(block)
             for p in range(len(segs)):
                 carry.add_correction(segs[p][i], out, states[p][i], 0)
             dst.write(r0, r1, out)

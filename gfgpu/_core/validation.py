@@ -13,7 +13,13 @@ import math
 
 import numpy as np
 
-__all__ = ["finite_scalar", "positive", "work_dtype", "host_all_finite", "finite_cval"]
+__all__ = ["finite_scalar", "positive", "scale", "work_dtype", "host_all_finite", "finite_cval", "flag", "integer",
+           "SCALE_RANGE"]
+
+#: the scales (pixels) a Green's-function kernel can take: below, exp(-1/u) underflows and the
+#: sampled kernel is a delta (its normalisations divide by zero); above, exp(-1/u) lies within
+#: float64 rounding of 1 and the recursion cannot resolve the kernel
+SCALE_RANGE = (0.002, 1e9)
 
 
 def finite_scalar(name, value):
@@ -29,11 +35,36 @@ def finite_scalar(name, value):
     return v
 
 
+def flag(name, value):
+    """``value`` as a bool; only ``True``/``False`` (and numpy bools) are accepted, so that a
+    string such as ``"False"`` is an error instead of a true value."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise TypeError(f"{name} must be True or False, got {value!r}")
+
+
+def integer(name, value):
+    """``value`` as an int; floats (even integral ones), strings and bools are errors."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise TypeError(f"{name} must be an integer, got {value!r}")
+    return int(value)
+
+
 def positive(name, value):
     """``value`` as a finite float > 0."""
     v = finite_scalar(name, value)
     if v <= 0:
         raise ValueError(f"{name} must be > 0, got {value!r}")
+    return v
+
+
+def scale(name, value):
+    """A kernel scale ``u`` (or σ) in pixels, within :data:`SCALE_RANGE`."""
+    v = positive(name, value)
+    lo, hi = SCALE_RANGE
+    if not lo <= v <= hi:
+        raise ValueError(f"{name} must lie in [{lo:g}, {hi:g}] pixels, got {value!r} (below, the sampled kernel "
+                         f"is a delta; above, float64 cannot resolve its decay)")
     return v
 
 

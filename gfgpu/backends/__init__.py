@@ -18,6 +18,7 @@ import contextlib
 import contextvars
 import copyreg
 import os
+import threading
 from dataclasses import dataclass
 from functools import cache, lru_cache
 
@@ -49,8 +50,13 @@ def _device_key(device):
         return id(device)
 
 
+_BUILD_LOCK = threading.RLock()
+
+
 def _make(name, device_key, device):
-    be = _construct(name, device_key, device)
+    with _BUILD_LOCK:     # threads (e.g. of a Dask worker) build one backend, not several
+        be = _construct(name, device_key, device)
+    be._pid = os.getpid()
     if device is None or isinstance(device, (str, int)):
         be._requested = device   # pickles as get_backend(name, device): same request elsewhere
     copyreg.pickle(type(be), _reduce)
@@ -84,6 +90,9 @@ def _construct(name, device_key, device):
 def get_backend(name, device=None) -> Backend:
     """The (cached) backend ``name`` on ``device``; raises BackendUnavailable with the reason."""
     check_backend_name(name)
+    if isinstance(device, (list, tuple, dict, set, bool, float)):
+        raise TypeError(f"device must be a name such as 'cpu' or 'cuda:0', an index, or a device object; "
+                        f"got {device!r}")
     if isinstance(device, str) and device.isdigit():
         device = int(device)
     try:
@@ -131,10 +140,27 @@ def array_backend(array):
     return None
 
 
+def _after_fork_in_child():
+    # a forked child never reuses its parent's contexts and queues: backends are rebuilt on
+    # first use (OpenCL refuses with a clear message: its runtimes hang after a fork)
+    _construct.cache_clear()
+    _automatic.cache_clear()
+
+
+os.register_at_fork(after_in_child=_after_fork_in_child)
+
+
+def _own(be):
+    """``be``, or its equivalent rebuilt in this process if it was made before a fork."""
+    if getattr(be, "_pid", os.getpid()) != os.getpid():
+        return get_backend(*backend_request(be))
+    return be
+
+
 def resolve_backend(backend=None, device=None, array=None) -> Backend:
     """Apply the resolution rule above; see the module docstring."""
     if isinstance(backend, Backend):
-        return backend
+        return _own(backend)
     if backend is not None:
         return get_backend(check_backend_name(backend), device)
     if device is not None:
@@ -145,7 +171,7 @@ def resolve_backend(backend=None, device=None, array=None) -> Backend:
             return owner
     ctx = _current.get()
     if ctx is not None:
-        return ctx
+        return _own(ctx)
     env = os.environ.get("GFGPU_BACKEND")
     if env:
         return _parse_spec(env)

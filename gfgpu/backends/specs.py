@@ -12,8 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "SGM_PATHS", "NO_MATCH", "TIE_RTOL",
-    "census_transform_reference", "census_cost_reference", "sgm_aggregate_reference",
+    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "TIE_RTOL", "SWEEP_PLANES",
+    "census_transform_reference", "in_view_reference", "census_cost_reference", "sgm_aggregate_reference",
     "select_disparity_reference", "sweep_update_reference", "suppress_nonmaxima_reference",
 ]
 
@@ -102,14 +102,38 @@ def census_transform_reference(image, radius):
     return code
 
 
-def census_cost_reference(census_left, census_right, first_step, n_disp, steps, block, invalid):
+def in_view_reference(w, first_step, n_disp, steps, radius):
+    """Which disparity samples have their whole matching window inside the other view.
+
+    Sample ``k`` (disparity ``d = (first_step + k) / steps = n + f / steps``, ``0 <= f <
+    steps``) of left column ``x`` is *in view* when the right pixel's whole window lies inside
+    the image: ``radius <= x - n <= w - 1 - radius``.  Then every column of the (border-clamped)
+    left window has its right column inside, and every right pixel that can be matched at all
+    sees its whole disparity range (what makes the left-right check decisive at the image's
+    edges).  For every ``x`` the samples in view are one contiguous run of ``k`` (possibly
+    empty).
+
+    Returns
+    -------
+    (w, n_disp) bool ndarray
+    """
+    xr = np.arange(w)[:, None] - (first_step + np.arange(n_disp))[None] // steps
+    return (xr >= radius) & (xr <= w - 1 - radius)
+
+
+#: cost and aggregated cost of a disparity sample that is not in view (no right pixel to match)
+OUT_OF_VIEW = -1
+
+
+def census_cost_reference(census_left, census_right, first_step, n_disp, steps, block):
     """Matching-cost volume: Hamming distances of census codes, summed over a block.
 
     ``cost[y, x, k]`` is the sum over the ``block x block`` window around ``(y, x)`` (clamped
     at the border) of ``popcount(L[y', x'] ^ R_f[y', x' - n])`` for the disparity
     ``d = (first_step + k) / steps = n + f / steps`` (``0 <= f < steps``), where ``R_f`` is the census
-    of the right view shifted by ``+f / steps`` px (``census_right[f]``).  Where ``x' - n``
-    falls outside the image the term is ``invalid``.
+    of the right view shifted by ``+f / steps`` px (``census_right[f]``).  Samples that are not
+    in view (:func:`in_view_reference` with ``radius = block // 2``: the right pixel's block
+    is not inside the image) are :data:`OUT_OF_VIEW` (-1): there is nothing to match.
 
     Parameters
     ----------
@@ -117,8 +141,6 @@ def census_cost_reference(census_left, census_right, first_step, n_disp, steps, 
     census_right : (steps, H, W) uint64 ndarray
     first_step, n_disp, steps, block : int
         ``first_step = d_min * steps``; ``n_disp`` disparity samples; the block side (odd).
-    invalid : int
-        Cost of a comparison with no right pixel (the largest Hamming distance).
 
     Returns
     -------
@@ -128,12 +150,11 @@ def census_cost_reference(census_left, census_right, first_step, n_disp, steps, 
     cr = np.asarray(census_right)
     h, w = cl.shape
     cols = np.arange(w)
-    ham = np.empty((h, w, n_disp), np.int32)
+    ham = np.zeros((h, w, n_disp), np.int32)
     for k in range(n_disp):
         n, f = divmod(first_step + k, steps)
         xr = cols - n
         inside = (xr >= 0) & (xr < w)
-        ham[:, :, k] = invalid
         ham[:, inside, k] = np.bitwise_count(cl[:, inside] ^ cr[f][:, xr[inside]])
     if block > 1:
         r = block // 2
@@ -141,17 +162,32 @@ def census_cost_reference(census_left, census_right, first_step, n_disp, steps, 
         colsw = np.clip(cols[:, None] + np.arange(-r, r + 1)[None], 0, w - 1)
         ham = ham[rows].sum(axis=1)                      # (H, W, D): window rows summed
         ham = ham[:, colsw].sum(axis=2)
+    view = in_view_reference(w, first_step, n_disp, steps, block // 2)
+    ham[:, ~view] = OUT_OF_VIEW
     return ham.astype(np.int16)
 
 
+_UNDEF = np.int32(1 << 24)     # path value of a sample that is not in view (never a minimum)
+
+
+def _path_start(cost):
+    return np.where(cost < 0, _UNDEF, cost)
+
+
 def _path_step(prev, cost, p1, p2):
-    """One step of the path recursion, vectorised over lines: prev, cost are (lines, D) int32."""
-    big = np.int32(1 << 24)
+    """One step of the path recursion, vectorised over lines: prev, cost are (lines, D) int32.
+
+    Samples out of view have cost < 0 and path value ``_UNDEF``; a sample whose predecessor is
+    out of view (it enters the view here) starts afresh: its "stay" term is the predecessor's
+    minimum ``m`` (so ``L = C`` there, no penalty), and a predecessor with nothing in view is
+    no predecessor (``m = _UNDEF`` gives ``L = C``)."""
     m = prev.min(axis=1, keepdims=True)
-    pad = np.full((prev.shape[0], 1), big, np.int32)
+    pad = np.full((prev.shape[0], 1), _UNDEF, np.int32)
     lower = np.concatenate([pad, prev[:, :-1]], axis=1) + p1
     upper = np.concatenate([prev[:, 1:], pad], axis=1) + p1
-    return cost + np.minimum(np.minimum(prev, np.minimum(lower, upper)), m + p2) - m
+    stay = np.where(prev >= _UNDEF, m, prev)
+    cur = cost + np.minimum(np.minimum(stay, np.minimum(lower, upper)), m + p2) - m
+    return np.where(cost < 0, _UNDEF, cur)
 
 
 def sgm_aggregate_reference(cost, p1, p2, paths=8):
@@ -161,7 +197,11 @@ def sgm_aggregate_reference(cost, p1, p2, paths=8):
     - min_k L_r(p-r, k)``,
 
     with ``L_r(p, d) = C(p, d)`` where ``p - r`` lies outside the image (integer arithmetic,
-    so every backend gives the same sums).
+    so every backend gives the same sums).  Samples out of view (``C < 0``, see
+    :func:`census_cost_reference`) take no part: the minima run over the samples in view of
+    ``p - r``, a missing ``d ± 1`` is no candidate, a sample entering the view at ``p`` takes
+    ``min_k L_r(p-r, k)`` as its own predecessor (it starts afresh, ``L = C``), and their
+    aggregated cost is :data:`OUT_OF_VIEW` (-1).
 
     Parameters
     ----------
@@ -183,71 +223,100 @@ def sgm_aggregate_reference(cost, p1, p2, paths=8):
             order = range(h) if dy > 0 else range(h - 1, -1, -1)
             prev = None
             for y in order:
-                cur = c[y] if prev is None else _path_step(prev, c[y], p1, p2)
-                total[y] += cur
+                cur = _path_start(c[y]) if prev is None else _path_step(prev, c[y], p1, p2)
+                total[y] += np.where(c[y] < 0, 0, cur)
                 prev = cur
             continue
         # stepping along columns; the predecessor of row y is row y - dy of the previous column
         order = range(w) if dx > 0 else range(w - 1, -1, -1)
         prev = None
         for x in order:
-            cur = c[:, x]
+            cur = _path_start(c[:, x])
             if prev is not None:
                 if dy == 0:
-                    cur = _path_step(prev, cur, p1, p2)
+                    cur = _path_step(prev, c[:, x], p1, p2)
                 elif dy > 0:
-                    cur = np.concatenate([cur[:1], _path_step(prev[:-1], cur[1:], p1, p2)])
+                    cur = np.concatenate([cur[:1], _path_step(prev[:-1], c[1:, x], p1, p2)])
                 else:
-                    cur = np.concatenate([_path_step(prev[1:], cur[:-1], p1, p2), cur[-1:]])
-            total[:, x] += cur
+                    cur = np.concatenate([_path_step(prev[1:], c[:-1, x], p1, p2), cur[-1:]])
+            total[:, x] += np.where(c[:, x] < 0, 0, cur)
             prev = cur
+    total[c < 0] = OUT_OF_VIEW
     return total.astype(np.int16)
 
 
 def select_disparity_reference(aggregated, d_min, steps, uniqueness):
-    """Winner-take-all for both views, with a uniqueness test and a parabola fit.
+    """Winner-take-all for both views, with validity tests and a parabola fit.
 
-    Left view: ``k* = argmin_k S[y, x, k]`` (the first minimum); rejected (NaN) unless every
-    ``S`` more than one step away from ``k*`` exceeds ``S[k*] (1 + uniqueness/100)``;
-    otherwise ``d = d_min + (k* + δ) / steps`` with the parabola vertex
-    ``δ = (S[k*-1] - S[k*+1]) / (2 (S[k*-1] - 2 S[k*] + S[k*+1]))`` (0 at the range's ends or
-    when the curvature is not positive).  Right view: the first minimum over k of
-    ``S[y, xr + d_k, k]`` (index ``d_min*steps + k``, in steps), over the ``k`` whose left
-    pixel ``xr + d_k`` (``d_k`` rounded down) lies inside; :data:`NO_MATCH` if none.
+    Left view, over the samples in view (``S >= 0``; :data:`OUT_OF_VIEW` entries are no
+    candidates): ``k* = argmin_k S[y, x, k]`` (the first minimum).  The pixel is rejected
+    (NaN) when
+
+    - no sample is in view;
+    - the minimum is cut by the image: ``k* - 1`` or ``k* + 1`` lies inside the range but is
+      out of view (the true minimum may lie beyond the image's edge);
+    - it is not unique: no sample in view lies more than one step from ``k*``, or the best of
+      them, ``S2``, does not exceed ``S[k*] (1 + uniqueness/100)`` (so exact ties are
+      rejected even with ``uniqueness = 0``).
+
+    Otherwise ``d = d_min + (k* + δ) / steps`` with the parabola vertex ``δ = (S[k*-1] -
+    S[k*+1]) / (2 (S[k*-1] - 2 S[k*] + S[k*+1]))`` (0 at the range's ends or when the
+    curvature is not positive), and ``margin = (S2 - S[k*]) / S2`` (float32; 1 where ``S2 =
+    0`` cannot occur for a kept pixel, 0 where rejected).  Right view: the first minimum over
+    ``k`` of ``S[y, xr + d_k, k]`` (index ``d_min*steps + k``, in steps) over the ``k`` whose
+    left pixel ``xr + d_k`` (``d_k`` rounded down) lies inside and whose sample is in view;
+    :data:`NO_MATCH` if none.
 
     Returns
     -------
     disp : (H, W) float32 ndarray
     disp_right : (H, W) int32 ndarray, in steps
+    margin : (H, W) float32 ndarray, in [0, 1]
     """
-    s = np.asarray(aggregated).astype(np.int32)
+    s = np.asarray(aggregated).astype(np.int64)
     h, w, n = s.shape
-    k = s.argmin(axis=2)
-    best = np.take_along_axis(s, k[..., None], 2)[..., 0]
+    big = np.int64(np.iinfo(np.int32).max)
+    view = s >= 0
+    sv = np.where(view, s, big)
+    k = sv.argmin(axis=2)
+    best = np.take_along_axis(sv, k[..., None], 2)[..., 0]
+    has = best < big
     ks = np.arange(n)[None, None]
     far = np.abs(ks - k[..., None]) > 1
-    second = np.where(far, s, np.iinfo(np.int32).max).min(axis=2).astype(np.int64)
-    unique = second * 100 > best.astype(np.int64) * (100 + uniqueness)
+    second = np.where(far, sv, big).min(axis=2)
+    unique = has & (second < big) & (second * 100 > best * (100 + uniqueness))
     sm = np.take_along_axis(s, np.maximum(k - 1, 0)[..., None], 2)[..., 0]
     sp = np.take_along_axis(s, np.minimum(k + 1, n - 1)[..., None], 2)[..., 0]
+    cut = ((k > 0) & (sm < 0)) | ((k < n - 1) & (sp < 0))
     den = (sm - 2 * best + sp).astype(np.float32)
     inner = (k > 0) & (k < n - 1) & (den > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         delta = np.where(inner, (sm - sp).astype(np.float32) / (np.float32(2) * den), np.float32(0))
     disp = ((np.float32(d_min * steps) + k.astype(np.float32) + delta) / np.float32(steps)).astype(np.float32)
-    disp[~unique] = np.nan
+    keep = unique & ~cut
+    disp[~keep] = np.nan
+    with np.errstate(divide="ignore", invalid="ignore"):
+        margin = ((second - best).astype(np.float32) / second.astype(np.float32)).astype(np.float32)
+    margin = np.where(keep, margin, np.float32(0)).astype(np.float32)
     right = np.full((h, w), NO_MATCH, np.int32)
-    best_r = np.full((h, w), np.iinfo(np.int32).max, np.int64)
+    best_r = np.full((h, w), big, np.int64)
     cols = np.arange(w)
     for kk in range(n):
         xl = cols + (d_min * steps + kk) // steps
         ok = (xl >= 0) & (xl < w)
-        val = np.full((h, w), np.iinfo(np.int32).max, np.int64)
-        val[:, ok] = s[:, xl[ok], kk]
+        val = np.full((h, w), big, np.int64)
+        val[:, ok] = sv[:, xl[ok], kk]
         better = val < best_r
         best_r[better] = val[better]
         right[better] = d_min * steps + kk
-    return disp, right
+    return disp, right, margin
+
+
+#: planes of the sweep's state (float32): best cost, its disparity, the cost one step before the
+#: best, one step after it, the previous step's cost, the best cost more than one step from the
+#: best (for the uniqueness test), the minimum over all steps but the last one, and the right
+#: view's best cost and its disparity (for the left-right check)
+SWEEP_PLANES = 9
 
 
 def sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
@@ -261,10 +330,19 @@ def sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_r
     view by ``+f/2`` (``0 <= f < 1``), so the window compares left ``x' + f/2`` with right
     ``x' + f/2 - d``: the cost of the left pixel within half a pixel of ``x'`` (exact on
     fronto-parallel surfaces; on a slope s the position error is at most ``s/2`` px of
-    disparity).  ``state`` (5, H, W) float32 holds the best cost, its ``d``,
-    the costs one step before and after it and the previous step's cost; it is updated in
-    place (a new best takes the previous cost as "before").  Steps must come in increasing
-    ``d``, one step apart.
+    disparity).  Where the right window around ``x - offset`` is not inside the image (not in
+    view, :func:`in_view_reference` with ``n = offset``) the cost is ``+inf``: no candidate.
+
+    ``state`` (:data:`SWEEP_PLANES`, H, W) float32 holds the best cost, its ``d``, the costs
+    one step before and after it, the previous step's cost, ``second`` (the best cost more
+    than one step from the best), ``older`` (the minimum over the steps before the previous
+    one), and for the right view's pixel ``xr`` its best cost and ``d``; initialise best,
+    second, older and the right best cost to ``+inf``, the others to NaN.  It is updated in
+    place: a cost below the best makes a new best (its "before" is the previous cost, its
+    "second" is ``older``); otherwise the cost is the best's "after" if that is still NaN,
+    else it enters ``second``.  The cost at left pixel ``x`` is also the cost of right pixel
+    ``xr = x - offset`` (one left pixel per right pixel and step): a cost below the right
+    view's best makes a new one.  Steps must come in increasing ``d``, one step apart.
     """
     ls = np.asarray(left_shifted, np.float64) * np.asarray(gain_left, np.float64)
     rs = np.asarray(right_shifted, np.float64) * np.asarray(gain_right, np.float64)
@@ -275,13 +353,24 @@ def sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_r
     rows = np.clip(np.arange(h)[:, None] + np.arange(-radius, radius + 1)[None], 0, h - 1)
     win = np.clip(cols[:, None] + np.arange(-radius, radius + 1)[None], 0, w - 1)
     cost = sq[rows].sum(axis=1)[:, win].sum(axis=2).astype(np.float32)
-    best, best_d, before, after, prev = state
+    view = in_view_reference(w, offset, 1, 1, radius)[:, 0]
+    cost[:, ~view] = np.inf
+    best, best_d, before, after, prev, second, older, best_r, best_rd = state
+    xr = cols - offset                      # in view: inside the image, one x per xr
+    better = view[None] & (cost < best_r[:, np.clip(xr, 0, w - 1)])
+    yy, xx = np.nonzero(better)
+    best_r[yy, xr[xx]] = cost[yy, xx]
+    best_rd[yy, xr[xx]] = np.float32(d)
     new = cost < best
     after_step = (~new) & np.isnan(after)   # the step right after the current best
+    rest = (~new) & ~after_step
     after[after_step] = cost[after_step]
+    second[rest] = np.minimum(second[rest], cost[rest])
+    second[new] = older[new]
     before[new] = prev[new]
     after[new] = np.nan
     best[new] = cost[new]
     best_d[new] = np.float32(d)
+    older[...] = np.fmin(older, prev)       # prev is NaN before the first step
     prev[...] = cost
     return state

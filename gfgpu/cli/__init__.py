@@ -10,6 +10,19 @@ Examples::
     gfgpu gradient --example camera -o camera_gradient.png -u 1.0
     gfgpu shift photo.png -o shifted.png --dx 2.5 --dy -1.25
     gfgpu devices
+
+Every command checks its options, inputs and outputs before any work, and an error is one line
+``gfgpu COMMAND: message`` on stderr naming the option or the file.  Exit status:
+
+- 0: done;
+- 2: a usage error, found before any work: a bad option or option value (``-u 0``, ``--dx nan``,
+  an unknown ``--device``), an input that cannot be read (missing, not a regular file, corrupt,
+  empty, an animation or multi-page file, complex samples, a decompression bomb), an output
+  that must not or cannot be written (an input file, a wrong extension, a missing, read-only or
+  non-directory folder: nothing is created);
+- 1: the work failed: an output could not be written after computing (a full disk, an I/O
+  error: :class:`gfgpu.io.OutputError`), or in ``gfgpu batch`` at least one file failed;
+- 130: interrupted (Ctrl-C).
 """
 
 from __future__ import annotations
@@ -19,6 +32,7 @@ import sys
 
 from .._version import __version__
 from ..backends import BackendUnavailable
+from ..io import OutputError
 from . import batch, blur, depth, devices, disparity, frames, gradient, shift
 from .common import CommandError
 
@@ -27,8 +41,15 @@ __all__ = ["main", "build_parser"]
 COMMANDS = (disparity, gradient, shift, blur, frames, depth, batch, devices)
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors as one line, ``gfgpu COMMAND: message`` (exit status 2), like every other error."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
+
 def build_parser():
-    parser = argparse.ArgumentParser(prog="gfgpu", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="gfgpu", description=__doc__.splitlines()[0])
     parser.add_argument("--version", action="version", version=f"gfgpu {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
@@ -37,11 +58,15 @@ def build_parser():
 
 
 def main(argv=None):
-    """Run the ``gfgpu`` command; returns the exit status (2 for a one-line error message)."""
+    """Run the ``gfgpu`` command; returns the exit status (2: usage error, 1: the work failed;
+    see the module's documentation)."""
     args = build_parser().parse_args(argv)
     name = args.command if getattr(args, "op", None) is None else f"{args.command} {args.op}"
     try:
         return args.func(args)
+    except OutputError as exc:
+        print(f"gfgpu {name}: {exc}", file=sys.stderr)
+        return 1
     except (CommandError, BackendUnavailable, OSError, ValueError, TypeError) as exc:
         print(f"gfgpu {name}: {exc}", file=sys.stderr)
         return 2

@@ -16,17 +16,24 @@ The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` col
 from __future__ import annotations
 
 import argparse
+import os
+import sys
 import time
 
-from ..batch import FORMATS, check_parameters, discover_inputs, plan_jobs, run_batch, summarize
+from ..batch import FORMATS, Result, check_parameters, discover_inputs, plan_jobs, run_batch, summarize
+from ..io import remove_stale_temporaries
 from .common import CommandError, announce_backend, backend_args
 
 _EPILOG = """\
 Outputs are OUTDIR/<input stem>.<format>, written atomically (temporary file + rename), so an
 interrupted batch leaves only complete files; a rerun skips the outputs that exist (resume)
-unless --overwrite. Inputs are never overwritten. A file that fails (unreadable, truncated,
-unsupported pixel type, ...) is reported with its reason and the others go on; the exit status
-is 1 if any file failed.
+unless --overwrite, and removes the temporary files (.gfgpu-HOST-PID-*) that killed runs left in
+OUTDIR (their process is gone, or, from another host, they are over a day old). Inputs are never
+overwritten; files inside OUTDIR are not taken from a directory or pattern (a batch whose OUTDIR
+lies under its input pattern skips its own outputs). Anything that is not a regular file (a FIFO
+named x.png, ...) is skipped, never opened, and reported. A file that fails (unreadable,
+truncated, unsupported pixel type, ...) is reported with its reason and the others go on; the
+exit status is 1 if any file failed, 2 for a usage error found before any work.
 
 --workers N starts N local worker processes (Dask LocalCluster, one thread each).
 --scheduler ADDRESS uses a running Dask cluster (e.g. tcp://head:8786, started with
@@ -122,13 +129,24 @@ def run(args):
         raise CommandError(f"--workers must be >= 1, got {args.workers}")
     params = _params(args)
     check_parameters(args.op, params, args.mode)
-    inputs = discover_inputs(args.inputs)
+    left_out = []
+    inputs = discover_inputs(args.inputs, exclude=args.output_dir, skipped=left_out)
     jobs = plan_jobs(inputs, args.output_dir, args.op, params, fmt=args.format, mode=args.mode,
                      backend=args.backend, device=args.device, overwrite=args.overwrite)
+    if os.path.lexists(args.output_dir) and not os.path.isdir(args.output_dir):
+        raise CommandError(f"-o {args.output_dir}: exists and is not a directory")
     if args.workers is None and args.scheduler is None:
         announce_backend(args)   # workers resolve their own; they say so in their results
+    stale = remove_stale_temporaries(args.output_dir)
+    if stale:
+        print(f"removed {len(stale)} temporary file(s) of an interrupted run from {args.output_dir}", file=sys.stderr)
+    in_outdir = sum(reason == "inside the output folder" for _, reason in left_out)
+    if in_outdir:
+        print(f"left out {in_outdir} file(s) inside the output folder {args.output_dir} (this batch's outputs)")
     t0 = time.perf_counter()
     results = run_batch(jobs, workers=args.workers, scheduler=args.scheduler, description=f"gfgpu batch {args.op}")
+    results += [Result(path, "", "skipped", reason) for path, reason in left_out
+                if reason != "inside the output folder"]
     text, code = summarize(results, time.perf_counter() - t0)
     print(text)
     return code

@@ -1,24 +1,59 @@
-"""What every ``gfgpu`` command shares: backend options, image input, the backend line, errors.
+"""What every ``gfgpu`` command shares: backend options, option types, image input and output,
+the backend line, errors.
 
 Library functions raise ``ValueError``/``TypeError``/``OSError``; :func:`gfgpu.cli.main`
 turns them into one-line messages.  :class:`CommandError` is for problems only a command can
-see (conflicting options, an output that would overwrite an input).
+see (conflicting options, an output that would overwrite an input).  Every command checks its
+options, inputs and outputs before any work (:func:`check_outputs`); see :mod:`gfgpu.cli` for
+the exit statuses.
 """
 
 from __future__ import annotations
 
+import argparse
+import math
 import os
 
 import numpy as np
 
 from .. import io
-from ..backends import resolve_backend
+from ..backends import BackendUnavailable, resolve_backend
 
 MODES = ("reflect", "constant", "nearest", "mirror", "wrap")
 
 
 class CommandError(Exception):
     """A usage problem of one command; printed as ``gfgpu COMMAND: message``."""
+
+
+def finite_float(text):
+    """argparse type: a finite float (``nan``, ``inf`` and values that overflow are refused)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def positive_float(text):
+    """argparse type: a finite float > 0."""
+    value = finite_float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
+    return value
+
+
+def positive_int(text):
+    """argparse type: an integer >= 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {text!r}")
+    return value
 
 
 def backend_args(p):
@@ -43,20 +78,86 @@ def read_input(args):
     return io.read_image(args.image), args.image
 
 
-def refuse_overwrite(inputs, outputs):
-    """CommandError when an output path names an input file (inputs are never written)."""
-    for out in outputs:
+#: extensions an image output (``-o``) may have; its format follows the extension
+IMAGE_OUTPUT = tuple(io.IMAGE_FORMATS)
+#: the extension of a ``--npy`` output
+NPY_OUTPUT = (".npy",)
+
+
+def same_file(a, b):
+    """Whether paths ``a`` and ``b`` name one file: the same path, a symbolic link to it (also a
+    dangling link that points there) or a hard link (``os.path.samefile`` where both exist)."""
+    if os.path.abspath(a) == os.path.abspath(b) or os.path.realpath(a) == os.path.realpath(b):
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
+def check_outputs(inputs, outputs):
+    """Before any work: refuse outputs that cannot or must not be written (CommandError).
+
+    ``outputs`` are ``(option, path, extensions)`` (``path`` None: not asked for;
+    ``extensions`` None: any).  Each must have one of its extensions, lie in an existing
+    writable folder (:func:`gfgpu.io.check_output`; nothing is created), not be an input file
+    (also through a symbolic or hard link: inputs are never written) and not be another
+    output.  The message names the option.
+    """
+    inputs = [p for p in inputs if p]
+    seen = []
+    for option, path, extensions in outputs:
+        if not path:
+            continue
         for src in inputs:
-            if out and src and os.path.abspath(out) == os.path.abspath(src):
-                raise CommandError(f"refusing to overwrite the input {src}; choose another output")
+            if same_file(path, src):
+                raise CommandError(f"{option} {path}: refusing to overwrite the input {src}; choose another "
+                                   f"output")
+        for other_option, other in seen:
+            if same_file(path, other):
+                raise CommandError(f"{option} and {other_option} name the same file {path}")
+        try:
+            io.check_output(path, name=option, extensions=extensions)
+        except (OSError, ValueError) as exc:
+            raise CommandError(str(exc)) from None
+        seen.append((option, path))
+
+
+def refuse_overwrite(inputs, outputs):
+    """:func:`check_outputs` for outputs of any extension (named "output" in messages)."""
+    check_outputs(inputs, [("output", out, None) for out in outputs])
 
 
 def announce_backend(args):
-    """Resolve the backend the command will run on and say so (one line, unless ``--quiet``)."""
-    be = resolve_backend(getattr(args, "backend", None), getattr(args, "device", None))
+    """Resolve the backend the command will run on and say so (one line, unless ``--quiet``).
+
+    A bad ``--backend``/``--device`` is a CommandError naming the option."""
+    backend, device = getattr(args, "backend", None), getattr(args, "device", None)
+    try:
+        be = resolve_backend(backend, device)
+    except (BackendUnavailable, ValueError, TypeError) as exc:
+        option = f"--device {device}" if device is not None else f"--backend {backend}" if backend else "backend"
+        raise CommandError(f"{option}: {exc}") from None
     if not getattr(args, "quiet", False):
         print(f"gfgpu {args.command}: backend {be.name} on {be.device}")
     return be
+
+
+def split_alpha_work(image):
+    """``(work, has_alpha)``: the float32 array a colour filter runs on.  With alpha, colour x
+    alpha and alpha (premultiplied, :func:`gfgpu.io.premultiply`), all filtered alike, so edges
+    get no dark fringes; :func:`join_alpha` undoes it."""
+    img = np.asarray(image)
+    if io.has_alpha(img):
+        return io.premultiply(img), True
+    if img.ndim == 3 and img.shape[-1] == 1:
+        img = img[..., 0]
+    return img.astype(np.float32), False
+
+
+def join_alpha(result, image, has_alpha):
+    """The filtered premultiplied ``result`` back to colour and alpha (see :func:`split_alpha_work`)."""
+    return io.unpremultiply(result, np.asarray(image).dtype) if has_alpha else result
 
 
 def drop_alpha(image):

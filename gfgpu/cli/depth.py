@@ -16,25 +16,35 @@ from tqdm import tqdm
 
 from .. import io
 from ..shading import lambertian_shading, photometric_motion, shape_from_shading
-from .common import CommandError, announce_backend, backend_args, refuse_overwrite
+from .common import (
+    IMAGE_OUTPUT,
+    NPY_OUTPUT,
+    CommandError,
+    announce_backend,
+    backend_args,
+    check_outputs,
+    finite_float,
+    positive_float,
+)
 
 
 def add_parser(subparsers):
     """Add the ``depth`` subcommand to an argparse ``subparsers`` object."""
     p = subparsers.add_parser("depth", help="depth map from one shading image (GSFS / photometric motion)")
     p.add_argument("image", help="input shading image (grey; colour is averaged)")
-    p.add_argument("-o", "--output", required=True, help="output depth PNG (near = bright)")
+    p.add_argument("-o", "--output", required=True,
+                   help="output depth image, 8-bit (near = bright); .png, .tif, .jpg or .bmp")
     p.add_argument("--method", choices=("gsfs", "photometric-motion"), default="gsfs")
-    p.add_argument("--light", nargs="+", type=float, metavar="L",
+    p.add_argument("--light", nargs="+", type=finite_float, metavar="L",
                    help="light as L1 L2 L3 (x right, y down, z toward the viewer) or TILT SLANT in "
                         "degrees; default: estimated (Zheng & Chellappa 1991)")
-    p.add_argument("-u", type=float, default=None, help="GSFS matching constant in pixels (default: rule)")
+    p.add_argument("-u", type=positive_float, default=None, help="GSFS matching constant in pixels (default: rule)")
     p.add_argument("--boundary", choices=("auto", "background", "free"), default="auto",
                    help="GSFS line constants: an object on a flat background, a textured surface "
                         "filling the frame, or chosen from the image border (default)")
-    p.add_argument("--direction", type=float, default=None,
+    p.add_argument("--direction", type=finite_float, default=None,
                    help="matching/motion direction in degrees from +x toward +y (default: light tilt)")
-    p.add_argument("--relief", help="also write a shaded-relief rendering of the depth (PNG)")
+    p.add_argument("--relief", help="also write a shaded-relief rendering of the depth (8-bit image)")
     p.add_argument("--npy", help="also write the raw float depth (.npy)")
     backend_args(p)
     p.set_defaults(func=run)
@@ -58,7 +68,10 @@ def _to_png(values):
 
 
 def run(args):
-    refuse_overwrite([args.image], [args.output, args.relief, args.npy])
+    light = _light(args.light)
+    check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--relief", args.relief, IMAGE_OUTPUT),
+                                 ("--npy", args.npy, NPY_OUTPUT)])
+    be = announce_backend(args)
     image = io.read_image(args.image)
     img = np.asarray(image)
     if img.ndim == 3:
@@ -68,7 +81,7 @@ def run(args):
         img /= 255.0
     elif image.dtype == np.uint16:
         img /= 65535.0
-    kw = dict(light=_light(args.light), backend=announce_backend(args))
+    kw = dict(light=light, backend=be)
     direction = None if args.direction is None else math.radians(args.direction)
     t0 = time.perf_counter()
     with tqdm(total=3, desc=f"gfgpu depth ({args.method})", unit="step", disable=None, leave=False) as bar:
@@ -78,10 +91,10 @@ def run(args):
         else:
             depth = photometric_motion(img, direction=direction, **kw)
         bar.update(1)
-        io.save_png(args.output, _to_png(depth))
+        io.write_image(args.output, _to_png(depth))
         if args.relief:
             relief = lambertian_shading(depth, (math.radians(-135), math.radians(45)))  # light from top-left
-            io.save_png(args.relief, _to_png(relief))
+            io.write_image(args.relief, _to_png(relief))
         if args.npy:
             io.save_npy(args.npy, depth)
         bar.update(1)

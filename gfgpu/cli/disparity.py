@@ -4,6 +4,8 @@ Examples::
 
     gfgpu disparity --example motorcycle -o motorcycle_disparity.png
     gfgpu disparity left.png right.png -o disp.png --max-disparity 64 --npy disp.npy --pfm disp.pfm
+    gfgpu disparity left.png right.png -o disp.png --png16 disp16.png \\
+        --ply cloud.ply --focal 3740 --baseline 0.16
 
 """
 
@@ -15,10 +17,11 @@ import numpy as np
 from tqdm import tqdm
 
 from .. import io
-from ..stereo import disparity, disparity_work, fill_holes
-from .common import CommandError, announce_backend, backend_args, refuse_overwrite
+from ..stereo import disparity, disparity_work, estimate_max_disparity, fill_holes, reproject_to_3d, stereo_q
+from .common import IMAGE_OUTPUT, NPY_OUTPUT, CommandError, announce_backend, backend_args, check_outputs, positive_int
 
 EXAMPLES = ("motorcycle",)
+
 
 def _read_pair(args):
     if args.example:
@@ -34,14 +37,24 @@ def add_arguments(p):
     p.add_argument("left", nargs="?", help="left image of a rectified pair")
     p.add_argument("right", nargs="?", help="right image of the pair")
     p.add_argument("--example", choices=EXAMPLES, help="use a bundled pair instead (no download)")
-    p.add_argument("-o", "--output", required=True, help="output PNG (colour-mapped disparity)")
-    p.add_argument("--max-disparity", type=int, help="largest disparity searched (px); default "
-                   "64 for the example, else a quarter of the width")
+    p.add_argument("-o", "--output", required=True, help="output PNG (colour-mapped disparity with a colour bar)")
+    p.add_argument("--max-disparity", type=positive_int, help="largest disparity searched (px); default 64 for "
+                   "the example, else estimated by a coarse pass at 1/4 size (its 99.5th percentile "
+                   "+ 8 px, rounded up to 16k-1)")
     p.add_argument("--min-disparity", type=int, default=0, help="smallest disparity (px), default 0")
     p.add_argument("--method", default="sgm", choices=("sgm", "uniform", "affine"))
     p.add_argument("--npy", help="also save the raw float32 disparities (NaN = rejected) as .npy")
     p.add_argument("--pfm", help="also save them as .pfm (Middlebury's format)")
-    p.add_argument("--fill", action="store_true", help="fill rejected pixels from the background")
+    p.add_argument("--png16", help="also save them as a 16-bit PNG, KITTI convention (d*256, 0 = invalid)")
+    p.add_argument("--confidence", help="also save the confidence per pixel (float32 .npy, 0..1)")
+    p.add_argument("--ply", help="also save the point cloud (PLY, left view's colours); needs "
+                   "--focal and --baseline, or --q")
+    p.add_argument("--focal", type=float, help="focal length (px) for --ply")
+    p.add_argument("--baseline", type=float, help="baseline for --ply (the points' unit)")
+    p.add_argument("--q", help="4x4 reprojection matrix (OpenCV's Q) as a text or .npy file, for --ply")
+    p.add_argument("--no-colour-bar", action="store_true", help="omit the colour bar on the PNG")
+    p.add_argument("--fill", action="store_true", help="fill rejected pixels from the background (the "
+                   "bands at the image's edges by a smooth average, not streaks)")
     backend_args(p)
 
 
@@ -53,27 +66,67 @@ def add_parser(subparsers):
     return p
 
 
+def _q_matrix(args, shape):
+    if args.q:
+        try:
+            q = np.load(args.q) if args.q.endswith(".npy") else np.loadtxt(args.q)
+        except (OSError, ValueError) as exc:
+            raise CommandError(f"--q {args.q}: cannot read a 4x4 matrix ({exc})") from None
+        if np.shape(q) != (4, 4):
+            raise CommandError(f"--q {args.q}: expected a 4x4 matrix, got shape {np.shape(q)}")
+        return q
+    if args.focal is None or args.baseline is None:
+        raise CommandError("--ply needs --focal and --baseline, or --q")
+    h, w = shape
+    return stereo_q(args.focal, args.baseline, ((h - 1) / 2, (w - 1) / 2))
+
+
 def run(args):
     """Handle ``gfgpu disparity`` (parsed ``args``); returns the exit status."""
-    refuse_overwrite([args.left, args.right], [args.output, args.npy, args.pfm])
+    check_outputs([args.left, args.right], [
+        ("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT), ("--pfm", args.pfm, (".pfm",)),
+        ("--png16", args.png16, (".png",)), ("--confidence", args.confidence, NPY_OUTPUT),
+        ("--ply", args.ply, (".ply",))])
+    if args.ply is None and (args.focal is not None or args.baseline is not None or args.q):
+        raise CommandError("--focal, --baseline and --q are for --ply")
     left, right, label, default_max = _read_pair(args)
     be = announce_backend(args)
-    d_max = args.max_disparity or default_max or max(1, np.shape(left)[1] // 4)
-    kw = dict(min_disparity=args.min_disparity, method=args.method)
     t0 = time.perf_counter()
+    d_max = args.max_disparity or default_max
+    if d_max is None:
+        d_max = estimate_max_disparity(left, right, min_disparity=args.min_disparity, backend=be)
+        print(f"max disparity {d_max} (estimated by a coarse pass; set --max-disparity to override)")
+    kw = dict(min_disparity=args.min_disparity, method=args.method)
     with tqdm(total=disparity_work(d_max, **kw), desc=f"gfgpu disparity ({args.method})",
               unit="step", disable=None, leave=False) as bar:
-        disp = disparity(left, right, d_max, progress=bar.update, backend=be, **kw)
+        disp, conf = disparity(left, right, d_max, progress=bar.update, backend=be,
+                               return_confidence=True, **kw)
     elapsed = time.perf_counter() - t0
+    raw = disp
     if args.fill:
-        disp = fill_holes(disp)
+        disp = fill_holes(disp, edges="smooth")
     png = io.colourise_disparity(disp, args.min_disparity, d_max)
-    io.save_png(args.output, png)
+    if not args.no_colour_bar:
+        bar_img = io.colour_bar(png.shape[0], args.min_disparity, d_max, width=64)
+        png = np.concatenate([png, np.zeros((png.shape[0], 4, 3), np.uint8), bar_img], axis=1)
+    io.write_image(args.output, png)
     if args.npy:
         io.save_npy(args.npy, disp)
     if args.pfm:
         io.write_atomic(args.pfm, lambda tmp: io.write_pfm(tmp, disp))
+    if args.png16:
+        io.save_png(args.png16, io.disparity_to_png16(disp))
+    if args.confidence:
+        io.save_npy(args.confidence, conf)
+    if args.ply:
+        pts = reproject_to_3d(raw, _q_matrix(args, raw.shape))     # rejected pixels are no points
+        colours = np.asarray(left)
+        if colours.dtype != np.uint8:
+            top = float(colours.max()) or 1.0
+            colours = np.clip(colours / top * 255, 0, 255).astype(np.uint8)
+        n = io.write_ply(args.ply, pts, colours[..., :3] if colours.ndim == 3 else colours)
+        print(f"{n} points -> {args.ply}")
     h, w = disp.shape
     print(f"{label}: {w}x{h}, disparities {args.min_disparity}..{d_max} -> {args.output} "
-          f"({np.isnan(disp).mean():.1%} rejected, {elapsed:.2f} s including device start-up)")
+          f"({np.isnan(raw).mean():.1%} rejected, {elapsed:.2f} s including device start-up)")
     return 0

@@ -14,33 +14,45 @@ from tqdm import tqdm
 
 from .. import io
 from ..filters import gradient
-from .common import MODES, announce_backend, backend_args, drop_alpha, image_args, read_input, refuse_overwrite
+from .common import (
+    IMAGE_OUTPUT,
+    MODES,
+    NPY_OUTPUT,
+    announce_backend,
+    backend_args,
+    check_outputs,
+    drop_alpha,
+    image_args,
+    positive_float,
+    read_input,
+)
 
 
 def add_parser(subparsers):
     p = subparsers.add_parser("gradient", help="Green's-function gradient (D across, P along): colour PNG")
     image_args(p)
-    p.add_argument("-o", "--output", required=True, help="output PNG (hue = orientation, value = magnitude)")
+    p.add_argument("-o", "--output", required=True, help="output image, 8-bit colour (hue = orientation, value = "
+                   "magnitude); .png, .tif, .jpg or .bmp")
     p.add_argument("--npy", help="also save the raw float32 (gy, gx) as .npy")
     p.add_argument("--mode", default="reflect", choices=MODES)
-    p.add_argument("-u", type=float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
+    p.add_argument("-u", type=positive_float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
     backend_args(p)
     p.set_defaults(func=run)
 
 
 def run(args):
-    refuse_overwrite([args.image], [args.output, args.npy])
+    check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
+    be = announce_backend(args)
     image, label = read_input(args)
     img = drop_alpha(image).astype(np.float32)
     if img.ndim == 3:
         img = img.mean(axis=-1)   # luminance-like average: one gradient per pixel
-    be = announce_backend(args)
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu gradient", unit="image", disable=None, leave=False) as bar:
         gy, gx = gradient(img, args.u, mode=args.mode, backend=be)
         bar.update(1)
     elapsed = time.perf_counter() - t0
-    io.save_png(args.output, io.gradient_to_rgb(gy, gx))
+    io.write_image(args.output, io.gradient_to_rgb(gy, gx))
     if args.npy:
         io.save_npy(args.npy, np.stack([gy, gx]))
     print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({elapsed * 1e3:.0f} ms including "

@@ -3,28 +3,43 @@
 Example::
 
     gfgpu shift photo.png -o shifted.png --dx 2.5 --dy -1.25
+
+The output is written at the input's depth in the format of its extension (see
+:func:`gfgpu.io.to_output`); an alpha channel is kept (filtered premultiplied).
 """
 
 from __future__ import annotations
 
 import time
 
-import numpy as np
 from tqdm import tqdm
 
 from .. import io
 from ..filters import shift
-from .common import MODES, announce_backend, backend_args, drop_alpha, image_args, read_input, refuse_overwrite
+from .common import (
+    IMAGE_OUTPUT,
+    MODES,
+    NPY_OUTPUT,
+    announce_backend,
+    backend_args,
+    check_outputs,
+    finite_float,
+    image_args,
+    join_alpha,
+    read_input,
+    split_alpha_work,
+)
 
 
 def add_parser(subparsers):
     p = subparsers.add_parser("shift", help="translate by a sub-pixel amount (--dx right, --dy down)")
     image_args(p)
-    p.add_argument("-o", "--output", required=True, help="output PNG")
+    p.add_argument("-o", "--output", required=True,
+                   help="output image (.png, .tif, .jpg, .bmp: the format of the extension), at the input's depth")
     p.add_argument("--npy", help="also save the raw float32 result as .npy")
     p.add_argument("--mode", default="reflect", choices=MODES)
-    p.add_argument("--dx", type=float, default=0.0, help="displacement toward the right (columns), pixels")
-    p.add_argument("--dy", type=float, default=0.0, help="displacement downward (rows), pixels")
+    p.add_argument("--dx", type=finite_float, default=0.0, help="displacement toward the right (columns), pixels")
+    p.add_argument("--dy", type=finite_float, default=0.0, help="displacement downward (rows), pixels")
     p.add_argument("--interpolation", choices=("green", "cubic"), default="green",
                    help="fractional part: the discrete Green shift (default) or a cubic B-spline")
     backend_args(p)
@@ -32,20 +47,21 @@ def add_parser(subparsers):
 
 
 def run(args):
-    refuse_overwrite([args.image], [args.output, args.npy])
-    image, label = read_input(args)
-    img = drop_alpha(image)
+    check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
     be = announce_backend(args)
+    image, label = read_input(args)
+    work, alpha = split_alpha_work(image)
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu shift", unit="image", disable=None, leave=False) as bar:
         # the library's array-axis order (rows, cols); colour channels are not shifted
-        raw = shift(img.astype(np.float32), (args.dy, args.dx), channel_axis=-1 if img.ndim == 3 else None,
+        raw = shift(work, (args.dy, args.dx), channel_axis=-1 if work.ndim == 3 else None,
                     mode=args.mode, interpolation=args.interpolation, backend=be)
         bar.update(1)
+    raw = join_alpha(raw, image, alpha)
     elapsed = time.perf_counter() - t0
-    io.save_png(args.output, io.to_display_8bit(raw, img))
+    io.save_image(args.output, raw, image)
     if args.npy:
         io.save_npy(args.npy, raw)
-    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({elapsed * 1e3:.0f} ms including "
+    print(f"{label}: {work.shape[1]}x{work.shape[0]} -> {args.output} ({elapsed * 1e3:.0f} ms including "
           f"device start-up)")
     return 0

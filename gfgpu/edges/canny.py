@@ -11,6 +11,7 @@ import numpy as np
 from scipy import ndimage
 
 from .._core import strips
+from .._core.validation import flag
 from ..filters import gradient, make_job
 from ..greens import EDGE_A, EDGE_ETA
 from . import kernels
@@ -21,6 +22,9 @@ __all__ = ["canny", "hysteresis", "DEFAULT_LOW", "DEFAULT_HIGH"]
 #: [0, 1] for integer types): skimage's defaults 0.1 / 0.2 apply to an unnormalised Sobel
 #: magnitude, which is 8 x the slope, so these select the same edges.
 DEFAULT_LOW, DEFAULT_HIGH = 0.1 / 8, 0.2 / 8
+
+#: gradient magnitudes below this many ulps of the image's largest value are rounding noise
+_NOISE_ULPS = 64
 
 def hysteresis(suppressed, low, high):
     """Hysteresis thresholding of a suppressed gradient magnitude (host, one labelling pass).
@@ -119,6 +123,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     >>> bool(edges[32, 17] or edges[32, 18]), bool(edges[32, 32])
     (True, False)
     """
+    use_quantiles = flag("use_quantiles", use_quantiles)
+    return_gradient = flag("return_gradient", return_gradient)
     low, low_q = _threshold(low_threshold, "low_threshold", use_quantiles, DEFAULT_LOW)
     high, high_q = _threshold(high_threshold, "high_threshold", use_quantiles, DEFAULT_HIGH)
     job = make_job(image, None, backend, device, min_ndim=2)
@@ -142,21 +148,29 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     suppressed = be.empty(job.shape, job.dtype)
     kernels.nms(be, gy, gx, suppressed)
     nms = be.to_host(suppressed)
+    # a gradient within the recursions' rounding of the image's values is zero: without this
+    # floor a flat image has "edges" made of rounding noise that differ by backend and dtype
+    scale = float(np.abs(be.to_host(data)).max())
+    floor = _NOISE_ULPS * float(np.finfo(job.dtype).eps) * scale
+    nms[nms <= floor] = 0
     need_mag = return_gradient or low_q or high_q
     if need_mag:
         hy, hx = be.to_host(gy), be.to_host(gx)
         magnitude = np.hypot(hy, hx)
     if low_q or high_q:
         pick = magnitude if mask is None else magnitude[mask]
-        if low_q:
-            low = float(np.percentile(pick, 100.0 * low))
-        if high_q:
-            high = float(np.percentile(pick, 100.0 * high))
+        if pick.size == 0:      # an empty mask: no edges (as skimage)
+            low, high = np.inf, np.inf
+        else:
+            if low_q:
+                low = float(np.percentile(pick, 100.0 * low))
+            if high_q:
+                high = float(np.percentile(pick, 100.0 * high))
     if high < low:
         raise ValueError(f"low_threshold ({low}) must not exceed high_threshold ({high})")
     if mask is not None:
         nms = np.where(ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0), nms, 0)
-    edges = hysteresis(nms, low, high)
+    edges = hysteresis(nms, max(low, floor), max(high, floor)) if np.isfinite(high) else np.zeros(job.shape, bool)
     if return_gradient:
         return edges, magnitude, np.arctan2(hy, hx)
     return edges

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .._core.job import apply_program
 from .._core.recursion import check_mode
-from .._core.validation import finite_cval
+from .._core.validation import finite_cval, flag
 from ..filters import make_job
 from .params import KINDS, move_channels, velocity_pair, zoom_factors
 from .rotation import apply_rotation, rotation_angle
@@ -162,11 +162,11 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     if kind == "uniform":
         velocity_pair(velocity)
         job = make_job(image, output, backend, device, min_ndim=2)
-        return apply_program(job, uniform_motion_program(job.ndim, velocity, bool(displace)), mode, cval)
+        return apply_program(job, uniform_motion_program(job.ndim, velocity, flag("displace", displace)), mode, cval)
     if kind == "rotation":
         degrees = rotation_angle(velocity)
         job = make_job(image, output, backend, device, min_ndim=2)
-        return apply_rotation(job, degrees, center, bool(displace), mode, cval)
+        return apply_rotation(job, degrees, center, flag("displace", displace), mode, cval)
     u1y, u1x = zoom_factors(velocity)
     job = make_job(image, output, backend, device, min_ndim=2)
     return apply_zoom(job, u1y, u1x, center, mode, cval)

@@ -9,7 +9,7 @@ import numpy as np
 from .. import greens
 from .._core import strips
 from .._core.job import copy_of_input
-from .._core.recursion import plan_lines
+from .._core.recursion import line_plans
 from .._core.validation import finite_scalar
 from .params import center_point
 
@@ -46,12 +46,14 @@ def rotation_shears(degrees):
 
 
 def _shear_plans(rate, n_lines, centre, n, mode, dtype):
-    """Per-line plans of a shear: line i displaced by ``rate (i - centre)`` (the G_u shift)."""
-    passes = []
-    for i in range(n_lines):
-        d = rate * (i - centre)
-        passes.append(greens.shift_pass(d) if abs(d) > 1e-9 else None)
-    return plan_lines(passes, n, mode, dtype)
+    """Per-line plans of a shear: line i displaced by ``rate (i - centre)`` (the G_u shift),
+    built for all lines at once (:func:`gfgpu.greens.shift_coefficients_many`; lines
+    symmetric about the centre share their coefficients)."""
+    d = rate * (np.arange(n_lines) - centre)
+    identity = np.abs(d) <= 1e-9
+    amounts, where = np.unique(np.where(identity, 1.0, np.abs(d)), return_inverse=True)
+    lam, kap, tap = (c[where] for c in greens.shift_coefficients_many(amounts))
+    return line_plans(lam, kap, tap, d < 0, n, mode, dtype, identity)
 
 
 def apply_rotation(job, degrees, center, displace, mode, cval):

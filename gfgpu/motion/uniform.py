@@ -6,6 +6,7 @@ import math
 
 from .. import greens
 from .._core.program import Program, direction_steps
+from .._core.validation import SCALE_RANGE
 from .params import velocity_pair
 
 __all__ = ["uniform_motion_program"]
@@ -45,6 +46,9 @@ def uniform_motion_program(ndim, velocity, displace=True):
     length = max(abs(vx), abs(vy))   # steps of the dominant axis (gfgpu._core.lines convention)
     if length == 0.0:
         return Program([])
+    if length > SCALE_RANGE[1]:
+        raise ValueError(f"velocity must be at most {SCALE_RANGE[1]:g} pixels along each axis, got {velocity!r} "
+                         f"(float64 cannot resolve the decay of a longer blur)")
     angle = math.atan2(vy, vx)       # radians from +x (columns) toward +y (rows)
     if displace:
         parts = [greens.shift_pass(length)]

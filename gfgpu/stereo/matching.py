@@ -28,16 +28,19 @@ left-right check and the input handling run on the host (O(H·W)).
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
 from .. import greens
+from .._core.strips import get_working_set
 from ..backends import resolve_backend
-from ..backends.specs import NO_MATCH
+from ..backends.specs import NO_MATCH, SWEEP_PLANES
 from ..filters import green_filter, shift
 from . import kernels
 
-__all__ = ["disparity", "disparity_work", "METHODS", "fill_holes", "random_dot_stereogram", "sweep_finish"]
+__all__ = ["disparity", "disparity_work", "disparity_memory", "estimate_max_disparity", "METHODS", "fill_holes",
+           "random_dot_stereogram", "sweep_finish"]
 
 METHODS = ("sgm", "uniform", "affine")
 
@@ -47,39 +50,87 @@ MAX_CENSUS_RADIUS = 3
 #: aggregated costs are int16 on every backend: 8 paths of at most (max cost + P2) each
 _INT16_MAX = 32767
 
-#: sweep state planes (float32): best cost, its disparity, cost one step before the best,
-#: one step after it, and the previous step's cost (for the parabola of the running best)
-SWEEP_PLANES = 5
+#: weights of the luminance that colour views are matched on (Rec. 601, as OpenCV's grey)
+LUMA = (0.299, 0.587, 0.114)
+
+#: left-right check: largest disagreement (px) between the two views' winners
+LR_TOLERANCE = 1.0
+
+#: largest disparity range (max_disparity - min_disparity) in pixels
+MAX_RANGE = 4096
 
 # --------------------------------------------------------------------------------------
 # host helpers
 # --------------------------------------------------------------------------------------
-def sweep_finish(state, step):
-    """Disparity of a finished sweep: the best ``d`` plus the parabola vertex (numpy, O(H·W))."""
-    best, best_d, before, after, _ = (np.asarray(p, np.float64) for p in state)
+def sweep_finish(state, step, return_margin=False):
+    """Disparity of a finished sweep (numpy, O(H·W)).
+
+    The best ``d`` plus the parabola vertex; NaN where no candidate was in view, where the
+    best is cut by the image (a neighbouring step was out of view: cost ``+inf``), or where it
+    is not unique (no cost more than one step away, or the best of those does not exceed it:
+    ties).  With ``return_margin``, also ``(second - best) / second`` (0 where NaN).
+
+    Parameters
+    ----------
+    state : (9, H, W) array_like
+        The sweep's state (:func:`gfgpu.backends.specs.sweep_update_reference`).
+    step : float
+        The sweep's disparity step (px).
+    return_margin : bool, optional
+
+    Returns
+    -------
+    (H, W) float32 ndarray, or a pair of them
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> state = np.array([[[1.0]], [[3.0]], [[2.0]], [[4.0]], [[4.0]], [[5.0]], [[2.0]], [[1.0]], [[3.0]]])
+    >>> float(sweep_finish(state, 0.5)[0, 0])     # vertex at 3 - 0.5 * 0.25
+    2.875
+    """
+    best, best_d, before, after, _, second = (np.asarray(p, np.float64) for p in state[:6])
     den = before - 2 * best + after
     ok = np.isfinite(before) & np.isfinite(after) & (den > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         delta = np.where(ok, (before - after) / (2 * den), 0.0)
-    return (best_d + step * delta).astype(np.float32)
+        margin = (second - best) / second
+    keep = np.isfinite(best) & np.isfinite(second) & (second > best) & (before != np.inf) & (after != np.inf)
+    disp = np.where(keep, best_d + step * delta, np.nan).astype(np.float32)
+    if return_margin:
+        return disp, np.where(keep, margin, 0.0).astype(np.float32)
+    return disp
 
 
-def fill_holes(disp):
+def fill_holes(disp, *, edges="row"):
     """Fill NaN pixels from the nearest valid pixel on the same row, the smaller of the two.
 
     The smaller disparity is the background's, which is what an occlusion hides (the
     Middlebury evaluation's hole filling, also used by ``benchmarks/stereo.py`` for every
-    method).
-    Rows without any valid pixel become 0.
+    method).  Rows without any valid pixel become 0.
 
     Parameters
     ----------
     disp : (H, W) float ndarray with NaN holes
+    edges : {'row', 'smooth'}, optional
+        Holes open to the image's left or right edge (the bands where the match lies outside
+        the other view) have a valid pixel on one side only.  ``"row"`` (the evaluation's
+        rule) copies it along the row, which leaves horizontal streaks; ``"smooth"`` fills
+        them with a normalised Gaussian average of the valid pixels around (widths 2, 4, 8,
+        ... px, the smallest whose weight reaches 0.3), so neighbouring rows blend.
 
     Returns
     -------
     (H, W) ndarray, a filled copy
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> fill_holes(np.array([[np.nan, 3.0, np.nan, 1.0, np.nan]], np.float32))
+    array([[3., 3., 1., 1., 1.]], dtype=float32)
     """
+    if edges not in ("row", "smooth"):
+        raise ValueError(f"edges must be 'row' or 'smooth', got {edges!r}")
     d = np.array(disp, dtype=np.float32, copy=True)
     holes = ~np.isfinite(d)
     if not holes.any():
@@ -92,8 +143,22 @@ def fill_holes(disp):
     lv = np.where(left >= 0, d[rows, np.maximum(left, 0)], np.inf)
     rv = np.where(right < w, d[rows, np.minimum(right, w - 1)], np.inf)
     fill = np.minimum(lv, rv)
+    open_edge = holes & ~(np.isfinite(lv) & np.isfinite(rv))
     fill[~np.isfinite(fill)] = 0
     d[holes] = fill[holes]
+    if edges == "smooth" and open_edge.any() and (~holes).any():
+        from scipy import ndimage
+        known = (~holes).astype(np.float64)
+        vals = np.where(holes, 0.0, d).astype(np.float64)
+        todo = open_edge.copy()
+        sigma = 2.0
+        while todo.any() and sigma < 4 * max(h, w):
+            wsum = ndimage.gaussian_filter(known, sigma, mode="nearest")
+            vsum = ndimage.gaussian_filter(vals, sigma, mode="nearest")
+            ok = todo & (wsum >= 0.3)
+            d[ok] = (vsum[ok] / wsum[ok]).astype(np.float32)
+            todo &= ~ok
+            sigma *= 2
     return d
 
 
@@ -104,13 +169,14 @@ def grey_image(image, name):
     if arr.ndim == 3 and arr.shape[-1] in (1, 3, 4):
         if arr.shape[-1] == 4:
             arr = arr[..., :3]     # alpha is not image content
-        # the channel mean, summed in channel order as numpy's mean does (an explicit sum:
-        # a reduction over a length-3 axis is several times slower)
+        # Rec. 601 luminance (OpenCV's grey): measured better than the channel mean and than
+        # a census per channel on every Middlebury scene of benchmarks/stereo.py (docs/stereo.md)
         chans = arr.astype(np.float32)
-        arr = chans[..., 0]
-        for c in range(1, chans.shape[-1]):
-            arr = arr + chans[..., c]
-        arr = arr / np.float32(chans.shape[-1])
+        if chans.shape[-1] == 1:
+            arr = chans[..., 0]
+        else:
+            arr = (chans[..., 0] * np.float32(LUMA[0]) + chans[..., 1] * np.float32(LUMA[1])
+                   + chans[..., 2] * np.float32(LUMA[2]))
     elif arr.ndim != 2:
         raise ValueError(f"{name} must be (H, W) grey or (H, W, C) colour with C in 1, 3, 4; "
                          f"got shape {arr.shape}")
@@ -126,17 +192,30 @@ def _int_arg(value, name):
     return int(value)
 
 
-def left_right_check(disp, right_steps, steps, tol):
-    """NaN where the right view's winner at ``x - d`` disagrees with ``d`` by more than ``tol`` px."""
+def left_right_check(disp, right_steps, steps, tol, return_difference=False):
+    """NaN where the right view's winner at ``x - d`` disagrees with ``d`` by more than ``tol`` px.
+
+    ``right_steps`` is the right view's winner in steps (``NO_MATCH`` where none), or, with
+    ``steps=None``, in px (NaN where none).  With ``return_difference``, also ``|d - d_right|``
+    in px (NaN where rejected)."""
     h, w = disp.shape
     valid = np.isfinite(disp)
     d = np.where(valid, disp, 0)
     xr = np.rint(np.arange(w)[None] - d).astype(np.int64)
     inside = (xr >= 0) & (xr < w)
-    back = np.take_along_axis(right_steps, np.clip(xr, 0, w - 1), axis=1)
-    ok = valid & inside & (back != NO_MATCH) & (np.abs(back / steps - d) <= tol)
+    back = np.take_along_axis(np.asarray(right_steps), np.clip(xr, 0, w - 1), axis=1)
+    if steps is None:
+        matched = np.isfinite(back)
+        back_px = np.where(matched, back, 0)
+    else:
+        matched = back != NO_MATCH
+        back_px = back / steps
+    diff = np.abs(back_px - d)
+    ok = valid & inside & matched & (diff <= tol)
     out = disp.copy()
     out[~ok] = np.nan
+    if return_difference:
+        return out, np.where(ok, diff, np.nan)
     return out
 
 
@@ -147,10 +226,10 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
          lr_check, progress):
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
-    bits = (2 * census_radius + 1) ** 2 - 1     # also the cost of a comparison with no right pixel
-    if paths * (bits * block * block + p2) > _INT16_MAX:
+    bits = (2 * census_radius + 1) ** 2 - 1
+    if paths * (bits * block * block + p2) >= _INT16_MAX:
         raise ValueError(f"p2 = {p2} is too large: aggregated costs must fit int16 "
-                         f"(paths * (census bits * block^2 + p2) <= {_INT16_MAX})")
+                         f"(paths * (census bits * block^2 + p2) < {_INT16_MAX})")
     cen_l = be.empty((1, h, w), np.uint64)
     kernels.census(be, be.asarray(left), cen_l, 0, census_radius)
     cen_r = be.empty((steps, h, w), np.uint64)
@@ -161,19 +240,23 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
         kernels.census(be, moved, cen_r, f, census_radius)
     cost = be.empty((h, w, n_disp), np.int16)
-    kernels.cost(be, cen_l, cen_r, cost, d_min * steps, steps, block, bits)
+    kernels.cost(be, cen_l, cen_r, cost, d_min * steps, steps, block)
     progress(1)
     agg = be.empty((h, w, n_disp), np.int16)
     kernels.sgm(be, cost, agg, p1, p2, paths)
     progress(1)
     disp = be.empty((h, w), np.float32)
     right_steps = be.empty((h, w), np.int32)
-    kernels.select(be, agg, disp, right_steps, d_min, steps, uniqueness)
-    disp = be.to_host(disp)
+    margin = be.empty((h, w), np.float32)
+    kernels.select(be, agg, disp, right_steps, margin, d_min, steps, uniqueness)
+    disp, margin = be.to_host(disp), be.to_host(margin)
     if lr_check:
-        disp = left_right_check(disp, be.to_host(right_steps), steps, 1.0)
+        disp, diff = left_right_check(disp, be.to_host(right_steps), steps, LR_TOLERANCE,
+                                      return_difference=True)
+        # the left-right agreement: 1 where both views agree exactly, 1/2 at the tolerance
+        margin = margin * (1 - np.nan_to_num(diff, nan=2 * LR_TOLERANCE) / (2 * LR_TOLERANCE))
     progress(1)
-    return disp
+    return disp, np.where(np.isfinite(disp), margin, 0).astype(np.float32)
 
 
 def _green_shift(be, image, amount, method, sigma):
@@ -199,11 +282,11 @@ def _green_shift(be, image, amount, method, sigma):
     return moved, (1.0 / den).astype(np.float32)
 
 
-def _sweep(be, left, right, d_min, d_max, step, method, radius, sigma, progress):
+def _sweep(be, left, right, d_min, d_max, step, method, radius, sigma, lr_check, progress):
     h, w = left.shape
     lft, rgt = be.asarray(left), be.asarray(right)
     init = np.full((SWEEP_PLANES, h, w), np.nan, np.float32)
-    init[0] = np.inf
+    init[[0, 5, 6, 7]] = np.inf         # best, second, older, the right view's best
     state = be.asarray(init)
     for k in range(int(round((d_max - d_min) / step)) + 1):
         d = d_min + k * step
@@ -214,28 +297,48 @@ def _sweep(be, left, right, d_min, d_max, step, method, radius, sigma, progress)
         rs, gain_r = _green_shift(be, rgt, (d - offset) / 2, method, sigma)
         kernels.sweep(be, state, ls, rs, be.asarray(gain_l), be.asarray(gain_r), offset, d, radius)
         progress(1)
-    return sweep_finish(be.to_host(state), step)
+    state = be.to_host(state)
+    disp, margin = sweep_finish(state, step, return_margin=True)
+    if lr_check:
+        disp, diff = left_right_check(disp, state[8], None, LR_TOLERANCE, return_difference=True)
+        margin = margin * (1 - np.nan_to_num(diff, nan=2 * LR_TOLERANCE) / (2 * LR_TOLERANCE))
+    return disp, np.where(np.isfinite(disp), margin, 0).astype(np.float32)
 
 
 def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", window=None,
               subpixel=True, lr_check=True, subpixel_steps=2, census_radius=3, p1=None, p2=None,
-              paths=8, uniqueness=10, sweep_step=0.5, sigma=None, progress=None, backend=None,
-              device=None):
+              paths=8, uniqueness=10, sweep_step=0.5, sigma=None, return_confidence=False,
+              progress=None, backend=None, device=None):
     """Disparity map of the left view of a rectified stereo pair.
 
     A left pixel at column ``x`` of row ``y`` matches the right pixel at column ``x - d`` of the
-    same row; ``d`` is returned in pixels, NaN where rejected (uniqueness test or left-right
-    check).
+    same row; ``d`` is returned in pixels, NaN where no match is established:
+
+    - no candidate in view: every disparity of the range puts some column of the matching
+      window (``x' - d`` for ``x'`` in the window around ``x``) outside the right image — the
+      left band ``x < d`` for positive disparities, the right band for negative ones, and
+      everything on images narrower than the disparities searched;
+    - the minimum is cut by the image: the best candidate's neighbour disparity is out of view,
+      so the true minimum may lie beyond the edge;
+    - no unique minimum: no candidate more than one step from the best, or the best of those
+      within ``uniqueness`` percent of it (``"sgm"``) or equal to it (sweeps) — flat regions
+      and exact ties;
+    - (``lr_check``) the right view's match points back more than 1 px away.
+
+    Out-of-view candidates take no part in the aggregation either (they are not given a
+    large cost, which would bias the paths towards the disparities that stay in view).
 
     Parameters
     ----------
     left, right : (H, W) or (H, W, C) array_like
-        The rectified pair, grey or colour (C = 3 or 4; colour is averaged to grey, alpha
-        ignored).  Integer images are converted to float32; NaN/inf are rejected.
+        The rectified pair, grey or colour (C = 3 or 4; colour is matched on its Rec. 601
+        luminance, alpha ignored).  Integer images are converted to float32; NaN/inf are
+        rejected.
     max_disparity : int
-        Largest disparity searched, ``min_disparity < max_disparity < W``.
+        Largest disparity searched (px), ``min_disparity < max_disparity <= min_disparity +
+        4096``; it may reach or exceed the width (those candidates are never in view).
     min_disparity : int, optional
-        Smallest disparity searched (may be negative), ``> -W``.
+        Smallest disparity searched (px, may be negative), ``|min_disparity| <= 16384``.
     method : {'sgm', 'uniform', 'affine'}, optional
         See the module docstring.  ``"sgm"`` is the accurate one.
     window : int, optional
@@ -244,7 +347,8 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     subpixel : bool, optional
         Refine the winner with a parabola through its neighbours' costs.
     lr_check : bool, optional
-        (``"sgm"``) Reject pixels whose right-view match points back more than 1 px away.
+        Reject pixels whose right-view match points back more than 1 px away (for the sweeps
+        the right view's running best is kept in the same pass).
     subpixel_steps : int, optional
         (``"sgm"``) Disparity samples per pixel, 1 to 4: the right view is shifted by
         ``f / subpixel_steps`` px with the exact discrete G_u shift for each ``f``.
@@ -265,6 +369,14 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         (``"affine"``) σ of G_U^(2); default ``4 sqrt(W (|d|max + 1))`` so that
         ``|x_U| = σ²/s`` stays well outside the line (``|x_U| >> W``, where eq. 14's
         first-order behaviour holds; ``docs/derivations.md``).
+    return_confidence : bool, optional
+        Also return a confidence per pixel in [0, 1], 0 where NaN: the uniqueness margin
+        ``(S2 - S1) / S2`` of the winner's cost ``S1`` against the best cost ``S2`` more
+        than one step away (aggregated costs for ``"sgm"``, window costs for the sweeps),
+        times, with ``lr_check``, the left-right agreement
+        ``1 - |d - d_right| / 2`` (1 when both views agree exactly, 1/2 at the 1 px
+        tolerance).  With the default ``uniqueness=10`` a kept ``"sgm"`` pixel has at least
+        ``0.09 * 0.5``.
     progress : callable, optional
         Called with a number of completed units of work (for progress bars);
         :func:`disparity_work` gives the total.
@@ -274,7 +386,10 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
 
     Returns
     -------
-    (H, W) float32 ndarray
+    disparity : (H, W) float32 ndarray
+        In px, NaN where no match is established.
+    confidence : (H, W) float32 ndarray
+        Only with ``return_confidence=True``.
 
     Raises
     ------
@@ -317,6 +432,11 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     >>> d = disparity(left, right, 12, backend="numpy")
     >>> round(float(np.nanmedian(d[:, 20:])))
     5
+    >>> bool(np.isnan(d[:, :5]).all())      # the left band: its matches are outside the right view
+    True
+    >>> d, conf = disparity(left, right, 12, return_confidence=True, backend="numpy")
+    >>> bool(((conf > 0) == np.isfinite(d)).all() and conf.max() <= 1)
+    True
     """
     if method not in METHODS:
         raise ValueError(f"method must be one of {', '.join(METHODS)}; got {method!r}")
@@ -329,11 +449,13 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         raise ValueError(f"images must be at least 2x2, got {h}x{w}")
     d_max = _int_arg(max_disparity, "max_disparity")
     d_min = _int_arg(min_disparity, "min_disparity")
-    if not 0 < d_max < w:
-        raise ValueError(f"max_disparity must satisfy 0 < max_disparity < width ({w}); got {d_max}")
-    if not -w < d_min < d_max:
-        raise ValueError(f"min_disparity must satisfy -width ({-w}) < min_disparity < max_disparity "
-                         f"({d_max}); got {d_min}")
+    if not -4 * MAX_RANGE <= d_min <= 4 * MAX_RANGE:
+        raise ValueError(f"min_disparity must satisfy |min_disparity| <= {4 * MAX_RANGE}; got {d_min}")
+    if not d_min < d_max <= d_min + MAX_RANGE:
+        raise ValueError(f"max_disparity must satisfy min_disparity ({d_min}) < max_disparity <= "
+                         f"min_disparity + {MAX_RANGE}; got {d_max}")
+    if not isinstance(return_confidence, (bool, np.bool_)):
+        raise TypeError(f"return_confidence must be True or False, got {return_confidence!r}")
     be = resolve_backend(backend, device)
     report = progress if progress is not None else (lambda n: None)
     if method == "sgm":
@@ -355,11 +477,13 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         uniq = _int_arg(uniqueness, "uniqueness")
         if not 0 <= uniq <= 100:
             raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
-        disp = _sgm(be, lft, rgt, d_min, d_max, steps, radius, window, p1, p2, paths,
-                    uniq, lr_check, report)
+        _check_memory(be, lft.shape, d_max, d_min, method, steps)
+        disp, conf = _sgm(be, lft, rgt, d_min, d_max, steps, radius, window, p1, p2, paths,
+                          uniq, lr_check, report)
         if not subpixel:
             disp = np.rint(disp * steps) / steps
-        return disp.astype(np.float32)
+        disp = disp.astype(np.float32)
+        return (disp, conf) if return_confidence else disp
     window = 9 if window is None else _int_arg(window, "window")
     if window < 1 or window % 2 == 0 or window > 31:
         raise ValueError(f"window must be odd, 1..31, for the sweeps; got {window}")
@@ -370,10 +494,162 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         sigma = 4.0 * math.sqrt(w * (max(abs(d_min), abs(d_max)) + 1))
     elif not (math.isfinite(float(sigma)) and float(sigma) > 0):
         raise ValueError(f"sigma must be a finite number > 0, got {sigma!r}")
-    disp = _sweep(be, lft, rgt, d_min, d_max, step, method, window // 2, float(sigma), report)
+    disp, conf = _sweep(be, lft, rgt, d_min, d_max, step, method, window // 2, float(sigma), bool(lr_check),
+                        report)
     if not subpixel:
         disp = (np.rint((disp - d_min) / step) * step + d_min).astype(np.float32)
-    return disp
+    return (disp, conf) if return_confidence else disp
+
+
+#: bytes per pixel and disparity sample of the "sgm" method: the int16 cost, aggregate and (CPU
+#: OpenCL) second sweep volumes (6); the numpy specification works in int32 copies (16)
+_SGM_BYTES = {"numpy": 16}
+_SGM_BYTES_DEFAULT = 6
+
+
+def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", subpixel_steps=2,
+                     backend=None, device=None):
+    """Peak working memory of :func:`disparity` in bytes (an estimate, within ~10 %).
+
+    ``"sgm"`` holds O(H·W·D) cost volumes (``D = (max - min) * subpixel_steps + 1`` samples):
+    6 bytes per sample on the OpenCL and Warp backends, 16 on the numpy specification, plus
+    O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity` refuses (a
+    ``ValueError`` before allocating anything) a request above the working set: the device's
+    budget (half a GPU's memory), :func:`gfgpu.working_set` / ``GFGPU_WORKING_SET`` if set, and
+    on CPU devices the host's physical memory.
+
+    Parameters
+    ----------
+    shape : (H, W) or (H, W, C) tuple of int
+        Shape of one view.
+    max_disparity, min_disparity, method, subpixel_steps, backend, device
+        As for :func:`disparity`.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    ValueError
+        ``shape`` not 2 or 3 positive integers, or an empty disparity range.
+
+    Examples
+    --------
+    >>> round(disparity_memory((1000, 1500), 191, backend="opencl") / 2**30, 2)   # GiB
+    3.33
+    """
+    shp = tuple(int(v) for v in shape)
+    if len(shp) not in (2, 3) or min(shp) < 1:
+        raise ValueError(f"shape must be (H, W) or (H, W, C) of positive integers, got {shape!r}")
+    if not max_disparity > min_disparity:
+        raise ValueError(f"max_disparity must exceed min_disparity, got {max_disparity} <= {min_disparity}")
+    px = shp[0] * shp[1]
+    if method != "sgm":
+        return px * 4 * (SWEEP_PLANES + 12)
+    be = resolve_backend(backend, device)
+    steps = int(subpixel_steps)
+    n = (int(max_disparity) - int(min_disparity)) * steps + 1
+    per_sample = _SGM_BYTES.get(be.name, _SGM_BYTES_DEFAULT)
+    return px * (per_sample * n + 16 * (1 + steps) + 40)
+
+
+def _size(nbytes):
+    return f"{nbytes / 2**30:.2f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.1f} MiB"
+
+
+def _host_memory():
+    try:
+        return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):
+        return None
+
+
+def _check_memory(be, shape, d_max, d_min, method, steps):
+    need = disparity_memory(shape, d_max, min_disparity=d_min, method=method, subpixel_steps=steps,
+                            backend=be)
+    budget = get_working_set(be)
+    what = "the working set"
+    if budget is None:
+        budget, what = _host_memory(), "the host's memory"
+    if budget is not None and need > budget:
+        raise ValueError(
+            f"disparity needs about {_size(need)} for {shape[1]}x{shape[0]} px and "
+            f"{(d_max - d_min) * (steps if method == 'sgm' else 1) + 1} disparity samples, more than "
+            f"{what} ({_size(budget)} on {be.name}); lower max_disparity - min_disparity, "
+            f"subpixel_steps or the image size, or raise the working set (gfgpu.working_set, "
+            f"GFGPU_WORKING_SET)")
+
+
+def estimate_max_disparity(left, right, *, min_disparity=0, factor=4, margin=8, backend=None,
+                           device=None):
+    """A search range for a pair of unknown range: a coarse ``"sgm"`` pass at ``1/factor`` size.
+
+    Both views are reduced by ``factor`` (area averaging), matched over
+    ``min_disparity / factor .. W / (2 factor)`` (half the reduced width), and the 99.5th
+    percentile of the valid coarse disparities, scaled back and raised by ``margin`` px, is
+    rounded up to ``16 k - 1`` (OpenCV's multiples of 16).  The coarse pass costs about 1/64 of
+    the full one.  A pair whose coarse pass finds nothing (too small, flat) gets ``W // 4``.
+
+    Parameters
+    ----------
+    left, right : (H, W) or (H, W, C) array_like
+        The rectified pair, as for :func:`disparity`.
+    min_disparity : int, optional
+        The smallest disparity that will be searched.
+    factor : int, optional
+        Reduction of the coarse pass (2..8).
+    margin : int, optional
+        Pixels added to the coarse estimate (>= 0).
+    backend, device : optional
+        Where the coarse pass runs.
+
+    Returns
+    -------
+    int
+        ``max_disparity`` for :func:`disparity`, at most ``W - 1``.
+
+    Raises
+    ------
+    ValueError
+        As for :func:`disparity`, or ``factor``/``margin`` outside their ranges.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> truth = np.full((96, 256), 21.0)
+    >>> left, right = random_dot_stereogram(truth, seed=2)
+    >>> estimate_max_disparity(left, right, backend="numpy")
+    31
+    """
+    lft = grey_image(left, "left")
+    rgt = grey_image(right, "right")
+    if lft.shape != rgt.shape:
+        raise ValueError(f"left and right must have one shape, got {np.shape(left)} and {np.shape(right)}")
+    f = _int_arg(factor, "factor")
+    if not 2 <= f <= 8:
+        raise ValueError(f"factor must be 2..8, got {f}")
+    extra = _int_arg(margin, "margin")
+    if extra < 0:
+        raise ValueError(f"margin must be >= 0, got {extra}")
+    d_min = _int_arg(min_disparity, "min_disparity")
+    h, w = lft.shape
+    fallback = max(1, min(w - 1, w // 4))
+    hc, wc = h // f, w // f
+    if min(hc, wc) < 16:
+        return fallback
+    def reduce(img):
+        return img[:hc * f, :wc * f].reshape(hc, f, wc, f).mean(axis=(1, 3))
+    lo = math.floor(d_min / f)
+    hi = max(lo + 2, wc // 2)
+    coarse = disparity(reduce(lft), reduce(rgt), hi, min_disparity=lo, subpixel_steps=1,
+                       backend=backend, device=device)
+    valid = coarse[np.isfinite(coarse)]
+    if valid.size < 0.05 * coarse.size:
+        return fallback
+    top = float(np.percentile(valid, 99.5)) * f + extra
+    top = max(top, d_min + 1)
+    return int(min(16 * math.ceil((top + 1) / 16) - 1, w - 1))
 
 
 def disparity_work(max_disparity, *, min_disparity=0, method="sgm", sweep_step=0.5, **_):

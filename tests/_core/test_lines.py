@@ -1,12 +1,21 @@
-"""Line geometry (gfgpu._core.lines): axis views, axis arguments, directions and the digital
-lines of oblique directions, and the boundary extension of a line by each mode."""
+"""Line geometry (gfgpu._core.lines): axis views, axis arguments, directions, the sheared
+layout of oblique directions (integer part of the shear), and the boundary extension of a line
+by each mode."""
 import math
 
 import numpy as np
 import pytest
 from oracle import NP_PAD, pad_line
 
-from gfgpu._core.lines import _extend, axis_view_shape, direction, normalize_axis, oblique_maps
+from gfgpu._core.lines import (
+    DELAY_MIN,
+    _extend,
+    axis_view_shape,
+    direction,
+    normalize_axis,
+    shear_maps,
+    shear_offsets,
+)
 from gfgpu._core.recursion import MODES, extension_index
 
 
@@ -75,7 +84,7 @@ def test_direction_of_the_axes_and_diagonals():
 
 
 # --------------------------------------------------------------------------------------
-# oblique digital lines
+# oblique directions: the sheared layout (integer part of the shear)
 # --------------------------------------------------------------------------------------
 SIZES = [(9, 13), (13, 9), (1, 7), (6, 1), (11, 11)]
 ANGLES = [0.0, 0.3, -0.3, math.pi / 4, 1.0, math.pi / 2, 2.0, 3 * math.pi / 4, math.pi, -2.5, -math.pi / 2, 0.05]
@@ -91,73 +100,120 @@ def _pad_both(a, k, mode, cval):
     return np.pad(a, width, mode=NP_PAD[mode])
 
 
-def _round(v):
-    return np.floor(np.asarray(v) + 0.5).astype(np.int64)     # the definition's rounding: half up
+def _layout(maps, batch=1):
+    """The layout as (batch, lines, steps) whatever its memory order."""
+    def view(a):
+        if maps.transposed:
+            return a.reshape(batch, maps.steps, maps.lines).transpose(0, 2, 1)
+        return a.reshape(batch, maps.lines, maps.steps)
+    return view
 
 
+@pytest.mark.parametrize("steps", [1, 2, 7, 30, 97])
+@pytest.mark.parametrize("gamma", [0.0, 0.25, -0.25, 0.5, -0.5, 7 / 30, -13 / 29, 0.3183, 1.0, -1.0, 1e-9])
+def test_shear_offsets_split_gamma_t_into_whole_pixels_and_a_delay(steps, gamma):
+    r, d = shear_offsets(steps, gamma)
+    t = np.arange(steps)
+    assert r.dtype == np.int64 and d.dtype == np.float64
+    np.testing.assert_allclose(r + d, gamma * t, rtol=0, atol=1e-12)
+    whole = np.abs(gamma * t - np.round(gamma * t)) < 1e-12          # integer offsets: no resampling
+    assert (d[whole] == 0).all()
+    assert (d[~whole] >= DELAY_MIN - 1e-12).all() and (d[~whole] < DELAY_MIN + 1).all()
+
+
+@pytest.mark.parametrize("transposed", [False, True])
 @pytest.mark.parametrize("angle", ANGLES)
 @pytest.mark.parametrize("size", SIZES, ids=lambda s: f"{s[0]}x{s[1]}")
-def test_every_pixel_lies_on_exactly_one_digital_line(size, angle):
+def test_every_pixel_has_one_place_in_the_sheared_layout(size, angle, transposed):
     h, w = size
+    margin = 3
     steep, _, gamma = direction(angle)
-    shear, unshear, lines, steps = oblique_maps(h, w, 1, angle, "reflect")
-    assert steps == (h if steep else w)
-    assert shear.shape == (lines * steps,) and unshear.shape == (h * w,)
-    # each pixel has one place in the (lines, steps) layout, and that place reads the pixel
-    assert len(np.unique(unshear)) == h * w
-    assert ((unshear >= 0) & (unshear < lines * steps)).all()
-    np.testing.assert_array_equal(shear[unshear], np.arange(h * w))
-    # the place of pixel (y, x): line l = y - round(gamma x) at step x (x and y swap if steep)
+    maps = shear_maps(h, w, 1, angle, "reflect", margin, transposed)
+    lines, steps = maps.lines, maps.steps
+    across = w if steep else h
+    r, d = shear_offsets(steps, gamma)
+    assert steps == (h if steep else w) and maps.transposed == transposed
+    assert lines == across + int(r.max() - r.min()) + 2 * margin
+    np.testing.assert_array_equal(maps.delay, d)
+    assert maps.shear.shape == (lines * steps,) and maps.unshear.shape == (h * w,)
+    # each pixel has one place in the layout, and that place reads the pixel
+    assert len(np.unique(maps.unshear)) == h * w
+    np.testing.assert_array_equal(maps.shear[maps.unshear], np.arange(h * w))
+    # the place of pixel (y, x): line m - r[t] - first at step t (x and y swap if steep), the
+    # lines in order of m - r[t], with `margin` lines beyond the ones read back on each side
     yy, xx = np.mgrid[:h, :w]
     t, minor = (yy, xx) if steep else (xx, yy)
-    ell = minor - _round(gamma * t)
-    row, step = np.divmod(unshear.reshape(h, w), steps)
-    np.testing.assert_array_equal(step, t)
-    assert len({(r, e) for r, e in zip(row.ravel(), ell.ravel())}) == len(np.unique(ell))    # row <-> l
-    np.testing.assert_array_equal(row - ell, (row - ell).flat[0])          # rows in order of l
-    # no line misses the image, and a gather through both maps is the identity
-    assert set(np.unique(row)) == set(range(lines))
+    place = np.zeros(lines * steps, np.int64)
+    place[maps.unshear] = 1
+    line = np.nonzero(_layout(maps)(place)[0])[0]                    # lines read back
+    where = _layout(maps)(np.arange(lines * steps))[0]               # layout index of (line, step)
+    inv = {int(v): (q, s) for (q, s), v in np.ndenumerate(where)}
+    q_of = np.array([inv[int(u)][0] for u in maps.unshear]).reshape(h, w)
+    s_of = np.array([inv[int(u)][1] for u in maps.unshear]).reshape(h, w)
+    np.testing.assert_array_equal(s_of, t)
+    ell = minor - r[t]
+    np.testing.assert_array_equal(q_of - ell, (q_of - ell).flat[0])
+    assert line.min() == margin and line.max() == lines - 1 - margin
+    # a gather through both maps is the identity
     img = np.random.default_rng(0).random(h * w)
-    np.testing.assert_array_equal(np.where(shear >= 0, img[shear], np.nan)[unshear], img)
+    np.testing.assert_array_equal(np.where(maps.shear >= 0, img[maps.shear], np.nan)[maps.unshear], img)
 
 
+@pytest.mark.parametrize("transposed", [False, True])
 @pytest.mark.parametrize("mode", MODES)
 @pytest.mark.parametrize("angle", [0.3, -0.7, 2.0, math.pi / 4, -2.5])
-def test_lines_leaving_the_image_continue_through_its_extension(mode, angle):
+def test_lines_leaving_the_image_continue_through_its_extension(mode, angle, transposed):
     """Beyond the image's minor-axis edges a line reads the image extended by ``mode`` across
     that axis: what numpy.pad gives."""
     h, w = 7, 10
+    margin = 4
     steep, _, gamma = direction(angle)
     img = np.random.default_rng(1).random((h, w)) + 1.0
-    shear, _, lines, steps = oblique_maps(h, w, 1, angle, mode)
+    maps = shear_maps(h, w, 1, angle, mode, margin, transposed)
+    lines, steps = maps.lines, maps.steps
     across = w if steep else h
-    r = _round(gamma * np.arange(steps))
-    first = -int(r.max())
+    r, _ = shear_offsets(steps, gamma)
+    first = -int(r.max()) - margin
     minor = first + np.arange(lines)[:, None] + r[None, :]          # (lines, steps)
-    margin = int(np.abs(minor).max()) + across
+    pad = int(np.abs(minor).max()) + across
     cval = -5.0
     plane = img.T if steep else img                                   # (minor, dominant)
-    padded = _pad_both(plane, margin, mode, cval)
-    expect = padded[minor + margin, np.arange(steps)[None, :]]
-    got = np.where(shear >= 0, img.ravel()[np.maximum(shear, 0)], cval).reshape(lines, steps)
-    np.testing.assert_array_equal(got, expect)
-    assert (shear < 0).any() == (mode == "constant")
+    padded = _pad_both(plane, pad, mode, cval)
+    expect = padded[minor + pad, np.arange(steps)[None, :]]
+    got = np.where(maps.shear >= 0, img.ravel()[np.maximum(maps.shear, 0)], cval)
+    np.testing.assert_array_equal(_layout(maps)(got)[0], expect)
+    assert (maps.shear < 0).any() == (mode == "constant")
 
 
-def test_oblique_maps_for_a_batch_are_cached_and_read_only():
+def test_shear_maps_for_a_batch_are_cached_and_read_only():
     h, w, batch, angle = 5, 8, 3, 0.4
-    one = oblique_maps(h, w, 1, angle, "wrap")
-    three = oblique_maps(h, w, batch, angle, "wrap")
-    assert oblique_maps(h, w, batch, angle, "wrap") is three
-    lines, steps = three[2:]
-    assert one[2:] == (lines, steps)
-    s1, u1 = one[0].reshape(lines, steps), one[1]
-    s3, u3 = three[0].reshape(batch, lines, steps), three[1].reshape(batch, h * w)
-    for b in range(batch):
-        np.testing.assert_array_equal(s3[b], np.where(s1 >= 0, s1 + b * h * w, -1))
-        np.testing.assert_array_equal(u3[b], u1 + b * lines * steps)
-    for a in three[:2]:
-        assert not a.flags.writeable and a.dtype == np.int32
+    for transposed in (False, True):
+        one = shear_maps(h, w, 1, angle, "wrap", 2, transposed)
+        three = shear_maps(h, w, batch, angle, "wrap", 2, transposed)
+        assert shear_maps(h, w, batch, angle, "wrap", 2, transposed) is three
+        lines, steps = three.lines, three.steps
+        assert (one.lines, one.steps) == (lines, steps)
+        s1, u1 = one.shear, one.unshear
+        s3, u3 = three.shear.reshape(batch, -1), three.unshear.reshape(batch, h * w)
+        for b in range(batch):
+            np.testing.assert_array_equal(s3[b], np.where(s1 >= 0, s1 + b * h * w, -1))
+            np.testing.assert_array_equal(u3[b], u1 + b * lines * steps)
+        for a in (three.shear, three.unshear, three.delay):
+            assert not a.flags.writeable
+        assert three.shear.dtype == three.unshear.dtype == np.int32
+
+
+@pytest.mark.parametrize("angle", [0.3, 1.2, -2.6])
+def test_the_transposed_layout_is_the_transpose(angle):
+    a = shear_maps(9, 14, 2, angle, "mirror", 3, False)
+    b = shear_maps(9, 14, 2, angle, "mirror", 3, True)
+    assert (a.lines, a.steps) == (b.lines, b.steps)
+    np.testing.assert_array_equal(a.shear.reshape(2, a.lines, a.steps),
+                                  b.shear.reshape(2, b.steps, b.lines).transpose(0, 2, 1))
+    # the same pixel, read from the same (line, step)
+    la = np.stack(np.unravel_index(a.unshear, (2, a.lines, a.steps)), -1)
+    lb = np.stack(np.unravel_index(b.unshear, (2, b.steps, b.lines)), -1)[:, [0, 2, 1]]
+    np.testing.assert_array_equal(la, lb)
 
 
 # --------------------------------------------------------------------------------------

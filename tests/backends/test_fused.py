@@ -80,7 +80,8 @@ def _census(be, kernel, rng):
 
 # (h, w, disparity samples, steps, first step, block, census radius): one and several 16-lane
 # vectors per pixel, partial last vectors, negative and positive disparity ranges
-COST_CASES = [(7, 11, 5, 1, 0, 1, 1), (13, 29, 16, 2, -3, 3, 2), (9, 40, 17, 3, 4, 5, 3), (6, 50, 33, 2, -20, 3, 3)]
+COST_CASES = [(7, 11, 5, 1, 0, 1, 1), (13, 29, 16, 2, -3, 3, 2), (9, 40, 17, 3, 4, 5, 3), (6, 50, 33, 2, -20, 3, 3),
+              (5, 9, 40, 2, -6, 3, 1)]     # (the last: wider range than the image, both bands)
 
 
 @builds("stereo.cost")
@@ -90,15 +91,27 @@ def _cost(be, kernel, rng):
         left = rng.integers(0, 2**bits, (1, h, w), dtype=np.uint64)
         right = rng.integers(0, 2**bits, (steps, h, w), dtype=np.uint64)
         out = be.empty((h, w, n), np.int16)
-        kernel(be, be.asarray(left), be.asarray(right), out, first, steps, block, bits)
-        _compare(be.to_host(out), kernel.spec(left[0], right, first, n, steps, block, bits),
+        kernel(be, be.asarray(left), be.asarray(right), out, first, steps, block)
+        _compare(be.to_host(out), kernel.spec(left[0], right, first, n, steps, block),
                  f"cost {h}x{w}x{n} steps {steps} first {first} block {block}")
+
+
+def _with_views(cost, rng):
+    """``cost`` with samples out of view (-1): contiguous runs of k per column, as the cost
+    kernel writes them (some columns with nothing in view)."""
+    h, w, n = cost.shape
+    lo = rng.integers(-2, n, w)
+    hi = lo + rng.integers(-1, n + 2, w)
+    k = np.arange(n)[None]
+    out = cost.copy()
+    out[:, (k < lo[:, None]) | (k > hi[:, None])] = -1
+    return out
 
 
 @builds("stereo.sgm")
 def _sgm(be, kernel, rng):
     for (h, w, n), paths in (((9, 13, 5), 8), ((8, 21, 17), 4), ((5, 7, 33), 8), ((1, 12, 3), 8)):
-        cost = rng.integers(0, 49, (h, w, n)).astype(np.int16)
+        cost = _with_views(rng.integers(0, 49, (h, w, n)).astype(np.int16), rng)
         for p1, p2 in ((10, 100), (0, 0), (7, 7)):
             out = be.empty((h, w, n), np.int16)
             kernel(be, be.asarray(cost), out, p1, p2, paths)
@@ -110,19 +123,22 @@ def _select(be, kernel, rng):
     for (h, w, n, steps, d_min, uniqueness), top in (((6, 37, 5, 1, 0, 10), 12), ((6, 37, 17, 2, -3, 5), 12),
                                                      ((5, 23, 40, 4, -1, 0), 3000), ((4, 19, 48, 2, 9, 15), 40)):
         agg = rng.integers(0, top, (h, w, n)).astype(np.int16)      # few values: many ties
+        agg = _with_views(agg, rng)
         disp, right = be.empty((h, w), np.float32), be.empty((h, w), np.int32)
-        kernel(be, be.asarray(agg), disp, right, d_min, steps, uniqueness)
-        ref_disp, ref_right = kernel.spec(agg, d_min, steps, uniqueness)
+        margin = be.empty((h, w), np.float32)
+        kernel(be, be.asarray(agg), disp, right, margin, d_min, steps, uniqueness)
+        ref_disp, ref_right, ref_margin = kernel.spec(agg, d_min, steps, uniqueness)
         what = f"select {h}x{w}x{n} steps {steps} d_min {d_min}"
         _compare(be.to_host(disp), ref_disp, what)
         _compare(be.to_host(right), ref_right, what)
+        _compare(be.to_host(margin), ref_margin, what)
 
 
 @builds("stereo.sweep")
 def _sweep(be, kernel, rng):
     for (h, w), radius, d_min in (((9, 17), 1, -1.0), ((12, 10), 2, 2.5)):
-        host = np.full((5, h, w), np.nan, np.float32)
-        host[0] = np.inf
+        host = np.full((9, h, w), np.nan, np.float32)
+        host[[0, 5, 6, 7]] = np.inf
         state = be.asarray(host.copy())
         for k in range(6):
             d = d_min + 0.5 * k

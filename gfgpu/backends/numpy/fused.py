@@ -19,9 +19,9 @@ def launch_census(be, image, out, plane, radius):
     return out
 
 
-def launch_cost(be, census_left, census_right, out, first_step, steps, block, invalid):
+def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     out[...] = specs.census_cost_reference(census_left[0], census_right, first_step, out.shape[2], steps,
-                                           block, invalid)
+                                           block)
     return out
 
 
@@ -30,9 +30,10 @@ def launch_sgm(be, cost, out, p1, p2, paths):
     return out
 
 
-def launch_select(be, aggregated, disp, disp_right, d_min, steps, uniqueness):
-    disp[...], disp_right[...] = specs.select_disparity_reference(aggregated, d_min, steps, uniqueness)
-    return disp, disp_right
+def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, uniqueness):
+    disp[...], disp_right[...], margin[...] = specs.select_disparity_reference(aggregated, d_min, steps,
+                                                                               uniqueness)
+    return disp, disp_right, margin
 
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):

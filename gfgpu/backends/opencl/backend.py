@@ -12,6 +12,7 @@ the first process on a machine pays the compile time.
 
 from __future__ import annotations
 
+import os
 from collections import OrderedDict
 from functools import cache
 
@@ -30,13 +31,37 @@ _kernels = {}              # (context, source, defines, name) -> pyopencl.Kernel
 _queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
 
 
+#: the process that first touched the OpenCL runtime (None: not yet)
+_runtime_pid = None
+
+FORK_MESSAGE = ("OpenCL was initialised in the parent process before this process was forked, and OpenCL "
+                "runtimes (PoCL included) hang when used after a fork: start worker processes with the "
+                "'spawn' or 'forkserver' method (multiprocessing.set_start_method), or use backend='warp' "
+                "or 'numpy' in forked workers")
+
+
 def _import_cl():
+    """PyOpenCL, once this process may use the OpenCL runtime; BackendUnavailable otherwise."""
+    global _runtime_pid
+    if _runtime_pid is not None and _runtime_pid != os.getpid():
+        raise BackendUnavailable(FORK_MESSAGE)
     try:
         import pyopencl as cl
         import pyopencl.array  # registers cl.array
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise BackendUnavailable(f"pyopencl not installed ({exc})") from exc
+    _runtime_pid = os.getpid()
     return cl
+
+
+def _forget_in_child():
+    # objects of the parent's runtime must never be reused in a forked child
+    _programs.clear()
+    _kernels.clear()
+    _queue_backends.clear()
+
+
+os.register_at_fork(after_in_child=_forget_in_child)
 
 
 def _kind(device):

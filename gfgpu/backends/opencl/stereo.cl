@@ -132,11 +132,10 @@ __kernel void census_interleave(__global const ulong *cr, __global ulong *out, c
 }
 
 // Hamming distances of the census codes, ham[y][x][k] = popcount(L[y][x] ^ R_f[y][x - n]) for the
-// disparity sample t = first_step + k = n*steps + f, or `invalid` where x - n is outside (uchar:
-// the distances of 48-bit codes and `invalid` are at most 255).
+// disparity sample t = first_step + k = n*steps + f, or 0 where x - n is outside (never summed
+// into a sample in view; uchar: the distances of 48-bit codes are at most 48).
 __kernel void census_hamming(__global const ulong *cl, __global const ulong *ri, __global uchar *ham,
-                             const int h, const int w, const int first_step, const int steps,
-                             const int invalid)
+                             const int h, const int w, const int first_step, const int steps)
 {
     const int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h)
@@ -149,17 +148,18 @@ __kernel void census_hamming(__global const ulong *cl, __global const ulong *ri,
     const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
     int k = 0;
     for (; k < k_lo; ++k)
-        dst[k] = (uchar)invalid;
+        dst[k] = 0;
     for (; k < k_hi; ++k)
         dst[k] = (uchar)POPCOUNT(c ^ row[j0 - k]);
     for (; k < N_DISP; ++k)
-        dst[k] = (uchar)invalid;
+        dst[k] = 0;
 }
 
 // The block sum of the Hamming distances over the block x block window (clamped at the border):
 // one work-item per row, a running sum along the row of the window's column sums (streaming
 // through memory).  Exact integer sums, wrapped to int16 like the specification's astype
-// (ushort arithmetic wraps).
+// (ushort arithmetic wraps).  Samples out of view (the right pixel's block not inside the image:
+// k outside [k_lo, k_hi] at this x) are OUT_OF_VIEW (-1).
 static inline ushort16 window_column(__global const uchar *ham, const int y, const int x, const int h,
                                      const int w, const int r, const int j)
 {
@@ -172,8 +172,9 @@ static inline ushort16 window_column(__global const uchar *ham, const int y, con
 }
 
 __kernel void block_sum(__global const uchar *ham, __global short *out, const int h, const int w,
-                        const int block)
+                        const int block, const int first_step, const int steps)
 {
+    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const int y = get_global_id(0);
     if (y >= h)
         return;
@@ -189,11 +190,17 @@ __kernel void block_sum(__global const uchar *ham, __global short *out, const in
     for (int x = 0; x < w; ++x, dst += N_DISP) {
         const int add = min(x + r, w - 1), sub = max(x - 1 - r, 0);
         const int moved = x > 0 && add != sub;     // the window moved to columns [x-r, x+r] (clamped)
+        // in view: r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
+        const long hi = (long)(x - r + 1) * steps - 1 - first_step;
+        const long lo = (long)(x + r - (w - 1)) * steps - first_step;
+        const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
+        const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
         #pragma unroll
         for (int j = 0; j < NV; ++j) {
             if (moved)
                 sum[j] += window_column(ham, y, add, h, w, r, j) - window_column(ham, y, sub, h, w, r, j);
-            STORE_S(as_short16(sum[j]), dst, j);
+            const short16 k = lane + (short16)(16 * j);
+            STORE_S((k < k_lo) | (k > k_hi) ? (short16)(-1) : as_short16(sum[j]), dst, j);
         }
     }
 }
@@ -207,7 +214,10 @@ static inline short hmin16(const short16 v)
 }
 
 // One sweep of the path recursion along a line of `len` pixels starting at element `base`,
-// `stride` elements per pixel; total = L_r (accumulate = 0) or total + L_r.
+// `stride` elements per pixel; total = L_r (accumulate = 0) or total + L_r.  Samples out of view
+// (cost < 0) have path value PAD_COST (never a minimum, no neighbour) and total -1; a sample
+// entering the view takes the predecessor's minimum as its own predecessor (L = C).  Path values
+// of samples in view stay below PAD_COST (the host keeps cost + P2 <= 4095).
 static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *total, long base,
                                      const long stride, const int len, const short p1, const short p2,
                                      const int accumulate)
@@ -224,7 +234,8 @@ static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *
         short16 before = pad, mv = pad;
         #pragma unroll
         for (int j = 0; j < NV; ++j) {
-            short16 cur = LOAD_S(c, j);
+            const short16 cv = LOAD_S(c, j);
+            short16 cur = cv;
             if (t > 0) {
                 // L(d) = C(d) + min(L'(d), L'(d-1) + P1, L'(d+1) + P1, m' + P2) - m'
                 const short16 old = prev[j];
@@ -232,15 +243,17 @@ static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *
                 const short16 lower = (short16)(before.sf, old.s0123, old.s4567, old.s89ab, old.scde);
                 const short16 upper = (short16)(old.s1234, old.s5678, old.s9abc, old.sdef, next.s0);
                 const short16 step = VMIN(lower, upper) + vp1;
-                const short16 stay = VMIN(old, step);
+                const short16 stay = VMIN(old >= pad ? vm : old, step);
                 cur += VMIN(stay, jump) - vm;
                 before = old;
             }
+            const short16 out_of_view = cv < (short16)(0);
+            cur = out_of_view ? pad : cur;
             if (j == NV - 1)
                 cur = is_pad ? pad : cur;
             prev[j] = cur;
             mv = VMIN(mv, cur);
-            STORE_S(accumulate ? LOAD_S(tot, j) + cur : cur, tot, j);
+            STORE_S(out_of_view ? (short16)(-1) : accumulate ? LOAD_S(tot, j) + cur : cur, tot, j);
         }
         m = hmin16(mv);
     }
@@ -285,8 +298,10 @@ __kernel void sgm_line_pair(__global const short *cost, __global short *total, c
 // One pixel of one path: the predecessor's NV vectors at `in` (a state cell, PAD_COST before
 // and after it, so d - 1 and d + 1 are unaligned loads, no shuffles), its minimum `m_in`:
 // L = C + min(L', L'(d-1) + P1, L'(d+1) + P1, m' + P2) - m' = C + min(min(L', ...) - m', P2);
-// a predecessor of zeros (m' = 0) gives L = C, a path's first pixel.  The new vectors go to
-// `out` after all reads (in and out may be one cell), are added to sum[]; returns their minimum.
+// a predecessor of zeros (m' = 0) gives L = C, a path's first pixel.  Samples out of view (C < 0)
+// get PAD_COST (never a minimum, no neighbour) and add nothing to sum[]; one entering the view
+// takes m' as its own predecessor (L = C).  The new vectors go to `out` after all reads (in and
+// out may be one cell), are added to sum[]; returns their minimum.
 static ALWAYS_INLINE short
 path_pixel(__global const short *in, const short m_in, __global short *out, const short16 *cv,
            short16 *sum, const short p1, const short p2)
@@ -300,13 +315,14 @@ path_pixel(__global const short *in, const short m_in, __global short *out, cons
         const short16 old = VLOAD(short, 16, in + 16 * j);
         const short16 lower = VLOAD(short, 16, in + 16 * j - 1);
         const short16 upper = VLOAD(short, 16, in + 16 * j + 1);
-        const short16 stay = VMIN(old, VMIN(lower, upper) + vp1);
-        short16 v = cv[j] + VMIN(stay - vm, vp2);
+        const short16 stay = VMIN(old >= pad ? vm : old, VMIN(lower, upper) + vp1);
+        const short16 out_of_view = cv[j] < (short16)(0);
+        short16 v = out_of_view ? pad : cv[j] + VMIN(stay - vm, vp2);
         if (j == NV - 1)
             v = lane >= (short16)(TAIL) ? pad : v;
         cur[j] = v;
         run = VMIN(run, v);
-        sum[j] += v;
+        sum[j] += out_of_view ? (short16)(0) : v;
     }
     #pragma unroll
     for (int j = 0; j < NV; ++j)
@@ -375,12 +391,13 @@ __kernel void sgm_two_sweeps(__global const short *cost, __global short *out_fwd
             __global short *o = out + ((size_t)y * w + x) * N_DISP;
             #pragma unroll
             for (int j = 0; j < NV; ++j)
-                STORE_S(sum[j], o, j);
+                STORE_S(cv[j] < (short16)(0) ? (short16)(-1) : sum[j], o, j);
         }
     }
 }
 
-// out += add, elementwise over one row of pixels per work-item.
+// out += add, elementwise over one row of pixels per work-item; entries out of view (-1 in both)
+// stay -1.
 __kernel void add_volume(__global short *out, __global const short *add, const int h, const int w)
 {
     const int y = get_global_id(0);
@@ -390,27 +407,32 @@ __kernel void add_volume(__global short *out, __global const short *add, const i
     __global short *o = out + (size_t)y * len;
     __global const short *a = add + (size_t)y * len;
     size_t i = 0;
-    for (; i + 16 <= len; i += 16)
-        VSTORE(short, 16, VLOAD(short, 16, o + i) + VLOAD(short, 16, a + i), o + i);
+    for (; i + 16 <= len; i += 16) {
+        const short16 ov = VLOAD(short, 16, o + i);
+        VSTORE(short, 16, ov < (short16)(0) ? ov : ov + VLOAD(short, 16, a + i), o + i);
+    }
     for (; i < len; ++i)
-        o[i] += a[i];
+        if (o[i] >= 0)
+            o[i] += a[i];
 }
 
 // Lane k of the result takes lane k + 1 of the vectors a[] (fill after the last).
 #define SHIFT_DOWN(a, j, fill) ((short16)(a[j].s1234, a[j].s5678, a[j].s9abc, a[j].sdef,          \
                                           (j) + 1 < NV ? a[((j) + 1) % NV].s0 : (fill)))
 
-// Winner-take-all for both views, one work-item per row: the left disparity (uniqueness test,
-// parabola vertex; NaN when not unique) and the right view's winner in steps (NO_MATCH if no
-// left pixel can match).  The right view's costs of pixel xr lie on a staircase through the
+// Winner-take-all for both views, one work-item per row: the left disparity (NaN when nothing is
+// in view, when the minimum is cut by the image or not unique; parabola vertex), its margin
+// (S2 - S1) / S2 (0 where rejected) and the right view's winner in steps (NO_MATCH if no left
+// pixel can match).  Samples out of view (S < 0) are no candidates: they read as SHRT_MAX (the
+// host keeps aggregated costs below it).  The right view's costs of pixel xr lie on a staircase through the
 // left pixels' entries: sample k at left pixel xr + n(k), n(k) = floor((d_min*steps + k) /
 // steps), `steps` consecutive k per pixel.  Walking the row right to left, E_x[k] = the best
 // (cost, k) of the staircase from entry k of pixel x on: E_x[k] = min(S_x[k], E_x[k + 1]) within
 // a pixel's group of k, min(S_x[k], E_(x+1)[k + 1]) at a group's last k; the winner of right
 // pixel xr is E_(xr + n(0))[0] (ties go to the smaller k, the specification's first minimum).
 __kernel void select_disparity(__global const short *agg, __global float *disp, __global int *right,
-                               const int h, const int w, const int d_min, const int steps,
-                               const int uniqueness)
+                               __global float *margin, const int h, const int w, const int d_min,
+                               const int steps, const int uniqueness)
 {
     const int y = get_global_id(0);
     if (y >= h)
@@ -428,6 +450,7 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
     }
     __global int *rrow = right + (size_t)y * w;
     __global float *drow = disp + (size_t)y * w;
+    __global float *mrow = margin + (size_t)y * w;
     for (int x = 0; x < w; ++x)
         rrow[x] = NO_MATCH;
     for (int x = w - 1; x >= 0; --x) {
@@ -435,7 +458,8 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
         short16 sv[NV], vmin = none;
         #pragma unroll
         for (int j = 0; j < NV; ++j) {
-            sv[j] = LOAD_SMAX(s, j);
+            const short16 v = LOAD_SMAX(s, j);
+            sv[j] = v < (short16)(0) ? none : v;
             vmin = VMIN(vmin, sv[j]);
         }
         // ---- left view: the first minimum, the best cost more than one step from it
@@ -453,15 +477,19 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
             const short16 k = lane + (short16)(16 * j);
             far = VMIN(far, (k < below) | (k > above) ? sv[j] : none);
         }
-        // no k is more than one step away: INT_MAX, as in the specification
-        const int second = (kb >= 2 || kb <= N_DISP - 3) ? hmin16(far) : INT_MAX;
-        const int unique = (long)second * 100 > (long)best * (100 + uniqueness);
+        // SHRT_MAX: nothing in view, or no sample in view more than one step from kb
+        const int second = hmin16(far);
+        const int unique = best < SHRT_MAX && second < SHRT_MAX &&
+                           (long)second * 100 > (long)best * (100 + uniqueness);
         const int sm = s[kb > 0 ? kb - 1 : 0], sp = s[kb < N_DISP - 1 ? kb + 1 : N_DISP - 1];
+        const int cut = (kb > 0 && sm < 0) || (kb < N_DISP - 1 && sp < 0);
         const float den = (float)(sm - 2 * best + sp);
         float delta = 0.0f;
         if (kb > 0 && kb < N_DISP - 1 && den > 0.0f)
             delta = (float)(sm - sp) / (2.0f * den);
-        drow[x] = unique ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
+        const int keep = unique && !cut;
+        drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
+        mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
         // ---- right view: E_x from E_(x+1) (at group ends), then within the groups
         #pragma unroll
         for (int j = 0; j < NV; ++j) {
@@ -482,19 +510,21 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
         }
         const int xr = x - n0;                  // the right pixel whose staircase starts here
         if (xr >= 0 && xr < w)
-            rrow[xr] = t0 + ei[0].s0;
+            rrow[xr] = ev[0].s0 < SHRT_MAX ? t0 + ei[0].s0 : NO_MATCH;
     }
     // right pixels whose staircase starts left of the image enter it at pixel 0, entry
     // k = (-xr - n0) * steps - f0 (the first k with n(k) = -xr)
     const int xr_end = min(w, -n0);
     if (xr_end > 0) {
-        short idx[NP];
+        short idx[NP], val[NP];
         #pragma unroll
-        for (int j = 0; j < NV; ++j)
+        for (int j = 0; j < NV; ++j) {
             *(__private short16 *)(idx + 16 * j) = ei[j];
+            *(__private short16 *)(val + 16 * j) = ev[j];
+        }
         for (int xr = 0; xr < xr_end; ++xr) {
             const int k = (-xr - n0) * steps - f0;
-            if (k < N_DISP)
+            if (k < N_DISP && val[k] < SHRT_MAX)
                 rrow[xr] = t0 + idx[k];
         }
     }
@@ -502,7 +532,10 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
 #endif  // N_DISP
 
 // One step of the running-best sweep: windowed squared difference around (y, x) of the gained,
-// shifted left view at x' and right view at x' - offset, then the update of the 5 state planes (best, its d, before, after, prev).
+// shifted left view at x' and right view at x' - offset (+inf where the right window around
+// x - offset is not inside the image: not in view), then the update of the 9 state planes (best, its d, before, after,
+// prev, second, older; the right view's best and its d at xr = x - offset, one writer per right
+// pixel; sweep_update_reference).
 __kernel void sweep_update(__global float *state, __global const float *ls, __global const float *rs,
                            __global const float *gl, __global const float *gr, const int h, const int w,
                            const int offset, const float d, const int radius)
@@ -510,8 +543,9 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
     const int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h)
         return;
-    float cost = 0.0f;
-    for (int v = -radius; v <= radius; ++v) {
+    const int in_view = x - offset >= radius && x - offset <= w - 1 - radius;
+    float cost = in_view ? 0.0f : INFINITY;
+    for (int v = -radius; v <= radius && in_view; ++v) {
         const size_t row = (size_t)clamp(y + v, 0, h - 1) * w;
         for (int u = -radius; u <= radius; ++u) {
             const int xl = clamp(x + u, 0, w - 1);
@@ -521,13 +555,26 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
         }
     }
     const size_t n = (size_t)h * w, p = (size_t)y * w + x;
+    const float prev = state[4 * n + p], older = state[6 * n + p];
     if (cost < state[p]) {
-        state[2 * n + p] = state[4 * n + p];
+        state[5 * n + p] = older;
+        state[2 * n + p] = prev;
         state[3 * n + p] = NAN;
         state[p] = cost;
         state[n + p] = d;
     } else if (isnan(state[3 * n + p])) {
         state[3 * n + p] = cost;
+    } else if (cost < state[5 * n + p]) {
+        state[5 * n + p] = cost;
     }
+    if (prev < older)                   // false while prev is NaN (before the first step)
+        state[6 * n + p] = prev;
     state[4 * n + p] = cost;
+    if (in_view) {
+        const size_t q = (size_t)y * w + (x - offset);
+        if (cost < state[7 * n + q]) {
+            state[7 * n + q] = cost;
+            state[8 * n + q] = d;
+        }
+    }
 }

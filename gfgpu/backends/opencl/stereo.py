@@ -38,13 +38,11 @@ def launch_census(be, image, out, plane, radius):
                   np.int32(radius)))
     return out
 
-def launch_cost(be, census_left, census_right, out, first_step, steps, block, invalid):
+def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     cl_ = _plain(be, census_left, "census_left", np.uint64)
     cr = _plain(be, census_right, "census_right", np.uint64)
     _plain(be, out, "out", np.int16)
     _check_written(out, "out")
-    if not 0 <= invalid <= 255:
-        raise ValueError(f"invalid must be 0..255 (a Hamming distance of census codes), got {invalid}")
     h, w, n = out.shape
     if out.size == 0:
         return out
@@ -55,10 +53,11 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block, in
     ham = be.empty((h, w, n), np.uint8)
     be._launch(_stereo_kernel(be, "census_hamming", n), (w, h), None, [cl_, ri], [ham],
                  (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
-                  np.int32(steps), np.int32(invalid)))
+                  np.int32(steps)))
     group = be._group()
     be._launch(_stereo_kernel(be, "block_sum", n), (-(-h // group) * group,), (group,), [ham], [out],
-                 (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block)))
+                 (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block), np.int32(first_step),
+                  np.int32(steps)))
     return out
 
 def launch_sgm(be, cost, out, p1, p2, paths):
@@ -94,23 +93,24 @@ def launch_sgm(be, cost, out, p1, p2, paths):
                       np.int16(p1), np.int16(p2), np.int32(i > 0)))
     return out
 
-def launch_select(be, aggregated, disp, disp_right, d_min, steps, uniqueness):
+def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, uniqueness):
     agg = _plain(be, aggregated, "aggregated", np.int16)
-    for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32)):
+    for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
+                        (margin, "margin", np.float32)):
         _plain(be, a, name, dt)
         _check_written(a, name)
     h, w, n = agg.shape
     if agg.size == 0:
-        return disp, disp_right
+        return disp, disp_right, margin
     if n > 32767:
         raise ValueError(f"aggregated must have at most 32767 disparity samples (int16 lane "
                          f"indices in select_disparity), got {n}")
     group = be._group()
     be._launch(_stereo_kernel(be, "select_disparity", n), (-(-h // group) * group,), (group,),
-                 [agg], [disp, disp_right],
-                 (agg.data, disp.data, disp_right.data, np.int32(h), np.int32(w),
+                 [agg], [disp, disp_right, margin],
+                 (agg.data, disp.data, disp_right.data, margin.data, np.int32(h), np.int32(w),
                   np.int32(d_min), np.int32(steps), np.int32(uniqueness)))
-    return disp, disp_right
+    return disp, disp_right, margin
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
     _plain(be, state, "state", np.float32)

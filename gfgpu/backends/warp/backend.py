@@ -13,6 +13,7 @@ import ctypes
 import os
 import sys
 import tempfile
+import threading
 from collections import OrderedDict
 from functools import cache
 
@@ -76,23 +77,47 @@ def _without_driver_warning():
                 sys.stderr.flush()
 
 
+def _fold(shape):
+    """Warp arrays have at most 4 dimensions: leading axes beyond that are folded into one (the
+    operators address arrays through their own (B, N, M) views, so the fold is invisible)."""
+    shape = tuple(int(n) for n in shape)
+    if len(shape) <= 4:
+        return shape
+    return (int(np.prod(shape[:-3], dtype=np.int64)),) + shape[-3:]
+
+
+_INIT_LOCK = threading.Lock()
+
+
 def _import_warp():
-    """Import and initialise Warp quietly; raise :class:`BackendUnavailable` if it cannot."""
+    """Import and initialise Warp quietly, once per process (under a lock: threads of a Dask
+    worker may ask at once); raise :class:`BackendUnavailable` if it cannot."""
     try:
         import warp as wp
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise BackendUnavailable(f"warp-lang not installed ({exc})") from exc
-    # a library should not print Warp's start-up banner and module-load lines: `quiet` in older
-    # Warp, `log_level` in newer (setting the unused one is harmless)
-    wp.config.quiet = True
-    if hasattr(wp, "LOG_WARNING"):
-        wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
-    try:
-        with _without_driver_warning():
-            wp.init()
-    except Exception as exc:  # pragma: no cover - depends on the environment
-        raise BackendUnavailable(f"warp-lang failed to initialise: {exc}") from exc
+    with _INIT_LOCK:
+        if _INIT_STATE.get("pid") == os.getpid():
+            if "error" in _INIT_STATE:
+                raise BackendUnavailable(_INIT_STATE["error"])
+            return wp
+        # a library should not print Warp's start-up banner and module-load lines: `quiet` in
+        # older Warp, `log_level` in newer (setting the unused one is harmless)
+        wp.config.quiet = True
+        if hasattr(wp, "LOG_WARNING"):
+            wp.config.log_level = max(wp.config.log_level, wp.LOG_WARNING)
+        _INIT_STATE.clear()
+        _INIT_STATE["pid"] = os.getpid()
+        try:
+            with _without_driver_warning():
+                wp.init()
+        except Exception as exc:  # pragma: no cover - depends on the environment
+            _INIT_STATE["error"] = f"warp-lang failed to initialise: {exc}"
+            raise BackendUnavailable(_INIT_STATE["error"]) from exc
     return wp
+
+
+_INIT_STATE = {}
 
 
 def unavailable_reason():
@@ -188,6 +213,7 @@ class WarpBackend(Backend):
 
     def asarray(self, host):
         host = np.ascontiguousarray(host)
+        host = host.reshape(_fold(host.shape))
         return self._wp.array(host, dtype=self._wp.dtype_from_numpy(host.dtype), device=self._device)
 
     def to_host(self, array):
@@ -199,14 +225,14 @@ class WarpBackend(Backend):
         return out.copy() if self._device.is_cpu else out
 
     def empty(self, shape, dtype):
-        return self._wp.empty(tuple(shape), dtype=self._wp.dtype_from_numpy(np.dtype(dtype)),
+        return self._wp.empty(_fold(shape), dtype=self._wp.dtype_from_numpy(np.dtype(dtype)),
                               device=self._device)
 
     def _alias(self, host):
         # by pointer with canonical strides: numpy calls arrays with odd strides on length-1
         # axes C-contiguous, Warp does not
         arr = self._wp.array(ptr=host.ctypes.data, dtype=self._wp.dtype_from_numpy(host.dtype),
-                             shape=host.shape, device=self._device)
+                             shape=_fold(host.shape), device=self._device)
         arr.gfgpu_memory = host     # the numpy array owns the memory: keep it alive
         return arr
 
@@ -244,7 +270,7 @@ class WarpBackend(Backend):
         return np.dtype(self._wp.dtype_to_numpy(array.dtype))
 
     def reshape(self, array, shape):
-        return array.reshape(tuple(shape))
+        return array.reshape(_fold(shape))
 
     def all_finite(self, array):
         if np.dtype(self._wp.dtype_to_numpy(array.dtype)) not in _REALS:

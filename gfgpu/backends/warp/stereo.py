@@ -15,6 +15,7 @@ wp.set_module_options({"enable_backward": False})
 
 NO_MATCH = -2147483647 - 1
 _INT_MAX = 2147483647
+_UNDEF = 16777216       # path value of a sample out of view (specs._UNDEF): never a minimum
 
 
 @wp.func
@@ -55,33 +56,34 @@ def census(img: wp.array2d(dtype=wp.float32), out: wp.array3d(dtype=wp.uint64), 
 
 @wp.kernel
 def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64),
-                out: wp.array3d(dtype=wp.int16), first_step: int, steps: int, block: int, invalid: int):
-    """Block-summed Hamming distances for every disparity sample (see census_cost_reference)."""
-    y, x = wp.tid()
+                out: wp.array3d(dtype=wp.int16), first_step: int, steps: int, block: int):
+    """Block-summed Hamming distances for every disparity sample, -1 out of view; one thread per
+    (pixel, sample) (see census_cost_reference)."""
+    y, x, k = wp.tid()
     h = out.shape[0]
     w = out.shape[1]
     r = block / 2
-    for k in range(out.shape[2]):
-        t = first_step + k
-        n = _floor_div(t, steps)
-        f = t - n * steps
-        total = int(0)
-        for v in range(-r, r + 1):
-            yy = wp.clamp(y + v, 0, h - 1)
-            for u in range(-r, r + 1):
-                xx = wp.clamp(x + u, 0, w - 1)
-                xr = xx - n
-                if xr < 0 or xr >= w:
-                    total = total + invalid
-                else:
-                    total = total + _popcount(cl[0, yy, xx] ^ cr[f, yy, xr])
-        out[y, x, k] = wp.int16(total)
+    t = first_step + k
+    n = _floor_div(t, steps)
+    f = t - n * steps
+    if x - n < r or x - n > w - 1 - r:
+        out[y, x, k] = wp.int16(-1)
+        return
+    total = int(0)
+    for v in range(-r, r + 1):
+        yy = wp.clamp(y + v, 0, h - 1)
+        for u in range(-r, r + 1):
+            xx = wp.clamp(x + u, 0, w - 1)
+            total = total + _popcount(cl[0, yy, xx] ^ cr[f, yy, xx - n])
+    out[y, x, k] = wp.int16(total)
 
 
 @wp.kernel
 def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16),
              scratch: wp.array2d(dtype=wp.int32), dy: int, dx: int, p1: int, p2: int, accumulate: int):
-    """One path direction of semi-global aggregation; one thread per line entering the image."""
+    """One path direction of semi-global aggregation; one thread per line entering the image.
+    Samples out of view (cost < 0) have path value _UNDEF and total -1; one entering the view
+    takes the predecessor's minimum as its own predecessor (L = C)."""
     i = wp.tid()
     h = cost.shape[0]
     w = cost.shape[1]
@@ -118,20 +120,28 @@ def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16)
     while x >= 0 and x < w and y >= 0 and y < h:
         m = int(_INT_MAX)
         for d in range(nd):
-            v = int(cost[y, x, d])
-            if first == 0:
-                best = wp.min(scratch[i, prev + d], mprev + p2)
-                if d > 0:
-                    best = wp.min(best, scratch[i, prev + d - 1] + p1)
-                if d < nd - 1:
-                    best = wp.min(best, scratch[i, prev + d + 1] + p1)
-                v = v + best - mprev
+            c = int(cost[y, x, d])
+            v = c
+            if c < 0:
+                v = _UNDEF
+                total[y, x, d] = wp.int16(-1)
+            else:
+                if first == 0:
+                    stay = scratch[i, prev + d]
+                    if stay >= _UNDEF:
+                        stay = mprev
+                    best = wp.min(stay, mprev + p2)
+                    if d > 0:
+                        best = wp.min(best, scratch[i, prev + d - 1] + p1)
+                    if d < nd - 1:
+                        best = wp.min(best, scratch[i, prev + d + 1] + p1)
+                    v = c + best - mprev
+                if accumulate != 0:
+                    total[y, x, d] = wp.int16(int(total[y, x, d]) + v)
+                else:
+                    total[y, x, d] = wp.int16(v)
             scratch[i, cur + d] = v
             m = wp.min(m, v)
-            if accumulate != 0:
-                total[y, x, d] = wp.int16(int(total[y, x, d]) + v)
-            else:
-                total[y, x, d] = wp.int16(v)
         tmp = prev
         prev = cur
         cur = tmp
@@ -143,8 +153,10 @@ def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16)
 
 @wp.kernel
 def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.float32),
-                     right: wp.array2d(dtype=wp.int32), d_min: int, steps: int, uniqueness: int):
-    """Winner-take-all for both views (uniqueness test, parabola vertex, NaN when not unique)."""
+                     right: wp.array2d(dtype=wp.int32), margin: wp.array2d(dtype=wp.float32),
+                     d_min: int, steps: int, uniqueness: int):
+    """Winner-take-all for both views over the samples in view (NaN when none, when the minimum
+    is cut by the image or not unique; parabola vertex; margin (S2 - S1) / S2)."""
     y, x = wp.tid()
     w = agg.shape[1]
     nd = agg.shape[2]
@@ -152,25 +164,29 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
     kb = int(0)
     for k in range(nd):
         v = int(agg[y, x, k])
-        if v < best:
+        if v >= 0 and v < best:
             best = v
             kb = k
     second = int(_INT_MAX)
     for k in range(nd):
         v = int(agg[y, x, k])
-        if wp.abs(k - kb) > 1 and v < second:
+        if v >= 0 and wp.abs(k - kb) > 1 and v < second:
             second = v
-    unique = wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
+    unique = best < _INT_MAX and second < _INT_MAX and \
+        wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
     sm = int(agg[y, x, wp.max(kb - 1, 0)])
     sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
+    cut = (kb > 0 and sm < 0) or (kb < nd - 1 and sp < 0)
     den = float(sm - 2 * best + sp)
     delta = float(0.0)
     if kb > 0 and kb < nd - 1 and den > 0.0:
         delta = float(sm - sp) / (2.0 * den)
-    if unique:
+    if unique and not cut:
         disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
+        margin[y, x] = float(second - best) / float(second)
     else:
         disp[y, x] = wp.nan
+        margin[y, x] = 0.0
     best_r = int(_INT_MAX)
     kr = int(NO_MATCH)
     for k in range(nd):
@@ -178,7 +194,7 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
         xl = x + _floor_div(t, steps)
         if xl >= 0 and xl < w:
             v = int(agg[y, xl, k])
-            if v < best_r:
+            if v >= 0 and v < best_r:
                 best_r = v
                 kr = t
     right[y, x] = kr
@@ -193,21 +209,35 @@ def sweep_update(state: wp.array3d(dtype=wp.float32), ls: wp.array2d(dtype=wp.fl
     h = ls.shape[0]
     w = ls.shape[1]
     cost = float(0.0)
-    for v in range(-radius, radius + 1):
-        yy = wp.clamp(y + v, 0, h - 1)
-        for u in range(-radius, radius + 1):
-            xl = wp.clamp(x + u, 0, w - 1)
-            xr = wp.clamp(xl - offset, 0, w - 1)
-            a = gl[xl] * ls[yy, xl] - gr[xr] * rs[yy, xr]
-            cost = cost + a * a
+    if x - offset < radius or x - offset > w - 1 - radius:
+        cost = wp.inf        # not in view
+    else:
+        for v in range(-radius, radius + 1):
+            yy = wp.clamp(y + v, 0, h - 1)
+            for u in range(-radius, radius + 1):
+                xl = wp.clamp(x + u, 0, w - 1)
+                xr = xl - offset
+                a = gl[xl] * ls[yy, xl] - gr[xr] * rs[yy, xr]
+                cost = cost + a * a
+    prev = state[4, y, x]
+    older = state[6, y, x]
     if cost < state[0, y, x]:
-        state[2, y, x] = state[4, y, x]
+        state[5, y, x] = older
+        state[2, y, x] = prev
         state[3, y, x] = wp.nan
         state[0, y, x] = cost
         state[1, y, x] = d
     elif wp.isnan(state[3, y, x]):
         state[3, y, x] = cost
+    elif cost < state[5, y, x]:
+        state[5, y, x] = cost
+    if prev < older:
+        state[6, y, x] = prev
     state[4, y, x] = cost
+    if cost < wp.inf:      # in view: the right pixel x - offset, one writer per right pixel
+        if cost < state[7, y, x - offset]:
+            state[7, y, x - offset] = cost
+            state[8, y, x - offset] = d
 
 
 # ---- launchers (registered by gfgpu.stereo.kernels) -------------------------------------
@@ -222,10 +252,10 @@ def launch_census(be, image, out, plane, radius):
                     device=be._device)
     return out
 
-def launch_cost(be, census_left, census_right, out, first_step, steps, block, invalid):
-    be._wp.launch(census_cost, dim=out.shape[:2],
-                    inputs=[census_left, census_right, out, int(first_step), int(steps), int(block),
-                            int(invalid)], device=be._device)
+def launch_cost(be, census_left, census_right, out, first_step, steps, block):
+    be._wp.launch(census_cost, dim=out.shape,
+                    inputs=[census_left, census_right, out, int(first_step), int(steps), int(block)],
+                    device=be._device)
     return out
 
 def launch_sgm(be, cost, out, p1, p2, paths):
@@ -239,11 +269,11 @@ def launch_sgm(be, cost, out, p1, p2, paths):
                         device=be._device)
     return out
 
-def launch_select(be, aggregated, disp, disp_right, d_min, steps, uniqueness):
+def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, uniqueness):
     be._wp.launch(select_disparity, dim=disp.shape,
-                    inputs=[aggregated, disp, disp_right, int(d_min), int(steps), int(uniqueness)],
+                    inputs=[aggregated, disp, disp_right, margin, int(d_min), int(steps), int(uniqueness)],
                     device=be._device)
-    return disp, disp_right
+    return disp, disp_right, margin
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
     ls = _contiguous(be, left_shifted, "left_shifted")

@@ -1,0 +1,203 @@
+"""Inputs, parameters and processes from real use: each kind of fault with the right value or
+the exact message (byte order, parameter types, canny's edge cases, fork)."""
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+import gfgpu
+
+
+@pytest.mark.parametrize("order", [">f4", ">f8"])
+def test_big_endian_input_and_output(backend, order, rng):
+    if np.dtype(order).itemsize == 8 and not backend.supports_float64:
+        pytest.skip("no float64 on this device")
+    native = rng.random((21, 33)).astype(np.dtype(order).newbyteorder("="))
+    swapped = native.astype(order)
+    calls = [
+        lambda x, **kw: gfgpu.shift(x, (1.5, -2.25), backend=backend.name, **kw),
+        lambda x, **kw: gfgpu.green_filter(x, gfgpu.UniformGreen(2.0), axis=0, backend=backend.name, **kw),
+        lambda x, **kw: gfgpu.derivative(x, 1.0, axis=1, backend=backend.name, **kw),
+        lambda x, **kw: gfgpu.motion_blur(x, (3, 5), backend=backend.name, **kw),
+    ]
+    for call in calls:
+        ref = call(native)
+        np.testing.assert_array_equal(call(swapped), ref)
+        out = np.empty(native.shape, order)
+        assert call(swapped, output=out) is out
+        np.testing.assert_array_equal(out, ref)
+    gy, gx = gfgpu.gradient(swapped, 1.0, backend=backend.name)
+    np.testing.assert_array_equal(gy, gfgpu.gradient(native, 1.0, backend=backend.name)[0])
+
+
+def test_big_endian_npy_file(tmp_path, rng):
+    img = rng.random((40, 30)).astype(">f4")
+    np.save(tmp_path / "be.npy", img)
+    gfgpu.filter_npy("shift", tmp_path / "be.npy", tmp_path / "out.npy", shift=(2.5, -1.0), backend="numpy")
+    ref = gfgpu.shift(img.astype("<f4"), (2.5, -1.0), backend="numpy")
+    np.testing.assert_allclose(np.load(tmp_path / "out.npy"), ref, atol=1e-6)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda img: gfgpu.green_filter(img, gfgpu.UniformGreen(1.0), anticausal="False"),
+     "anticausal must be True or False"),
+    (lambda img: gfgpu.motion_blur(img, (2, 3), displace="False"), "displace must be True or False"),
+    (lambda img: gfgpu.derivative(img, 1.0, axis=1.5), "axis must be an integer"),
+    (lambda img: gfgpu.derivative(img, 1.0, axis="0"), "axis must be an integer"),
+    (lambda img: gfgpu.green_filter(img, gfgpu.UniformGreen("3")), "u must be a real number"),
+    (lambda img: gfgpu.shift(img, ("1", 0)), "shift must be a real number"),
+    (lambda img: gfgpu.shift(img, 1.0, output=[0.0] * 4), "output must be a numpy array"),
+    (lambda img: gfgpu.shift(img, 1.0, backend="warp", device=["cpu"]), "device must be"),
+    (lambda img: gfgpu.canny(img, 1.0, use_quantiles="yes"), "use_quantiles must be True or False"),
+])
+def test_parameters_of_the_wrong_type_are_errors(call, message):
+    img = np.ones((8, 9))
+    with pytest.raises(TypeError, match=message):
+        call(img)
+
+
+def test_big_endian_output_is_written_and_read_only_output_refused():
+    img = np.ones((6, 7), np.float32)
+    ro = np.empty((6, 7), np.float32)
+    ro.setflags(write=False)
+    with pytest.raises(ValueError, match="read-only"):
+        gfgpu.shift(img, 1.0, output=ro, backend="numpy")
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.uint8])
+def test_canny_flat_image_has_no_edges(backend, dtype):
+    if dtype == np.float64 and not backend.supports_float64:
+        pytest.skip("no float64 on this device")
+    flat = np.full((40, 50), 180 if dtype == np.uint8 else 0.7, dtype)
+    assert not gfgpu.canny(flat, 1.0, 0.1, 0.9, use_quantiles=True, backend=backend.name).any()
+    assert not gfgpu.canny(flat, 1.0, backend=backend.name).any()
+
+
+def test_canny_empty_mask_with_quantiles_has_no_edges(rng):
+    img = rng.random((30, 40))
+    edges = gfgpu.canny(img, 1.0, 0.2, 0.9, use_quantiles=True, mask=np.zeros(img.shape, bool), backend="numpy")
+    assert edges.shape == img.shape and not edges.any()
+
+
+FORK_SCRIPT = textwrap.dedent("""
+    import multiprocessing as mp, sys
+    import numpy as np, gfgpu
+    from gfgpu.backends import BackendUnavailable
+    img = np.ones((32, 32), np.float32)
+    parent = sys.argv[1]
+    ref = gfgpu.shift(img, (0, 1.5), backend=parent)
+
+    def automatic(_):
+        return float(gfgpu.shift(img, (0, 1.5)).sum())
+
+    def explicit(name):
+        try:
+            return float(gfgpu.shift(img, (0, 1.5), backend=name).sum())
+        except BackendUnavailable as exc:
+            return str(exc)
+
+    if __name__ == "__main__":
+        with mp.get_context("fork").Pool(2) as pool:
+            print(pool.map(automatic, [0, 1]))
+            print(pool.map(explicit, ["numpy", "opencl"]))
+    """)
+
+
+@pytest.mark.parametrize("parent", ["numpy", "opencl", "warp"])
+def test_forked_children_get_fresh_backends_or_a_clear_error(tmp_path, require_backend, parent):
+    require_backend(parent)
+    script = tmp_path / "fork.py"
+    script.write_text(FORK_SCRIPT)
+    res = subprocess.run([sys.executable, str(script), parent], capture_output=True, text=True, timeout=240)
+    assert res.returncode == 0, res.stderr[-2000:]
+    auto, explicit = res.stdout.strip().splitlines()[-2:]
+    assert auto == str([float(32 * 32)] * 2)
+    numpy_sum, opencl = eval(explicit)
+    assert numpy_sum == 32 * 32
+    if parent == "opencl":
+        assert "forked" in opencl and "spawn" in opencl
+
+
+@pytest.mark.parametrize("shape", [(2, 3, 2, 4, 5), (2, 1, 3, 2, 4, 5)])
+def test_arrays_of_many_dimensions_on_every_backend(backend, shape, rng):
+    x = rng.random(shape).astype(np.float32)
+    calls = [
+        lambda b: gfgpu.shift(x, 1.5, backend=b),
+        lambda b: gfgpu.gradient(x, 1.0, backend=b)[-1],
+        lambda b: gfgpu.green_filter(x, gfgpu.UniformGreen(2.0), angle=0.3, backend=b),
+        lambda b: gfgpu.motion_blur(x, (2, 3), backend=b),
+        lambda b: gfgpu.motion_blur(x, 5.0, kind="rotation", backend=b),
+    ]
+    for call in calls:
+        out = call(backend.name)
+        assert out.shape == shape
+        np.testing.assert_allclose(out, call("numpy"), atol=2e-5)
+    with gfgpu.working_set("2K"):
+        np.testing.assert_allclose(gfgpu.shift(x, 1.5, backend=backend.name), gfgpu.shift(x, 1.5, backend="numpy"),
+                                   atol=2e-5)
+
+
+@pytest.mark.parametrize("arr, call, message", [
+    (np.float64(3.0), lambda a: gfgpu.shift(a, 1.0), "input must have at least 1 dimension"),
+    (np.ones(5), lambda a: gfgpu.motion_blur(a, (1, 1)), "input must have at least 2 dimension"),
+    (np.ones(5), lambda a: gfgpu.canny(a), "input must have at least 2 dimension"),
+    (np.ones((0, 4)), lambda a: gfgpu.shift(a, 1.0), "input is empty"),
+])
+def test_too_few_dimensions_name_the_input(arr, call, message):
+    with pytest.raises(ValueError, match=message):
+        call(arr)
+
+
+THREADS_SCRIPT = textwrap.dedent("""
+    import sys, threading
+    import numpy as np, gfgpu
+    img = np.ones((16, 16), np.float32)
+    out = []
+    threads = [threading.Thread(target=lambda: out.append(float(gfgpu.shift(img, (0, 1.5), backend="warp").sum())))
+               for _ in range(16)]
+    [t.start() for t in threads]
+    [t.join() for t in threads]
+    print(sorted(set(out)))
+    print("stderr-still-works", file=sys.stderr)
+    """)
+
+
+def test_threads_starting_warp_at_once_keep_stderr(tmp_path, require_backend):
+    require_backend("warp")
+    script = tmp_path / "threads.py"
+    script.write_text(THREADS_SCRIPT)
+    for _ in range(3):
+        res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=240)
+        assert res.returncode == 0, res.stderr[-2000:]
+        assert res.stdout.strip() == str([256.0])
+        assert "stderr-still-works" in res.stderr
+        assert "Could not find or load the NVIDIA CUDA driver" not in res.stderr
+
+
+@pytest.mark.parametrize("mode", ["reflect", "mirror", "wrap", "nearest", "constant"])
+def test_large_scales_keep_a_constant_image_constant_fast(mode):
+    """The boundary state sums in closed form: cost and accuracy do not depend on u."""
+    import time
+    img = np.full((24, 40), 0.7)
+    for u in (1e4, 1e7, 1e9):
+        t0 = time.perf_counter()
+        out = gfgpu.green_filter(img, gfgpu.UniformGreen(u), mode=mode, cval=0.7, backend="numpy")
+        assert np.abs(out - 0.7).max() < 1e-7
+        d = gfgpu.derivative(img, u, axis=1, mode=mode, cval=0.7, backend="numpy")
+        assert np.abs(d).max() < 1e-12
+        assert time.perf_counter() - t0 < 30      # a hang guard, not a benchmark (was 113 s at 1e7)
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda img: gfgpu.green_filter(img, gfgpu.UniformGreen(1e30)), r"u must lie in \[0.002, 1e\+09\]"),
+    (lambda img: gfgpu.derivative(img, 1e-30), r"u must lie in"),
+    (lambda img: gfgpu.canny(img, 1e12), r"u must lie in"),
+    (lambda img: gfgpu.green_filter(img, gfgpu.UniformGreen(2.0), angle=1e300), r"angle must lie within"),
+    (lambda img: gfgpu.motion_blur(img, (0, 1e12)), r"velocity must be at most"),
+])
+def test_parameters_far_outside_their_range_are_refused_before_work(call, message):
+    with pytest.raises(ValueError, match=message):
+        call(np.ones((16, 16)))
