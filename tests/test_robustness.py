@@ -201,3 +201,20 @@ def test_large_scales_keep_a_constant_image_constant_fast(mode):
 def test_parameters_far_outside_their_range_are_refused_before_work(call, message):
     with pytest.raises(ValueError, match=message):
         call(np.ones((16, 16)))
+
+
+def test_device_views_are_processed(backend, rng):
+    """Sliced, stepped and transposed device arrays are copied to contiguous on the device."""
+    if backend.name == "numpy":
+        pytest.skip("host arrays: numpy views are ordinary inputs")
+    img = rng.random((20, 30)).astype(np.float32)
+    dev = backend.asarray(img)
+    if backend.name == "opencl":
+        views = [(dev[2:15:2, 3:25], img[2:15:2, 3:25]), (dev.T, img.T), (dev[:, ::3], img[:, ::3])]
+    else:
+        views = [(dev[2:15, 3:25], img[2:15, 3:25]), (dev[5], img[5])]
+    for view, ref in views:
+        out = gfgpu.shift(view, 1.5)
+        assert backend.owns(out)
+        expect = gfgpu.shift(np.ascontiguousarray(ref), 1.5, backend="numpy")
+        np.testing.assert_allclose(backend.to_host(out), expect, atol=2e-6)

@@ -63,6 +63,8 @@ class Job:
             self.source = arr           # converted and placed on the device when first used
             self._data = None
         else:
+            if not be.is_contiguous(arr):   # a view (slice, step, transpose): copied on the device
+                arr = be.contiguous(arr)
             if work_dtype(be.dtype_of(arr)) != self.dtype:
                 raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
             if not be.all_finite(arr):

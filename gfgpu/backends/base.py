@@ -80,6 +80,11 @@ class Backend:
         """True if the device array is C-contiguous."""
         raise NotImplementedError
 
+    def contiguous(self, array):
+        """``array`` itself if C-contiguous, else a C-contiguous copy made on the device (views:
+        slices, steps, transposes)."""
+        raise NotImplementedError
+
     def may_share_memory(self, a, b) -> bool:
         """True if device arrays ``a`` and ``b`` may overlap in memory (bounds check)."""
         raise NotImplementedError

@@ -133,6 +133,9 @@ class NumpyBackend(Backend):
     def is_contiguous(self, array):
         return bool(array.flags.c_contiguous)
 
+    def contiguous(self, array):
+        return np.ascontiguousarray(array)
+
     def may_share_memory(self, a, b):
         return bool(np.may_share_memory(a, b))
 

@@ -340,6 +340,31 @@ class OpenCLBackend(Backend):
     def is_contiguous(self, array):
         return bool(array.flags.c_contiguous)
 
+    def contiguous(self, array):
+        dtype = self._check_dtype(array.dtype)
+        if array.flags.c_contiguous or array.size == 0:
+            return array
+        if dtype not in REALS:
+            raise TypeError(f"input must be float32 or float64, got {dtype}")
+        item = dtype.itemsize
+        if any(st % item for st in array.strides) or array.offset % item:
+            raise ValueError("input is a view whose strides are not whole elements; pass a contiguous array")
+        # a device-side copy through the gather kernel: element offsets of the view in its buffer
+        index = np.zeros((), np.int64)
+        for n, st in zip(array.shape, array.strides):
+            index = index[..., None] + (np.arange(n, dtype=np.int64) * (st // item))
+        index = np.ascontiguousarray(index.reshape(-1))
+        available = array.base_data.size // item - array.offset // item
+        dev_index, _ = self._index_array(index, available)
+        out = self.empty(array.shape, dtype)
+        knl = self._kernel("gather", dtype)
+        group = 64 if self.kind == "cpu" else self._group()
+        gsize = (-(-out.size // group) * group,)
+        args = (array.base_data, np.int64(array.offset // item), dev_index.data, out.base_data,
+                np.int64(out.offset // item), dtype.type(0), np.int64(out.size))
+        self._launch(knl, gsize, (group,), [dev_index], [out], args)
+        return out
+
     def may_share_memory(self, a, b):
         if a.base_data is None or b.base_data is None or a.base_data != b.base_data:
             return False

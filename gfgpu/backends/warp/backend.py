@@ -256,6 +256,9 @@ class WarpBackend(Backend):
     def is_contiguous(self, array):
         return bool(array.is_contiguous)
 
+    def contiguous(self, array):
+        return array if array.is_contiguous else array.contiguous()
+
     def may_share_memory(self, a, b):
         if a.device != b.device or not a.size or not b.size:
             return False
