@@ -218,3 +218,11 @@ def test_device_views_are_processed(backend, rng):
         assert backend.owns(out)
         expect = gfgpu.shift(np.ascontiguousarray(ref), 1.5, backend="numpy")
         np.testing.assert_allclose(backend.to_host(out), expect, atol=2e-6)
+
+
+def test_a_tiny_sweep_step_is_refused_before_work():
+    left, right = gfgpu.stereo.random_dot_stereogram(np.full((20, 30), 3.0))
+    with pytest.raises(ValueError, match="sweep_step must lie in"):
+        gfgpu.disparity(left, right, 8, method="uniform", sweep_step=1e-7)
+    with pytest.raises(TypeError, match="sweep_step must be a real number"):
+        gfgpu.disparity(left, right, 8, method="uniform", sweep_step="0.5")

@@ -34,6 +34,7 @@ import numpy as np
 
 from .. import greens
 from .._core.strips import get_working_set
+from .._core.validation import finite_scalar
 from ..backends import resolve_backend
 from ..backends.specs import NO_MATCH, SWEEP_PLANES
 from ..filters import green_filter, shift
@@ -41,6 +42,9 @@ from . import kernels
 
 __all__ = ["disparity", "disparity_work", "disparity_memory", "estimate_max_disparity", "METHODS", "fill_holes",
            "random_dot_stereogram", "sweep_finish"]
+
+#: smallest disparity step of the chapter's sweeps (px)
+MIN_SWEEP_STEP = 1.0 / 64
 
 METHODS = ("sgm", "uniform", "affine")
 
@@ -364,7 +368,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         (``"sgm"``) Margin in percent by which the best cost must beat every cost more than
         one step away (0 disables).
     sweep_step : float, optional
-        (``"uniform"``, ``"affine"``) Disparity step of the sweep, in px (> 0).
+        (``"uniform"``, ``"affine"``) Disparity step of the sweep, in px, within [1/64, 1].
     sigma : float, optional
         (``"affine"``) σ of G_U^(2); default ``4 sqrt(W (|d|max + 1))`` so that
         ``|x_U| = σ²/s`` stays well outside the line (``|x_U| >> W``, where eq. 14's
@@ -487,9 +491,11 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     window = 9 if window is None else _int_arg(window, "window")
     if window < 1 or window % 2 == 0 or window > 31:
         raise ValueError(f"window must be odd, 1..31, for the sweeps; got {window}")
-    step = float(sweep_step)
-    if not (math.isfinite(step) and 0 < step <= 1):
-        raise ValueError(f"sweep_step must lie in (0, 1] px, got {sweep_step!r}")
+    step = finite_scalar("sweep_step", sweep_step)
+    if not MIN_SWEEP_STEP <= step <= 1:
+        # below 1/64 px the sweep's cost grows without a gain: its sub-pixel parabola already
+        # resolves a fraction of the step
+        raise ValueError(f"sweep_step must lie in [{MIN_SWEEP_STEP:g}, 1] px, got {sweep_step!r}")
     if sigma is None:
         sigma = 4.0 * math.sqrt(w * (max(abs(d_min), abs(d_max)) + 1))
     elif not (math.isfinite(float(sigma)) and float(sigma) > 0):
