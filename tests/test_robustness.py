@@ -226,3 +226,39 @@ def test_a_tiny_sweep_step_is_refused_before_work():
         gfgpu.disparity(left, right, 8, method="uniform", sweep_step=1e-7)
     with pytest.raises(TypeError, match="sweep_step must be a real number"):
         gfgpu.disparity(left, right, 8, method="uniform", sweep_step="0.5")
+
+
+CACHE_SCRIPT = "import numpy as np, gfgpu; print(gfgpu.shift(np.ones((8, 8), np.float32), (0, 1.5), backend='opencl').sum())"
+
+
+def test_unwritable_cache_falls_back_or_says_which_variable(tmp_path, require_backend):
+    import os
+    require_backend("opencl")
+    afile = tmp_path / "a-file"
+    afile.write_text("")
+    env = {k: v for k, v in os.environ.items() if k not in ("XDG_CACHE_HOME", "POCL_CACHE_DIR")}
+    res = subprocess.run([sys.executable, "-c", CACHE_SCRIPT], capture_output=True, text=True, timeout=240,
+                         env=dict(env, HOME=str(afile)))          # ~/.cache cannot be created
+    assert res.returncode == 0 and res.stdout.strip() == "64.0", res.stderr[-2000:]
+    assert "XDG_CACHE_HOME or POCL_CACHE_DIR" in res.stderr
+    res = subprocess.run([sys.executable, "-c", CACHE_SCRIPT], capture_output=True, text=True, timeout=240,
+                         env=dict(env, POCL_CACHE_DIR=str(afile)))
+    assert res.returncode != 0
+    assert f"POCL_CACHE_DIR={str(afile)!r} is not a writable directory" in res.stderr
+
+
+def test_a_memory_limit_is_named_when_a_runtime_cannot_start(require_backend):
+    require_backend("warp")
+    code = textwrap.dedent("""
+        import resource; resource.setrlimit(resource.RLIMIT_AS, (600 * 2**20, resource.RLIM_INFINITY))
+        import numpy as np, gfgpu
+        try:
+            print("ran", gfgpu.shift(np.ones((8, 8), np.float32), (0, 1.5), backend="warp").sum())
+        except Exception as exc:
+            print(type(exc).__name__, exc)
+        """)
+    res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=240)
+    out = res.stdout.strip()
+    if out.startswith("ran"):
+        pytest.skip("Warp starts within 600 MiB here")
+    assert "BackendUnavailable" in out and "address-space limit" in out, out

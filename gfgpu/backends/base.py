@@ -24,6 +24,20 @@ def check_line_plans(src, dst, axis, plans):
                          f"{src.shape[3 - axis]} lines of {src.shape[axis]} along axis {axis}")
 
 
+def memory_hint():
+    """A hint for start-up failures when the process runs under an address-space limit (device
+    runtimes reserve much virtual memory when they start); "" without a limit."""
+    try:
+        import resource
+        soft, _ = resource.getrlimit(resource.RLIMIT_AS)
+    except (ImportError, ValueError, OSError):
+        return ""
+    if soft == resource.RLIM_INFINITY:
+        return ""
+    return (f" (the process's address-space limit, {soft / 2**30:.1f} GiB, may be too small: the device "
+            f"runtime reserves virtual memory when it starts; memory may have run out)")
+
+
 class BackendUnavailable(RuntimeError):
     """The requested backend or device cannot be used here (the message says why)."""
 

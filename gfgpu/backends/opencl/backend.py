@@ -13,12 +13,14 @@ the first process on a machine pays the compile time.
 from __future__ import annotations
 
 import os
+import tempfile
+import warnings
 from collections import OrderedDict
 from functools import cache
 
 import numpy as np
 
-from ..base import Backend, BackendUnavailable, check_line_plans
+from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 
 REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
@@ -40,11 +42,42 @@ FORK_MESSAGE = ("OpenCL was initialised in the parent process before this proces
                 "or 'numpy' in forked workers")
 
 
+def _writable_dir(path):
+    try:
+        os.makedirs(path, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path):
+            return True
+    except OSError:
+        return False
+
+
+def _prepare_caches():
+    """Kernel caches the runtime can write, before it starts (PoCL reads the variables then).
+
+    An explicit ``POCL_CACHE_DIR`` must be a writable directory (else a clear error); an
+    unwritable default cache root (``XDG_CACHE_HOME`` or ``~/.cache``, e.g. a read-only HOME)
+    is replaced by a temporary directory for this process, with a warning naming the variables.
+    """
+    pocl = os.environ.get("POCL_CACHE_DIR")
+    if pocl and not _writable_dir(pocl):
+        raise BackendUnavailable(f"POCL_CACHE_DIR={pocl!r} is not a writable directory: point it to one "
+                                 f"(or unset it)")
+    root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    if not _writable_dir(root):
+        tmp = tempfile.mkdtemp(prefix="gfgpu-cache-")
+        os.environ["XDG_CACHE_HOME"] = tmp
+        warnings.warn(f"gfgpu: the cache directory {root!r} cannot be written; compiled OpenCL kernels are "
+                      f"cached in {tmp!r} for this process only (set XDG_CACHE_HOME or POCL_CACHE_DIR to a "
+                      f"writable directory to keep them)", RuntimeWarning, stacklevel=3)
+
+
 def _import_cl():
     """PyOpenCL, once this process may use the OpenCL runtime; BackendUnavailable otherwise."""
     global _runtime_pid
     if _runtime_pid is not None and _runtime_pid != os.getpid():
         raise BackendUnavailable(FORK_MESSAGE)
+    if _runtime_pid is None:
+        _prepare_caches()
     try:
         import pyopencl as cl
         import pyopencl.array  # registers cl.array
@@ -118,7 +151,8 @@ def unavailable_reason():
     except cl.Error:  # PLATFORM_NOT_FOUND_KHR from the ICD loader
         platforms = []
     if not platforms:
-        return "no OpenCL platform found: install pocl-binary-distribution (CPU) or a GPU driver's ICD"
+        return ("no OpenCL platform found: install pocl-binary-distribution (CPU) or a GPU driver's ICD"
+                + memory_hint())
     if not opencl_devices():
         return "no OpenCL device found on platforms " + ", ".join(p.name.strip() for p in platforms)
     return None

@@ -19,7 +19,7 @@ from functools import cache
 
 import numpy as np
 
-from ..base import Backend, BackendUnavailable, check_line_plans
+from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
@@ -112,7 +112,7 @@ def _import_warp():
             with _without_driver_warning():
                 wp.init()
         except Exception as exc:  # pragma: no cover - depends on the environment
-            _INIT_STATE["error"] = f"warp-lang failed to initialise: {exc}"
+            _INIT_STATE["error"] = f"warp-lang failed to initialise: {exc}{memory_hint()}"
             raise BackendUnavailable(_INIT_STATE["error"]) from exc
     return wp
 
