@@ -72,6 +72,8 @@ def _check_array(x):
     if not isinstance(x, da.Array):
         raise TypeError(f"input must be a dask.array.Array (use gfgpu.{{name}} for numpy arrays), "
                         f"got {type(x).__name__}")
+    if x.ndim == 0:
+        raise ValueError("input must have at least 1 dimension(s), got shape ()")
     if x.size == 0:
         raise ValueError(f"input is empty (shape {x.shape})")
     if any(np.isnan(c) for chunks in x.chunks for c in chunks):

@@ -228,7 +228,8 @@ def test_a_tiny_sweep_step_is_refused_before_work():
         gfgpu.disparity(left, right, 8, method="uniform", sweep_step="0.5")
 
 
-CACHE_SCRIPT = "import numpy as np, gfgpu; print(gfgpu.shift(np.ones((8, 8), np.float32), (0, 1.5), backend='opencl').sum())"
+CACHE_SCRIPT = ("import numpy as np, gfgpu; "
+                "print(gfgpu.shift(np.ones((8, 8), np.float32), (0, 1.5), backend='opencl').sum())")
 
 
 def test_unwritable_cache_falls_back_or_says_which_variable(tmp_path, require_backend):
@@ -262,3 +263,42 @@ def test_a_memory_limit_is_named_when_a_runtime_cannot_start(require_backend):
     if out.startswith("ran"):
         pytest.skip("Warp starts within 600 MiB here")
     assert "BackendUnavailable" in out and "address-space limit" in out, out
+
+
+def test_dask_zero_d_is_an_error():
+    import dask.array as da
+
+    import gfgpu.dask as gd
+    with pytest.raises(ValueError, match="at least 1 dimension"):
+        gd.shift(da.from_array(np.float64(3.0)), 1.0)
+
+
+def test_filter_npy_runs_an_oblique_blur_that_fits(tmp_path, rng):
+    img = rng.random((30, 32)).astype(np.float32)
+    np.save(tmp_path / "a.npy", img)
+    gfgpu.filter_npy("motion_blur", tmp_path / "a.npy", tmp_path / "b.npy", velocity=(3, 5), backend="numpy")
+    np.testing.assert_allclose(np.load(tmp_path / "b.npy"), gfgpu.motion_blur(img, (3, 5), backend="numpy"),
+                               atol=1e-6)
+    with pytest.raises(ValueError, match="exceeds the working set"):
+        gfgpu.filter_npy("motion_blur", tmp_path / "a.npy", tmp_path / "c.npy", velocity=(3, 5),
+                         working_set="4K", backend="numpy")
+
+
+def test_interpolate_frames_names_its_frames(rng):
+    f0 = rng.random((32, 32))
+    f1 = f0.copy()
+    f1[3, 3] = np.nan
+    with pytest.raises(ValueError, match="frame1 contains NaN"):
+        gfgpu.interpolate_frames(f0, f1, 2)
+    with pytest.raises(TypeError, match="frame0 must be a real numeric array"):
+        gfgpu.interpolate_frames(f0.astype(complex), f0, 2)
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_canny_gives_the_same_edges_on_every_backend(backend, seed):
+    img = np.random.default_rng(seed).random((24, 40)).astype(np.float32)
+    ref = gfgpu.canny(img, 1.0, backend="numpy")
+    np.testing.assert_array_equal(gfgpu.canny(img, 1.0, backend=backend.name), ref)
+    ref_q = gfgpu.canny(img, 1.0, 0.5, 0.8, use_quantiles=True, backend="numpy")
+    out_q = gfgpu.canny(img, 1.0, 0.5, 0.8, use_quantiles=True, backend=backend.name)
+    np.testing.assert_array_equal(out_q, ref_q)

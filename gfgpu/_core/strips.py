@@ -244,6 +244,10 @@ class Strips:
     def run(self, program, src, dst, limit):
         shape = src.shape
         split = _split(program, len(shape))
+        if split is None and _BUFFERS_PER_SAMPLE * _nbytes(shape, self.dtype) <= limit:
+            # oblique lines need the whole plane, and it fits: one piece
+            dst.write(0, shape[0], self._rows(src, 0, shape[0], program.steps, program.plane))
+            return
         if split is None:
             raise ValueError(f"oblique directions need the whole image plane on the device: the image "
                              f"({_size(shape, self.dtype)}) exceeds the working set ({_size_bytes(limit)}); "

@@ -195,6 +195,11 @@ def interpolate_frames(frame0, frame1, n, *, velocity=None, mode="nearest", chan
     125.0
     """
     a, b = np.asarray(frame0), np.asarray(frame1)
+    for name, frame in (("frame0", a), ("frame1", b)):
+        if frame.dtype == object or frame.dtype.kind not in "biuf":
+            raise TypeError(f"{name} must be a real numeric array, got dtype {frame.dtype}")
+        if frame.dtype.kind == "f" and not np.isfinite(frame).all():
+            raise ValueError(f"{name} contains NaN or infinite values")
     if a.shape != b.shape:
         raise ValueError(f"frame0 and frame1 must have the same shape, got {a.shape} and {b.shape}")
     try:
