@@ -302,3 +302,19 @@ def test_canny_gives_the_same_edges_on_every_backend(backend, seed):
     ref_q = gfgpu.canny(img, 1.0, 0.5, 0.8, use_quantiles=True, backend="numpy")
     out_q = gfgpu.canny(img, 1.0, 0.5, 0.8, use_quantiles=True, backend=backend.name)
     np.testing.assert_array_equal(out_q, ref_q)
+
+
+def test_device_outputs_and_inputs_of_the_wrong_kind_are_clear_errors(require_backend):
+    be = require_backend("opencl")
+    import pyopencl.array as cla
+    img = np.arange(12, dtype=np.float32).reshape(3, 4)
+    big = cla.zeros(be.queue, (3, 8), np.float32)
+    with pytest.raises(ValueError, match="non-contiguous view"):
+        gfgpu.shift(cla.to_device(be.queue, img), (0, 1), output=big[:, :4])
+    np.testing.assert_array_equal(big.get(), 0)           # nothing written outside (or inside) the view
+    with pytest.raises(TypeError, match="device input must be float32 or float64"):
+        gfgpu.shift(cla.to_device(be.queue, img.astype(np.int32)), (0, 1.5))
+    with pytest.raises(TypeError, match="backend='opencl'"):
+        gfgpu.shift(cla.to_device(be.queue, img), (0, 1.5), backend="numpy")
+    with pytest.raises(TypeError, match="shift must be a real number"):
+        gfgpu.shift(img, True)

@@ -29,6 +29,10 @@ class Job:
         self.backend = be
         self.host_input = be.name == "numpy" or not be.owns(input)
         if self.host_input:
+            library = type(input).__module__.split(".")[0]
+            if library in ("pyopencl", "warp") and be.name == "numpy" or (library == "pyopencl" and not be.owns(input)):
+                raise TypeError(f"input is a {library} array, which the {be.name} backend cannot read; use "
+                                f"backend={'opencl' if library == 'pyopencl' else 'warp'!r} (or pass a numpy array)")
             arr = np.asarray(input)
             if arr.dtype == object:
                 raise TypeError("input must be a numeric array, got dtype object")
@@ -63,6 +67,10 @@ class Job:
             self.source = arr           # converted and placed on the device when first used
             self._data = None
         else:
+            dev_dtype = np.dtype(be.dtype_of(arr))
+            if dev_dtype not in (np.float32, np.float64):
+                raise TypeError(f"a device input must be float32 or float64 in native byte order, got {dev_dtype}; "
+                                f"convert it on the device first (e.g. astype(numpy.float32))")
             if not be.is_contiguous(arr):   # a view (slice, step, transpose): copied on the device
                 arr = be.contiguous(arr)
             if work_dtype(be.dtype_of(arr)) != self.dtype:
@@ -100,6 +108,10 @@ class Job:
             raise TypeError(f"output must be float32 or float64, got {odt}")
         if odt.itemsize < self.dtype.itemsize:
             raise TypeError(f"output dtype {odt} would downcast the {self.dtype} result")
+        if (not isinstance(output, np.ndarray) and not self.backend.is_contiguous(output)
+                and not self.backend.writes_views):
+            raise ValueError(f"output is a non-contiguous view, which the {self.backend.name} backend cannot write; "
+                             f"pass a contiguous array (or no output)")
         if isinstance(output, np.ndarray) != self.host_input:
             raise TypeError("output must be the same kind of array as input (numpy or device array)")
 

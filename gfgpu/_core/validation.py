@@ -26,6 +26,8 @@ def finite_scalar(name, value):
     """``value`` as a finite Python float; ``TypeError``/``ValueError`` naming ``name`` otherwise."""
     if isinstance(value, (str, bytes)):
         raise TypeError(f"{name} must be a real number, got the string {value!r}")
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be a real number, got {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError):

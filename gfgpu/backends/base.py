@@ -52,6 +52,9 @@ class Backend:
     #: whether float64 arrays can be processed
     supports_float64 = True
 
+    #: whether :meth:`copy` writes into non-contiguous views of device arrays
+    writes_views = True
+
     # ---- arrays -------------------------------------------------------------------
     def owns(self, array) -> bool:
         """True if ``array`` is this backend's array type on this backend's device."""

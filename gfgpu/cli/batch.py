@@ -74,7 +74,8 @@ def add_parser(subparsers):
         p.set_defaults(func=run)
         return p
 
-    p = op_parser("shift", "sub-pixel shift through G_u (colour images per channel)")
+    p = op_parser("shift", "translation by --dx/--dy pixels: integer part exact, fraction by the Green shift "
+                                "(colour per channel)")
     p.add_argument("--dx", type=float, metavar="DX", help="displacement toward the right (columns), pixels")
     p.add_argument("--dy", type=float, metavar="DY", help="displacement downward (rows), pixels")
 

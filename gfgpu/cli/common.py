@@ -133,6 +133,8 @@ def announce_backend(args):
 
     A bad ``--backend``/``--device`` is a CommandError naming the option."""
     backend, device = getattr(args, "backend", None), getattr(args, "device", None)
+    if device is not None and backend is None:
+        raise CommandError(f"--device {device}: needs --backend as well (e.g. --backend warp --device cuda:0)")
     try:
         be = resolve_backend(backend, device)
     except (BackendUnavailable, ValueError, TypeError) as exc:

@@ -12,7 +12,9 @@ the first process on a machine pays the compile time.
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 import warnings
 from collections import OrderedDict
@@ -65,6 +67,7 @@ def _prepare_caches():
     root = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
     if not _writable_dir(root):
         tmp = tempfile.mkdtemp(prefix="gfgpu-cache-")
+        atexit.register(shutil.rmtree, tmp, ignore_errors=True)     # for this process only
         os.environ["XDG_CACHE_HOME"] = tmp
         warnings.warn(f"gfgpu: the cache directory {root!r} cannot be written; compiled OpenCL kernels are "
                       f"cached in {tmp!r} for this process only (set XDG_CACHE_HOME or POCL_CACHE_DIR to a "
@@ -363,7 +366,11 @@ class OpenCLBackend(Backend):
         host = _aligned_empty(shape, dtype, self._host_align) if into is None else into
         return self._wrap_host(host, self._cl.mem_flags.READ_WRITE)
 
+    writes_views = False      # enqueue_copy moves bytes: strides of a view are not honoured
+
     def copy(self, src, dst):
+        if not dst.flags.c_contiguous:
+            raise ValueError("dst must be C-contiguous (a view cannot be written by a byte copy)")
         if src.nbytes:
             wait = [e for a in (src, dst) for e in a.events]
             evt = self._cl.enqueue_copy(self.queue, dst.base_data, src.base_data, byte_count=src.nbytes,
