@@ -179,16 +179,14 @@ def test_threads_starting_warp_at_once_keep_stderr(tmp_path, require_backend):
 
 @pytest.mark.parametrize("mode", ["reflect", "mirror", "wrap", "nearest", "constant"])
 def test_large_scales_keep_a_constant_image_constant_fast(mode):
-    """The boundary state sums in closed form: cost and accuracy do not depend on u."""
-    import time
+    """The boundary state sums in closed form: accuracy does not depend on u (the term-by-term
+    sum was truncated, 0.7032 at u = 1e7, and took minutes for the derivative)."""
     img = np.full((24, 40), 0.7)
     for u in (1e4, 1e7, 1e9):
-        t0 = time.perf_counter()
         out = gfgpu.green_filter(img, gfgpu.UniformGreen(u), mode=mode, cval=0.7, backend="numpy")
         assert np.abs(out - 0.7).max() < 1e-7
         d = gfgpu.derivative(img, u, axis=1, mode=mode, cval=0.7, backend="numpy")
         assert np.abs(d).max() < 1e-12
-        assert time.perf_counter() - t0 < 30      # a hang guard, not a benchmark (was 113 s at 1e7)
 
 
 @pytest.mark.parametrize("call, message", [
