@@ -18,6 +18,15 @@ What is measured
   5 px to RMS slope 0.3, seed 33 by 12 px to 0.5, seed 45 by 8 px to 0.4), seven Gaussians drawn
   with seed 5, and a half ellipsoid (semi-axes 0.38, 0.24, 0.20 of SIZE, rotated 30°) on a plane.
 
+  Bordered surfaces (``BORDERED``; objects on a plane that the image border cuts, issue 18),
+  given as height maps and rendered with ``numpy.gradient`` normals (``lambertian_shading``), and
+  again from 4 x 4 supersampled height maps (gradients at the fine scale, image averaged over
+  each pixel: "-ss", a second normal estimate): ``bust`` (half-ellipsoid head on a half-cylinder
+  neck and shoulders that the bottom border cuts), ``relief`` (a textured mound cut by the right
+  and bottom borders), ``sphere-cut`` (a hemisphere whose centre lies on the left border).
+  The bordered scenes were made to reproduce the issue; the line-end rules were developed on
+  them, so the main and held-out tables are the check that they did not cost elsewhere.
+
   Lights (Zhang, Tsai, Cryer & Shah 1999): (0, 0, 1), (1, 0, 1), (5, 5, 7), normalised; l2 > 0
   points down the rows.  "noise": additive Gaussian, std 0.02 (2 % of the albedo), seed 11.
 
@@ -31,6 +40,8 @@ What is measured
                   fitted by re-rendering).
   - ``pentland``  Pentland's linear SFS (FFT), albedo from Zheng & Chellappa's estimator.
   - ``tsai-shah`` Tsai & Shah (10 Jacobi iterations, Kalman-gain form), albedo likewise.
+  - ``gsfs-mask`` (bordered scenes only) gfgpu.shape_from_shading given the object mask
+                  ``Z_gt > 0``.
 
 * Errors over all pixels except a 2-pixel border (where every method's boundary handling
   dominates): mean and std of ``|Z − Z_gt|`` and mean ``|∇Z − ∇Z_gt|`` (Euclidean norm of the
@@ -48,7 +59,7 @@ What is measured
 Usage::
 
     python benchmarks/shading.py [--size 128] [--backend numpy] [--figure docs/shading_results.png]
-                                 [--no-held-out]
+                                 [--no-held-out] [--no-bordered]
 """
 
 from __future__ import annotations
@@ -175,9 +186,56 @@ HELD_OUT = {
 }
 
 
-def render(p, q, light):
+def _fine_grid(size, ss):
+    """Row and column coordinates (pixels of the SIZE grid, 0 at the first pixel centre) of an ss x ss supersampling."""
+    c = (np.arange(size * ss) + 0.5) / ss - 0.5
+    return np.meshgrid(c, c, indexing="ij")
+
+
+def _bust(y, x, s):
+    def half_ellipsoid(yc, xc, ry, rx, h):
+        return h * np.sqrt(np.clip(1 - ((y - yc) / ry) ** 2 - ((x - xc) / rx) ** 2, 0, None))
+    head = half_ellipsoid(42 * s, 64 * s, 30 * s, 23 * s, 26 * s)
+    neck = 13 * s * np.sqrt(np.clip(1 - ((x - 64 * s) / (12 * s)) ** 2, 0, None)) * (y > 42 * s)
+    shoulders = half_ellipsoid(140 * s, 64 * s, 40 * s, 58 * s, 24 * s)
+    return np.maximum(np.maximum(head, neck), shoulders)
+
+
+def _relief(y, x, s):
+    base = np.clip(1 - ((x - 118 * s) ** 2 + (y - 112 * s) ** 2) / (60 * s) ** 2, 0, None) ** 2
+    return 22 * s * base * (1 + 0.35 * np.sin(x / (6 * s)) * np.cos(y / (8 * s)))
+
+
+def _sphere_cut(y, x, s):
+    r = 44 * s
+    return np.sqrt(np.clip(r * r - x * x - (y - 60 * s) ** 2, 0, None))
+
+
+def _bordered(height, ss):
+    """(Z, p, q) of a bordered scene; p, q on an ss x ss finer grid when ss > 1 (render averages)."""
+    def make(size):
+        s = size / 128
+        z = height(*_fine_grid(size, 1), s)
+        zf = z if ss == 1 else height(*_fine_grid(size, ss), s)
+        qf, pf = np.gradient(zf)
+        return z, pf * ss, qf * ss
+    return make
+
+
+#: objects on a plane that the image border cuts (issue 18); "-ss": 4 x 4 supersampled rendering
+BORDERED = {name + suffix: _bordered(fn, ss) for name, fn in (("bust", _bust), ("relief", _relief),
+                                                              ("sphere-cut", _sphere_cut))
+            for suffix, ss in (("", 1), ("-ss", 4))}
+
+
+def render(p, q, light, size=None):
+    """Lambertian image; p, q on a grid ``k`` times finer than ``size`` are averaged over k x k pixels."""
     L = shading.parse_light(light)
-    return np.maximum(0.0, (L[2] - L[0] * p - L[1] * q) / np.sqrt(1 + p * p + q * q))
+    img = np.maximum(0.0, (L[2] - L[0] * p - L[1] * q) / np.sqrt(1 + p * p + q * q))
+    if size is not None and img.shape[0] != size:
+        k = img.shape[0] // size
+        img = img.reshape(size, k, size, k).mean(axis=(1, 3))
+    return img
 
 
 # ----------------------------------------------------------------------------------------
@@ -210,22 +268,26 @@ def timed(fn, repeats=3):
 
 
 def methods(backend):
-    def gsfs(img, light):
+    def gsfs(img, light, z_gt, mask=None):
         frontal = shading.parse_light(light)[2] > math.cos(shading.MIN_SLANT)
-        return shading.shape_from_shading(img, light=light, direction=0.0 if frontal else None, backend=backend)
+        return shading.shape_from_shading(img, light=light, direction=0.0 if frontal else None, mask=mask,
+                                          backend=backend)
 
-    def gpm(img, light):
+    def gsfs_mask(img, light, z_gt):
+        return gsfs(img, light, z_gt, mask=z_gt > 0)
+
+    def gpm(img, light, z_gt):
         return shading.photometric_motion(img, light=light, backend=backend)
 
-    def pentland(img, light):
+    def pentland(img, light, z_gt):
         _, albedo = shading.estimate_illuminant(img)
         return pentland_linear(img, shading.parse_light(light), albedo)
 
-    def tsai(img, light):
+    def tsai(img, light, z_gt):
         _, albedo = shading.estimate_illuminant(img)
         return tsai_shah(img, shading.parse_light(light), albedo)
 
-    return {"gsfs": gsfs, "gpm": gpm, "pentland": pentland, "tsai-shah": tsai}
+    return {"gsfs": gsfs, "gpm": gpm, "pentland": pentland, "tsai-shah": tsai, "gsfs-mask": gsfs_mask}
 
 
 def _tilt_error(est, true):
@@ -239,12 +301,12 @@ def run(size, backend, repeats, surfaces=SURFACES, method_names=None, light_esti
     light_rows = []
     rng = np.random.default_rng(11)
     meths = methods(backend)
-    if method_names is not None:
-        meths = {k: v for k, v in meths.items() if k in method_names}
+    method_names = ("gsfs", "gpm", "pentland", "tsai-shah") if method_names is None else method_names
+    meths = {k: v for k, v in meths.items() if k in method_names}
     for sname, make in surfaces.items():
         z_gt, p, q = make(size)
         for lname, light in LIGHTS.items():
-            clean = render(p, q, light)
+            clean = render(p, q, light, size)
             noisy = clean + NOISE * rng.standard_normal(clean.shape)
             for noise_label, img in (("none", clean), ("0.02", noisy)):
                 true = shading.parse_light(light)
@@ -257,7 +319,7 @@ def run(size, backend, repeats, surfaces=SURFACES, method_names=None, light_esti
                         errs.append((ang, *tilt))
                     light_rows.append((sname, lname, noise_label, errs[0], errs[1]))
                 for mname, fn in meths.items():
-                    z, t = timed(lambda fn=fn, img=img, light=light: fn(img, light), repeats)
+                    z, t = timed(lambda fn=fn, img=img, light=light, z_gt=z_gt: fn(img, light, z_gt), repeats)
                     fit = errors(z, z_gt, True)
                     own = errors(z, z_gt, False)
                     rows.append((sname, lname, noise_label, mname, fit, own, t))
@@ -282,21 +344,23 @@ def _summary(rows, surfaces, names):
                   + f" | {beat_p}/{len(surfaces)} | {beat_t}/{len(surfaces)} |")
 
 
-def _per_surface(rows, surfaces):
-    """gsfs vs pentland vs tsai-shah (fit mean) for every surface, light and noise."""
+def _per_surface(rows, surfaces, extra=()):
+    """gsfs vs pentland vs tsai-shah (fit mean) for every surface, light and noise (and ``extra`` methods)."""
     keyed = {(r[0], r[1], r[2], r[3]): r[4][0] for r in rows}
-    print("| surface | light | noise | gsfs | pentland | tsai-shah | gsfs < pentland |")
-    print("|---|---|---|---|---|---|---|")
+    names = ("gsfs", *extra, "pentland", "tsai-shah")
+    print("| surface | light | noise | " + " | ".join(names) + " | gsfs < pentland |")
+    print("|---|---|---|" + "---|" * len(names) + "---|")
     for sname in surfaces:
         for lname in LIGHTS:
             for nl in ("none", "0.02"):
-                g, p_, t_ = (keyed[(sname, lname, nl, m)] for m in ("gsfs", "pentland", "tsai-shah"))
+                vals = [keyed[(sname, lname, nl, m)] for m in names]
                 mark = "†" if lname == "(0,0,1)" else ""
-                print(f"| {sname} | {lname} | {nl} | {g:.2f}{mark} | {p_:.2f} | {t_:.2f} | "
-                      f"{'yes' if g < p_ else 'no'} |")
+                cells = [f"{v:.2f}{mark if m.startswith('gsfs') else ''}" for m, v in zip(names, vals)]
+                print(f"| {sname} | {lname} | {nl} | " + " | ".join(cells) + f" | "
+                      f"{'yes' if vals[0] < vals[names.index('pentland')] else 'no'} |")
 
 
-def print_tables(rows, light_rows, size, backend, held_rows=(), held_light_rows=()):
+def print_tables(rows, light_rows, size, backend, held_rows=(), held_light_rows=(), bordered_rows=()):
     print(f"## Shape from shading, {size}x{size}, gfgpu backend: {backend}\n")
     print("Depth error |Z − Z_gt| (pixels) and mean gradient error |∇Z − ∇Z_gt|; **fit** = after "
           "least-squares scale + offset (shape only), **own** = the method's own scale + LS offset. "
@@ -317,6 +381,13 @@ def print_tables(rows, light_rows, size, backend, held_rows=(), held_light_rows=
         _summary(held_rows, held, ("gsfs", "pentland", "tsai-shah"))
         print()
         _per_surface(held_rows, held)
+    if bordered_rows:
+        bordered = [s for s in BORDERED if any(r[0] == s for r in bordered_rows)]
+        print(f"\n### Bordered surfaces ({', '.join(bordered)}): objects that the image border cuts; "
+              f"-ss = supersampled rendering; gsfs-mask = GSFS given the object mask Z_gt > 0\n")
+        _summary(bordered_rows, bordered, ("gsfs", "gsfs-mask", "pentland", "tsai-shah"))
+        print()
+        _per_surface(bordered_rows, bordered, extra=("gsfs-mask",))
     all_light = list(light_rows) + list(held_light_rows)
     print("\n### Light direction estimate (Zheng & Chellappa 1991), all surfaces: angular error of the light "
           "vector (degrees); tilt error, and tilt error modulo 180° (the convex/concave ambiguity), in brackets. "
@@ -376,13 +447,18 @@ def main(argv=None):
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--figure", default=None, help="write the comparison figure (PNG) here")
     ap.add_argument("--no-held-out", action="store_true", help="skip the held-out surfaces")
+    ap.add_argument("--no-bordered", action="store_true", help="skip the bordered surfaces")
     args = ap.parse_args(argv)
     rows, light_rows, images = run(args.size, args.backend, args.repeats)
     held_rows, held_light_rows = (), ()
     if not args.no_held_out:
         held_rows, held_light_rows, _ = run(args.size, args.backend, 1, HELD_OUT,
                                             method_names=("gsfs", "pentland", "tsai-shah"))
-    print_tables(rows, light_rows, args.size, args.backend, held_rows, held_light_rows)
+    bordered_rows = ()
+    if not args.no_bordered:
+        bordered_rows, _, _ = run(args.size, args.backend, 1, BORDERED, light_estimates=False,
+                                  method_names=("gsfs", "gsfs-mask", "pentland", "tsai-shah"))
+    print_tables(rows, light_rows, args.size, args.backend, held_rows, held_light_rows, bordered_rows)
     if args.figure:
         figure(images, args.figure)
         figure(images, args.figure.replace(".png", "_557.png"), light="(5,5,7)", noise="0.02")

@@ -11,21 +11,25 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import ndimage
 
 from .. import greens
 from .._core.lines import direction as _line_direction
 from .._core.validation import finite_scalar, positive
 from ..filters import green_filter
+from . import line_fit
 from .light import estimate_illuminant, fit_depth_scale
 from .params import MIN_SLANT, check_contrast, checked_image, checked_mask, parse_light, tilt_slant
-from .scene import border_band, flat_background, has_background
+from .scene import background_region, border_band, flat_background, has_background, quiet_sides
 
-__all__ = ["shape_from_shading", "ShadingGreen", "resolve_light", "GSFS_U_FRACTION"]
+__all__ = ["shape_from_shading", "ShadingGreen", "resolve_light", "GSFS_U_FRACTION", "GSFS_MIN_U_FRACTION"]
 
 #: GSFS matching constant u as a fraction of the path length of one digital line across the image
 #: (the operator is then an integrator over the whole line; Notes of :func:`shape_from_shading`)
 GSFS_U_FRACTION = 1.0
+
+#: smallest explicit u, as a fraction of that line length: below it the operator stops
+#: integrating the shading over the sizes an image holds (Notes of :func:`shape_from_shading`)
+GSFS_MIN_U_FRACTION = 0.25
 
 
 # the fused GSFS kernel ½(G_u + H_u)
@@ -98,54 +102,6 @@ def _integration_angle(light, direction, estimated):
     return tilt
 
 
-def _line_coordinates(shape, angle):
-    """Digital line index (0-based) and step position of every pixel at ``angle`` (:mod:`gfgpu._core.lines`)."""
-    steep, _, gamma = _line_direction(angle)
-    h, w = shape
-    yy, xx = np.mgrid[:h, :w]
-    t, minor = (yy, xx) if steep else (xx, yy)
-    r = np.floor(gamma * np.arange(h if steep else w) + 0.5).astype(np.int64)
-    line = minor - r[t]
-    return line - line.min(), t.astype(np.float64)
-
-
-def _fix_line_solutions(z, line, t, weights, anchors):
-    """Add ``c + a·t`` to every line: the homogeneous solutions of the line integration.
-
-    ``anchors`` None: ``a = 0`` and ``c`` gives each line zero weighted mean (minimum norm).
-    Otherwise ``(c, a)`` per line are the least-squares fit of ``Z + c + a·t = 0`` on its anchor
-    pixels (weighted); a line with anchors at one position only gets ``a = 0``.
-    """
-    n = int(line.max()) + 1
-    lab = line.ravel()
-
-    def per_line(w, v):
-        return np.bincount(lab, (w * v).ravel(), minlength=n)
-
-    if anchors is None:
-        cnt = per_line(weights, 1.0)
-        c = -np.divide(per_line(weights, z), cnt, out=np.zeros(n), where=cnt > 0)
-        return z + c[line]
-    w = weights * anchors
-    s0, s1, s2 = per_line(w, 1.0), per_line(w, t), per_line(w, t * t)
-    sz, stz = per_line(w, z), per_line(w, t * z)
-    det = s0 * s2 - s1 * s1
-    ok = det > 1e-9 * np.maximum(s0 * s2, 1e-300)
-    a = np.zeros(n)
-    a[ok] = -(s0[ok] * stz[ok] - s1[ok] * sz[ok]) / det[ok]
-    c = -np.divide(sz + a * s1, s0, out=np.zeros(n), where=s0 > 0)
-    return z + c[line] + a[line] * t
-
-
-def _line_ends(line, t, weights):
-    """Pixels at the first and the last weighted position of every line."""
-    n = int(line.max()) + 1
-    idx = np.arange(n)
-    lo = ndimage.minimum(np.where(weights > 0, t, np.inf), line, idx)
-    hi = ndimage.maximum(np.where(weights > 0, t, -np.inf), line, idx)
-    return (weights > 0) & ((t == lo[line]) | (t == hi[line]))
-
-
 def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, direction=None,
                        boundary="auto", backend=None, device=None):
     """Depth from one shading image by Green's-function shape from shading (GSFS).
@@ -159,40 +115,49 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
         Light as ``(l1, l2, l3)`` or ``(tilt, slant)`` (radians; see :func:`parse_light`).
         Default: estimated from the image by :func:`estimate_illuminant` (Zheng & Chellappa).
     u : float, optional
-        Matching constant (virtual disparity, eq. 7), in pixels of path along γ, > 0.
-        Default: :data:`GSFS_U_FRACTION` (1) times the path length of one digital line
-        across the image (Notes).
+        Matching constant (virtual disparity, eq. 7), in pixels of path along γ.  Default:
+        :data:`GSFS_U_FRACTION` (1) times the path length ``n`` of one digital line across the
+        image along γ (the width for a light along x).  An explicit value must be at least
+        :data:`GSFS_MIN_U_FRACTION` ``· n`` (a quarter line); larger values, up to many lines,
+        change the result little (Notes, "What u does").
     k1 : {'render', 'linear'} or float, optional
         Depth scale of eq. 31.  ``'render'`` (default): the value whose Lambertian re-rendering
         best matches the image in least squares (:func:`fit_depth_scale`).  ``'linear'``:
         ``k1 = -ρ sin σ`` from the linearised reflectance map, with the albedo ρ of
         :func:`estimate_illuminant`.  A float is used as given (non-zero).
     mask : (H, W) bool array_like, optional
-        Pixels that enter the light estimate, k0, the line constants and the k1 fit (default
-        all).  The filtering itself runs over the whole image.
+        The object (default: none given).  With ``boundary`` 'auto' or 'background' the rest of
+        the image is the reference plane: the shading is integrated inside the mask only, the
+        depth is 0 on the pixels next to the mask along every line (where the object meets the
+        plane) and outside it; where the mask reaches the image border the object is taken to
+        be cut there.  The mask's pixels also give the light estimate and the k1 fit.  With
+        ``boundary='free'`` it selects the pixels of the light estimate, k0, the zero-mean
+        lines and the k1 fit.
     direction : float, optional
         Matching direction γ as an angle in radians from +x toward +y; default the light's
         tilt.  Required when the light is frontal (slant below :data:`MIN_SLANT`).
     boundary : {'auto', 'background', 'free'}, optional
         How the two constants that the integration leaves free on every line are fixed
-        (Notes).  ``'background'``: the flat background and the ends of every line lie on
-        one reference plane.  ``'free'``: one global k0 and zero-mean lines.  ``'auto'``
-        (default): ``'background'`` when :func:`has_background` (a quiet image border),
-        else ``'free'``.
+        (Notes).  ``'background'``: an object on a flat reference plane, which the image
+        border may cut.  ``'free'``: one global k0 and zero-mean lines.  ``'auto'``
+        (default): ``'background'`` when a mask is given or :func:`has_background` (a quiet
+        border, or a border band at least a quarter flat), else ``'free'``.
     backend, device : str, optional
         Where the line filtering runs (:func:`gfgpu.green_filter`).
 
     Returns
     -------
     ndarray, (H, W)
-        Height toward the viewer, in pixel units, float32 (float64 for float64 input), with
-        zero mean over ``mask``.
+        Height toward the viewer, in pixel units, float32 (float64 for float64 input):
+        above the reference plane (0 on the background) for ``'background'``, with zero mean
+        over ``mask`` for ``'free'``.
 
     Raises
     ------
     ValueError
         Non-2-D, empty, constant or non-finite image; a light pointing away from the viewer;
-        a frontal light without ``direction``; ``u <= 0``; ``k1 == 0``; bad ``boundary``/``mask``.
+        a frontal light without ``direction``; ``u`` below a quarter line (message gives the
+        bound in pixels); ``k1 == 0`` or an unknown k1 string; bad ``boundary``/``mask``.
     TypeError
         Non-numeric image or parameters.
 
@@ -223,17 +188,36 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
 
     * an object on a flat background (``boundary='background'``): k0 is the background's
       intensity (median over the :func:`flat_background` pixels, or over the border band when
-      there are none; a frontal plane gives exactly ``ρ l3``), and on
-      every line ``(c, a)`` are fitted in least squares so that the flat pixels and the two
-      ends of the line lie on the reference plane ``Z = 0`` (Dirichlet conditions, which also
-      cancel each line's shading bias from the non-linear terms: shadows, ``1/|n|``);
+      there are none; a frontal plane gives exactly ``ρ l3``).  The object is everything but
+      the background (:func:`background_region`: the flat set grown back over the margin its
+      smoothing and erosion cost), or the user's mask.  Only the object's shading is
+      integrated, and the depth is fixed at 0 on the pixels next to the object along each line
+      (where it meets the plane) and at the ends of lines that leave the image through a quiet
+      side (:func:`quiet_sides`: there the border is the plane).  Where a line's fixed pixels
+      bracket its object pixels, ``(c, a)`` are fitted in least squares (Dirichlet conditions,
+      which also cancel each line's shading bias from the non-linear terms: shadows,
+      ``1/|n|``); where the object runs into a busy side (a bust cut by the frame) only ``c``
+      is fitted, since one end cannot fix a ramp; a line with no fixed pixel takes the ``c``
+      that best continues its neighbours (least squared differences across lines).
+      Known limits: a flat plateau inside the object counts as background, and a background
+      pocket cut off between the object and a corner counts as object;
     * a textured surface filling the frame (``boundary='free'``): one global k0, the mean
       intensity (the surface has no mean slope along γ), which keeps each line's own
       end-to-end depth difference, and ``c`` gives every line zero mean depth (the minimum
-      norm solution, also the least cross-line gradient energy).
+      norm solution).
 
-    ``'auto'`` chooses by :func:`has_background`.  Pentland's FFT method instead discards
+    ``'auto'`` chooses by :func:`has_background` (or 'background' when a mask is given).
+    Pentland's FFT method instead discards
     each line's mean intensity and wraps it periodically, which is neither.
+
+    *What u does.*  ``u·Ī2`` is a leaky integral of ``I1 − k0`` along γ whose memory is about
+    ``u`` pixels: features much wider than ``u`` are passed through as shading (transfer
+    about ``u``) instead of integrated, so for ``u`` of a few to a few tens of pixels the output
+    is close to the shading image itself, whose correlation with the depth can be of either
+    sign (on a 128-pixel bust, u = 2 or 10 gave r = −0.3 to 0.6).  The default (one line) makes
+    it an integrator for every size a line holds; that is not a tuned value: u from a quarter
+    line to 32 lines changed the benchmark's errors by at most about 20 % (docs/shading.md),
+    and values below a quarter line raise.
 
     *Frontal light.*  For a light along the viewing direction γ is undefined and the linear
     term vanishes; GSFS refuses such a light unless ``direction`` is given, in which case the
@@ -264,49 +248,86 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
     check_contrast(img, m)
     if boundary not in ("auto", "background", "free"):
         raise ValueError(f"boundary must be 'auto', 'background' or 'free', got {boundary!r}")
+    k1_given = _checked_k1(k1)
     L, estimated = resolve_light(img, light, m)
     angle = _integration_angle(L, direction, estimated)
     step = step_length(angle)
-    if u is None:
-        u_px = GSFS_U_FRACTION * line_extent(img.shape, angle)
-    else:
-        u_px = positive("u", u)
+    u_px = _checked_u(u, line_extent(img.shape, angle))
+    user_object = mask is not None and not m.all()
     if boundary == "auto":
-        boundary = "background" if has_background(img, m) else "free"
-    flat = flat_background(img, m) if boundary == "background" else None
+        boundary = "background" if user_object or has_background(img, m) else "free"
     if boundary == "background":
-        # the background's intensity: the flat pixels, else the border band
-        ref = flat if flat.any() else (border_band(img.shape) & m)
-        k0 = float(np.median(img[ref]))
+        obj, k0 = _object_and_level(img, m, user_object)
     else:
         k0 = float(img[m].astype(np.float64).mean())
     centred = (img - np.asarray(k0, img.dtype)).astype(img.dtype, copy=False)
+    if boundary == "background":
+        # the background is the reference plane: it adds no slope, only noise, to the integral
+        centred = np.where(obj, centred, 0).astype(img.dtype, copy=False)
     bar = green_filter(centred, ShadingGreen(u_px / step), angle=angle, mode="constant", cval=0.0,
                        backend=backend, device=device)
     z_unit = u_px * np.asarray(bar, np.float64)      # eq. 31 with k1 = 1, k0 ramp removed
-    line, t = _line_coordinates(img.shape, angle)
-    weights = m.astype(np.float64)
+    line, t = line_fit.line_coordinates(img.shape, angle)
     if boundary == "background":
-        anchors = (flat | _line_ends(line, t, weights)).astype(np.float64)
-        z_unit = _fix_line_solutions(z_unit, line, t, weights, anchors)
+        anchors = line_fit.boundary_anchors(obj, angle)
+        if not user_object:
+            # an object reaching a quiet side of the border meets the plane there
+            anchors |= line_fit.line_ends_on(line, t, quiet_sides(img)) & obj
+        z_unit, anchored = line_fit.fix_object(z_unit, line, t, obj, anchors)
+        crossed = np.bincount(line.ravel(), obj.ravel().astype(np.float64), minlength=anchored.size) > 0
+        z_unit = line_fit.fix_from_neighbours(z_unit, angle, line, anchored | ~crossed)
+        z_unit[~obj] = 0.0
     else:
-        z_unit = _fix_line_solutions(z_unit, line, t, weights, None)
-    z_unit -= z_unit[m].mean()
-    if isinstance(k1, str):
-        if k1 == "render":
-            scale, _, _ = fit_depth_scale(z_unit, img, L, m)
-        elif k1 == "linear":
-            _, slant = tilt_slant(L)
-            _, albedo = estimate_illuminant(img, m)
-            if math.sin(slant) * albedo == 0:
-                raise ValueError("k1='linear' needs an oblique light (k1 = -ρ sin σ is 0 for a "
-                                 "frontal one); use k1='render'")
-            scale = -1.0 / (albedo * math.sin(slant))
-        else:
-            raise ValueError(f"k1 must be 'render', 'linear' or a non-zero number, got {k1!r}")
+        z_unit = line_fit.fix_zero_mean(z_unit, line, m.astype(np.float64))
+        z_unit -= z_unit[m].mean()
+    if k1_given is not None:
+        scale = 1.0 / k1_given
+    elif k1 == "render":
+        scale, _, _ = fit_depth_scale(z_unit, img, L, m)
     else:
-        k = finite_scalar("k1", k1)
-        if k == 0:
-            raise ValueError("k1 must be non-zero (Z = u Ī2 / k1)")
-        scale = 1.0 / k
+        _, slant = tilt_slant(L)
+        _, albedo = estimate_illuminant(img, m)
+        if math.sin(slant) * albedo == 0:
+            raise ValueError("k1='linear' needs an oblique light (k1 = -ρ sin σ is 0 for a "
+                             "frontal one); use k1='render'")
+        scale = -1.0 / (albedo * math.sin(slant))
     return (scale * z_unit).astype(img.dtype)
+
+
+def _checked_k1(k1):
+    """The number k1, or None for 'render'/'linear'; errors before any work."""
+    if isinstance(k1, str):
+        if k1 not in ("render", "linear"):
+            raise ValueError(f"k1 must be 'render', 'linear' or a non-zero number, got {k1!r}")
+        return None
+    k = finite_scalar("k1", k1)
+    if k == 0:
+        raise ValueError("k1 must be non-zero (Z = u Ī2 / k1)")
+    return k
+
+
+def _checked_u(u, extent):
+    """u in pixels: the default rule, or the user's value if the operator still integrates."""
+    if u is None:
+        return GSFS_U_FRACTION * extent
+    u_px = positive("u", u)
+    lo = GSFS_MIN_U_FRACTION * extent
+    if u_px < lo:
+        raise ValueError(
+            f"u must be at least {lo:.4g} pixels here ({GSFS_MIN_U_FRACTION:g} of the {extent:.4g}-pixel "
+            f"line along the light's direction), got {u!r}: a smaller u makes ½(G_u + H_u) pass the "
+            f"shading through instead of integrating it, so the result is not a depth "
+            f"(default: one line length)")
+    return u_px
+
+
+def _object_and_level(img, m, user_object):
+    """The object pixels and the background's intensity k0, for the 'background' prior."""
+    if user_object:
+        # the user's object; k0 from the flat part of the rest of the image (else all of it)
+        flat = flat_background(img) & ~m
+        k0 = float(np.median(img[flat if flat.any() else ~m]))
+        return m, k0
+    flat = flat_background(img, m)
+    k0 = float(np.median(img[flat if flat.any() else (border_band(img.shape) & m)]))
+    return ~background_region(img, flat, k0), k0

@@ -1,0 +1,184 @@
+"""GSFS on objects that the image border cuts (issue 18): scene tests, line-end fit, mask, u range."""
+import math
+
+import numpy as np
+import pytest
+
+from gfgpu import shading
+from gfgpu.shading import line_fit
+
+SIZE = 128
+
+
+def _grid(size, ss=1):
+    c = (np.arange(size * ss) + 0.5) / ss - 0.5     # pixel centres of a ss x ss supersampling
+    return np.meshgrid(c, c, indexing="ij")
+
+
+def _bust(y, x):
+    """Half-ellipsoid head on a half-cylinder neck, shoulders cut by the bottom border."""
+    def half_ellipsoid(yc, xc, ry, rx, h):
+        return h * np.sqrt(np.clip(1 - ((y - yc) / ry) ** 2 - ((x - xc) / rx) ** 2, 0, None))
+    neck = 13 * np.sqrt(np.clip(1 - ((x - 64) / 12) ** 2, 0, None)) * (y > 42)
+    return np.maximum.reduce([half_ellipsoid(42, 64, 30, 23, 26), neck, half_ellipsoid(140, 64, 40, 58, 24)])
+
+
+def _relief(y, x):
+    """A textured mound cut by the right and bottom borders."""
+    base = np.clip(1 - ((x - 118) ** 2 + (y - 112) ** 2) / 60**2, 0, None) ** 2
+    return 22 * base * (1 + 0.35 * np.sin(x / 6) * np.cos(y / 8))
+
+
+def _sphere_cut(y, x):
+    """A hemisphere whose centre lies on the left border."""
+    return np.sqrt(np.clip(44.0**2 - x * x - (y - 60) ** 2, 0, None))
+
+
+SCENES = {"bust": _bust, "relief": _relief, "sphere-cut": _sphere_cut}
+
+
+def _render(height, light, normals):
+    """Lambertian image from numpy.gradient normals, or averaged over a 4 x 4 supersampling."""
+    if normals == "gradient":
+        return shading.lambertian_shading(height(*_grid(SIZE)), light)
+    ss = 4
+    qf, pf = np.gradient(height(*_grid(SIZE, ss)))
+    pf, qf = pf * ss, qf * ss
+    L = shading.parse_light(light)
+    img = np.maximum(0, (L[2] - L[0] * pf - L[1] * qf) / np.sqrt(1 + pf * pf + qf * qf))
+    return img.reshape(SIZE, ss, SIZE, ss).mean(axis=(1, 3))
+
+
+def _pentland(image, light, albedo):
+    """Pentland (1990): Z = -F[I] / (ρ i (l1 ωx + l2 ωy)) per frequency, the mean discarded."""
+    h, w = image.shape
+    resp = light[0] * 2 * np.pi * np.fft.fftfreq(w)[None, :] + light[1] * 2 * np.pi * np.fft.fftfreq(h)[:, None]
+    spec = np.fft.fft2(image - image.mean())
+    ok = np.abs(resp) > 1e-3
+    out = np.zeros_like(spec)
+    out[ok] = -spec[ok] / (albedo * 1j * resp[ok])
+    return np.real(np.fft.ifft2(out))
+
+
+def _fit_error(z, truth, border=2):
+    """Mean |Z − Z_gt| after the least-squares scale and offset, without a 2-pixel border."""
+    sl = (slice(border, -border),) * 2
+    a = np.stack([z[sl].ravel(), np.ones(z[sl].size)], axis=1)
+    coef, *_ = np.linalg.lstsq(a, truth[sl].ravel(), rcond=None)
+    return float(np.abs(a @ coef - truth[sl].ravel()).mean())
+
+
+@pytest.mark.parametrize("normals", ["gradient", "supersampled"])
+@pytest.mark.parametrize("light", [(1, 0, 1), (5, 5, 7)])
+@pytest.mark.parametrize("scene", list(SCENES))
+def test_gsfs_beats_pentland_on_objects_cut_by_the_border(scene, light, normals):
+    truth = SCENES[scene](*_grid(SIZE))
+    img = _render(SCENES[scene], light, normals)
+    assert shading.has_background(img)              # 'auto' takes the object prior
+    est = shading.shape_from_shading(img, light=light, backend="numpy")
+    _, albedo = shading.estimate_illuminant(img)
+    ref = _pentland(img, shading.parse_light(light), albedo)
+    assert _fit_error(est, truth) < _fit_error(ref, truth)
+    assert np.corrcoef(est.ravel(), truth.ravel())[0, 1] > 0.65     # sphere-cut (5,5,7): 0.70 (docs/shading.md)
+
+
+@pytest.mark.parametrize("scene, quiet", [("bust", (True, False, True, True)),
+                                          ("relief", (True, False, True, False)),
+                                          ("sphere-cut", (True, True, False, True))])
+def test_quiet_sides_name_where_the_border_cuts_the_object(scene, quiet):
+    for light in ((1, 0, 1), (5, 5, 7)):
+        assert shading.quiet_sides(_render(SCENES[scene], light, "gradient")) == quiet
+
+
+@pytest.mark.parametrize("light", [(1, 0, 1), (5, 5, 7)])
+def test_object_mask_fixes_the_depth_at_its_boundary(light):
+    truth = _bust(*_grid(SIZE))
+    img = _render(_bust, light, "gradient")
+    mask = truth > 0
+    est = shading.shape_from_shading(img, light=light, mask=mask, backend="numpy")
+    assert (est[~mask] == 0).all()                  # outside the object: the reference plane
+    auto = shading.shape_from_shading(img, light=light, backend="numpy")
+    _, albedo = shading.estimate_illuminant(img)
+    pent = _fit_error(_pentland(img, shading.parse_light(light), albedo), truth)
+    assert _fit_error(est, truth) < min(1.15 * _fit_error(auto, truth), pent)
+
+
+def test_bordered_scene_backends_agree(backend):
+    img = _render(_bust, (5, 5, 7), "gradient").astype(np.float32)
+    ref = shading.shape_from_shading(img, light=(5, 5, 7), k1=1.0, backend="numpy")
+    out = shading.shape_from_shading(img, light=(5, 5, 7), k1=1.0, backend=backend.name)
+    np.testing.assert_allclose(out, ref, rtol=0, atol=2e-5 * np.abs(ref).max())
+
+
+# ----------------------------------------------------------------------------------------
+# u: the working range and the error for the rest
+# ----------------------------------------------------------------------------------------
+def test_explicit_u_in_the_documented_range_integrates_and_below_it_raises():
+    y, x = _grid(64)
+    truth = 8 * np.exp(-((x - 32) ** 2 + (y - 30) ** 2) / 150)
+    img = shading.lambertian_shading(truth, (1, 0, 1))
+    lo = shading.GSFS_MIN_U_FRACTION * 64           # light along x: one line is 64 pixels
+    for u in (lo, 64.0, 1024.0):
+        est = shading.shape_from_shading(img, light=(1, 0, 1), u=u, backend="numpy")
+        assert np.corrcoef(est.ravel(), truth.ravel())[0, 1] > 0.9
+    with pytest.raises(ValueError, match=r"u must be at least 16 pixels"):
+        shading.shape_from_shading(img, light=(1, 0, 1), u=lo * 0.99)
+    with pytest.raises(ValueError, match="u must be > 0"):
+        shading.shape_from_shading(img, light=(1, 0, 1), u=-1)
+
+
+def test_bad_k1_raises_before_any_work():
+    img = _render(_sphere_cut, (1, 0, 1), "gradient")
+    with pytest.raises(ValueError, match="k1 must be 'render', 'linear'"):
+        shading.shape_from_shading(img, light=(1, 0, 1), k1="auto")
+
+
+# ----------------------------------------------------------------------------------------
+# the line fit, against walks along the digital lines
+# ----------------------------------------------------------------------------------------
+def _walk_neighbours(shape, angle):
+    """Previous and next pixel of every pixel along its line, from (line, t) by a dictionary."""
+    line, t = line_fit.line_coordinates(shape, angle)
+    where = {(int(ln), int(tt)): (i, j) for (i, j), ln, tt in zip(np.ndindex(shape), line.ravel(), t.ravel())}
+    return line, t, where
+
+
+@pytest.mark.parametrize("angle", [0.0, math.pi / 4, 0.3, 1.9, -2.5])
+def test_boundary_anchors_are_the_pixels_next_to_the_object_along_each_line(rng, angle):
+    obj = rng.random((23, 31)) < 0.3
+    line, t, where = _walk_neighbours(obj.shape, angle)
+    expected = np.zeros_like(obj)
+    for (i, j), ln, tt in zip(np.ndindex(obj.shape), line.ravel(), t.ravel()):
+        if obj[i, j]:
+            continue
+        near = [where.get((int(ln), int(tt) + d)) for d in (-1, 1)]
+        expected[i, j] = any(p is not None and obj[p] for p in near)
+    np.testing.assert_array_equal(line_fit.boundary_anchors(obj, angle), expected)
+
+
+@pytest.mark.parametrize("angle", [0.0, 0.7, 2.0])
+def test_lines_without_anchors_take_their_constants_from_their_neighbours(rng, angle):
+    shape = (20, 26)
+    line, t = line_fit.line_coordinates(shape, angle)
+    truth = np.sin(t / 4.0)                         # constant across lines: neighbours agree
+    n = int(line.max()) + 1
+    fixed = np.zeros(n, bool)
+    fixed[::5] = True
+    offsets = np.where(fixed, 0.0, rng.standard_normal(n) * 3)
+    out = line_fit.fix_from_neighbours(truth + offsets[line], angle, line, fixed)
+    np.testing.assert_allclose(out, truth, atol=1e-9)
+
+
+def test_object_fit_puts_both_ends_of_a_bracketed_run_at_zero():
+    z = np.cumsum(np.ones((3, 12)), axis=1) + 5.0   # a ramp plus a constant on every row
+    obj = np.zeros(z.shape, bool)
+    obj[:, 3:8] = True
+    line, t = line_fit.line_coordinates(z.shape, 0.0)
+    anchors = line_fit.boundary_anchors(obj, 0.0)
+    out, anchored = line_fit.fix_object(z, line, t, obj, anchors)
+    assert anchored.all()
+    np.testing.assert_allclose(out[:, [2, 8]], 0, atol=1e-12)     # two-sided: c and a fitted
+    obj[:, :3] = True                               # now cut by the left border: c only
+    out, _ = line_fit.fix_object(z, line, t, obj, line_fit.boundary_anchors(obj, 0.0))
+    np.testing.assert_allclose(out[:, 8], 0, atol=1e-12)
+    np.testing.assert_allclose(np.diff(out, axis=1), 1.0)          # the ramp is kept
