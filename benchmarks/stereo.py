@@ -153,17 +153,18 @@ def timed(fn, repeat):
     return out, best
 
 
-def stage_times(scene_images, d_max, backend, repeat):
-    """Steady-state seconds of each stage of ``disparity(..., method="sgm")`` (defaults) on ``backend``:
-    census (with the Green half-pixel shift), matching cost, aggregation, selection, and the
-    whole call (which adds the host's grey conversion and left-right check)."""
+def stage_times(scene_images, d_max, backend, repeat, steps=1, paths=4):
+    """Steady-state seconds of each stage of ``disparity(..., method="sgm")`` on ``backend``:
+    census (with the Green shifts of the right view when ``steps > 1``), the fused matcher
+    (cost, aggregation and selection; on CPUs streamed in bands of rows), and the whole call
+    (which adds the host's grey conversion and left-right check)."""
     from gfgpu import stereo
     from gfgpu.backends import resolve_backend
     from gfgpu.filters import shift
     be = resolve_backend(backend, None)
     left, right = (stereo.matching.grey_image(img, name) for img, name in zip(scene_images, ("left", "right")))
     h, w = left.shape
-    steps, radius, block = 2, 3, 3
+    radius, block = 3, 3
     n = d_max * steps + 1
     state = {}
 
@@ -176,21 +177,14 @@ def stage_times(scene_images, d_max, backend, repeat):
             moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
             stereo_kernels.census(be, moved, state["cr"], f, radius)
 
-    def cost():
-        state["cost"] = be.empty((h, w, n), np.int16)
-        stereo_kernels.cost(be, state["cl"], state["cr"], state["cost"], 0, steps, block)
-
-    def aggregate():
-        state["agg"] = be.empty((h, w, n), np.int16)
-        stereo_kernels.sgm(be, state["cost"], state["agg"], 6 * block**2, 64 * block**2, 8)
-
-    def select():
-        stereo_kernels.select(be, state["agg"], be.empty((h, w), np.float32), be.empty((h, w), np.int32),
-                              be.empty((h, w), np.float32), 0, steps, 10)
+    def match():
+        outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
+        stereo_kernels.match(be, state["cl"], state["cr"], *outs, 0, n, steps, block, 6 * block**2,
+                             64 * block**2, paths, 10, stereo.matching._budget(be))
 
     times = {}
-    for name, fn in (("census + Green shift", census), ("matching cost", cost),
-                     ("8-path aggregation", aggregate), ("selection", select)):
+    for name, fn in (("census" + (" + Green shifts" if steps > 1 else ""), census),
+                     (f"cost + {paths}-path aggregation + selection", match)):
         best = np.inf
         for _ in range(repeat + 1):        # the first run compiles
             t0 = time.perf_counter()
@@ -198,7 +192,8 @@ def stage_times(scene_images, d_max, backend, repeat):
             be.synchronize()
             best = min(best, time.perf_counter() - t0)
         times[name] = best
-    _, times["disparity() total"] = timed(lambda: stereo.disparity(*scene_images, d_max, backend=be), repeat)
+    _, times["disparity() total"] = timed(lambda: stereo.disparity(*scene_images, d_max, subpixel_steps=steps,
+                                                                   paths=paths, backend=be), repeat)
     return times
 
 
@@ -217,7 +212,9 @@ def _run_isolated(scene, name, backends, sweep_backend, repeat):
         fn = lambda: opencv_matchers(num_disp)[name](left, right)
     else:
         method, be = name.split()[1], name.split("(")[1].rstrip(")")
-        fn = lambda: disparity(left, right, d_max, method=method, backend=be)
+        # "sgm-halfpx": half-pixel cost samples from the Green-shifted right view
+        options = {"method": "sgm", "subpixel_steps": 2} if method == "sgm-halfpx" else {"method": method}
+        fn = lambda: disparity(left, right, d_max, backend=be, **options)
     base = _rss_mb()
     disp, seconds = timed(fn, repeat)
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -233,7 +230,8 @@ def scores(disp, gt, mask):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--backends", nargs="+", default=["opencl"])
-    ap.add_argument("--methods", nargs="+", default=["sgm", "uniform", "affine"])
+    ap.add_argument("--methods", nargs="+", default=["sgm", "sgm-halfpx", "uniform", "affine"],
+                    help="sgm: the default; sgm-halfpx: subpixel_steps=2; uniform, affine: the chapter's sweeps")
     ap.add_argument("--sweep-backend", default="opencl", help="backend of the uniform/affine rows")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--scenes", nargs="+", default=list(SCENES) + ["motorcycle", "rds-steps", "rds-slant"])
@@ -242,11 +240,10 @@ def main():
                     "scene (and SGBM's time) instead of the scene table")
     args = ap.parse_args()
     if args.stages:
-        left, right, _, _, top = load_middlebury(args.stages)
+        left, right, _, _, top = load_scene(args.stages)
         num_disp = 16 * int(np.ceil((top + 1) / 16))
         cols = {be: stage_times((left, right), num_disp - 1, be, max(args.repeat, 5)) for be in args.backends}
-        print(f"\n{args.stages}, {left.shape[1]}x{left.shape[0]}, d = 0..{num_disp - 1} at half-pixel "
-              f"steps ({2 * num_disp - 1} samples)\n")
+        print(f"\n{args.stages}, {left.shape[1]}x{left.shape[0]}, d = 0..{num_disp - 1} ({num_disp} samples)\n")
         print("| stage | " + " | ".join(f"{be} (ms)" for be in cols) + " |")
         print("|---|" + "---|" * len(cols))
         for stage in next(iter(cols.values())):
@@ -266,8 +263,10 @@ def main():
             continue
         left, right, gt, mask, top = load_scene(scene)
         big = left.shape[0] * left.shape[1] > 10**6
-        names = [f"gfgpu sgm ({be})" for be in args.backends if not (big and be in ("numpy", "warp"))]
-        names += [f"gfgpu {m} ({args.sweep_backend})" for m in args.methods if m != "sgm" and not big]
+        names = [f"gfgpu {m} ({be})" for m in args.methods if m.startswith("sgm")
+                 for be in args.backends if not (big and be in ("numpy", "warp"))]
+        names += [f"gfgpu {m} ({args.sweep_backend})" for m in args.methods
+                  if not m.startswith("sgm") and not big]
         try:
             import cv2  # noqa: F401
             names += ["OpenCV StereoBM", "OpenCV StereoSGBM", "OpenCV SGBM 8-path"]

@@ -12,9 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "TIE_RTOL", "SWEEP_PLANES",
+    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "TIE_RTOL", "SWEEP_PLANES",
     "census_transform_reference", "in_view_reference", "census_cost_reference", "sgm_aggregate_reference",
-    "select_disparity_reference", "sweep_update_reference", "suppress_nonmaxima_reference",
+    "select_disparity_reference", "semi_global_match_reference", "sweep_update_reference",
+    "suppress_nonmaxima_reference",
 ]
 
 #: the 8 path directions (dy, dx) of semi-global aggregation; the first 4 are the axis paths
@@ -124,9 +125,16 @@ def in_view_reference(w, first_step, n_disp, steps, radius):
 #: cost and aggregated cost of a disparity sample that is not in view (no right pixel to match)
 OUT_OF_VIEW = -1
 
+#: largest matching cost: block sums saturate here, so that a cost and the out-of-view mark fit
+#: one byte (CPU kernels keep a whole (H, W, D) cost volume of bytes).  Saturation changes no
+#: winner that matters: bad-2 on the Middlebury scenes of benchmarks/stereo.py is unchanged to
+#: 0.01 % (a cap at 127 costs up to 1 %: docs/stereo.md)
+COST_MAX = 254
+
 
 def census_cost_reference(census_left, census_right, first_step, n_disp, steps, block):
-    """Matching-cost volume: Hamming distances of census codes, summed over a block.
+    """Matching-cost volume: Hamming distances of census codes, summed over a block, at most
+    :data:`COST_MAX`.
 
     ``cost[y, x, k]`` is the sum over the ``block x block`` window around ``(y, x)`` (clamped
     at the border) of ``popcount(L[y', x'] ^ R_f[y', x' - n])`` for the disparity
@@ -162,6 +170,7 @@ def census_cost_reference(census_left, census_right, first_step, n_disp, steps, 
         colsw = np.clip(cols[:, None] + np.arange(-r, r + 1)[None], 0, w - 1)
         ham = ham[rows].sum(axis=1)                      # (H, W, D): window rows summed
         ham = ham[:, colsw].sum(axis=2)
+    ham = np.minimum(ham, COST_MAX)
     view = in_view_reference(w, first_step, n_disp, steps, block // 2)
     ham[:, ~view] = OUT_OF_VIEW
     return ham.astype(np.int16)
@@ -310,6 +319,36 @@ def select_disparity_reference(aggregated, d_min, steps, uniqueness):
         best_r[better] = val[better]
         right[better] = d_min * steps + kk
     return disp, right, margin
+
+
+def semi_global_match_reference(census_left, census_right, first_step, n_disp, steps, block, p1, p2, paths,
+                                uniqueness):
+    """The whole semi-global matcher after the census: cost, aggregation and selection,
+    ``select_disparity_reference(sgm_aggregate_reference(census_cost_reference(...)))``.
+
+    Its device launchers never hold the two volumes at once where memory is short (the CPU
+    OpenCL launcher streams bands of rows, O(band x W x D)); every backend returns these values
+    exactly (integer costs).
+
+    Parameters
+    ----------
+    census_left : (H, W) uint64 ndarray
+    census_right : (steps, H, W) uint64 ndarray
+    first_step, n_disp, steps, block
+        As for :func:`census_cost_reference` (``first_step = d_min * steps``).
+    p1, p2, paths
+        As for :func:`sgm_aggregate_reference`.
+    uniqueness
+        As for :func:`select_disparity_reference`.
+
+    Returns
+    -------
+    disp, disp_right, margin
+        As :func:`select_disparity_reference` returns them.
+    """
+    cost = census_cost_reference(census_left, census_right, first_step, n_disp, steps, block)
+    return select_disparity_reference(sgm_aggregate_reference(cost, p1, p2, paths), first_step // steps,
+                                      steps, uniqueness)
 
 
 #: planes of the sweep's state (float32): best cost, its disparity, the cost one step before the

@@ -10,7 +10,7 @@ from __future__ import annotations
 from ..backends import specs
 from ..backends.fused import register
 
-__all__ = ["census", "cost", "sgm", "select", "sweep"]
+__all__ = ["census", "cost", "sgm", "select", "match", "sweep"]
 
 
 def _launchers(name):
@@ -34,6 +34,12 @@ sgm = register("stereo.sgm", specs.sgm_aggregate_reference, **_launchers("sgm"))
 #: ``select(be, aggregated, disp, disp_right, d_min, steps, uniqueness)``: both outputs of
 #: ``select_disparity_reference`` written into ``disp`` (H, W) float32 and ``disp_right`` (H, W) int32
 select = register("stereo.select", specs.select_disparity_reference, **_launchers("select"))
+
+#: ``match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block, p1,
+#: p2, paths, uniqueness)``: cost, aggregation and selection in one (``semi_global_match_reference``;
+#: ``census_left`` (1, H, W), ``census_right`` (steps, H, W) uint64; outputs as for ``select``); on
+#: CPUs the OpenCL launcher streams bands of rows instead of holding (H, W, D) volumes
+match = register("stereo.match", specs.semi_global_match_reference, **_launchers("match"))
 
 #: ``sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius)``:
 #: ``sweep_update_reference`` in place on device arrays (float32)

@@ -5,8 +5,10 @@ Three methods share one entry point, :func:`disparity`:
 ``"sgm"`` (default)
     Census matching cost over the disparity range, optionally sampled below the pixel with
     exact Green's-function shifts of the right view (``subpixel_steps``), semi-global
-    aggregation (Hirschmüller 2008, 8 paths), winner-take-all with a uniqueness test and a
-    parabola fit, and a left-right consistency check.
+    aggregation (Hirschmüller 2008; 4 paths by default, 8 on request), winner-take-all with a
+    uniqueness test and a parabola fit, and a left-right consistency check.  On CPU devices
+    (OpenCL) the matcher streams bands of rows through two concurrent sweeps and never holds
+    an (H, W, D) volume of sums (``disparity_memory``).
 ``"uniform"``
     The chapter's sweep: for each disparity ``d = n + f`` the left view is shifted by ``-f/2``
     and the right view by ``+f/2`` with the exact discrete G_u shift (:func:`gfgpu.shift`),
@@ -36,7 +38,7 @@ from .. import greens
 from .._core.strips import get_working_set
 from .._core.validation import finite_scalar
 from ..backends import resolve_backend
-from ..backends.specs import NO_MATCH, SWEEP_PLANES
+from ..backends.specs import COST_MAX, NO_MATCH, SWEEP_PLANES
 from ..filters import green_filter, shift
 from . import kernels
 
@@ -231,9 +233,9 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
     bits = (2 * census_radius + 1) ** 2 - 1
-    if paths * (bits * block * block + p2) >= _INT16_MAX:
+    if paths * (min(bits * block * block, COST_MAX) + p2) >= _INT16_MAX:
         raise ValueError(f"p2 = {p2} is too large: aggregated costs must fit int16 "
-                         f"(paths * (census bits * block^2 + p2) < {_INT16_MAX})")
+                         f"(paths * (min(census bits * block^2, {COST_MAX}) + p2) < {_INT16_MAX})")
     cen_l = be.empty((1, h, w), np.uint64)
     kernels.census(be, be.asarray(left), cen_l, 0, census_radius)
     cen_r = be.empty((steps, h, w), np.uint64)
@@ -243,16 +245,15 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         # disparity samples of the cost volume
         moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
         kernels.census(be, moved, cen_r, f, census_radius)
-    cost = be.empty((h, w, n_disp), np.int16)
-    kernels.cost(be, cen_l, cen_r, cost, d_min * steps, steps, block)
-    progress(1)
-    agg = be.empty((h, w, n_disp), np.int16)
-    kernels.sgm(be, cost, agg, p1, p2, paths)
     progress(1)
     disp = be.empty((h, w), np.float32)
     right_steps = be.empty((h, w), np.int32)
     margin = be.empty((h, w), np.float32)
-    kernels.select(be, agg, disp, right_steps, margin, d_min, steps, uniqueness)
+    # cost, aggregation and selection in one fused kernel: on CPUs it streams bands of rows
+    # (memory O(band x W x D)), on GPUs it holds (H, W, D) volumes
+    kernels.match(be, cen_l, cen_r, disp, right_steps, margin, d_min * steps, n_disp, steps, block, p1, p2,
+                  paths, uniqueness, _budget(be))
+    progress(1)
     disp, margin = be.to_host(disp), be.to_host(margin)
     if lr_check:
         disp, diff = left_right_check(disp, be.to_host(right_steps), steps, LR_TOLERANCE,
@@ -310,8 +311,8 @@ def _sweep(be, left, right, d_min, d_max, step, method, radius, sigma, lr_check,
 
 
 def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", window=None,
-              subpixel=True, lr_check=True, subpixel_steps=2, census_radius=3, p1=None, p2=None,
-              paths=8, uniqueness=10, sweep_step=0.5, sigma=None, return_confidence=False,
+              subpixel=True, lr_check=True, subpixel_steps=1, census_radius=3, p1=None, p2=None,
+              paths=4, uniqueness=10, sweep_step=0.5, sigma=None, return_confidence=False,
               progress=None, backend=None, device=None):
     """Disparity map of the left view of a rectified stereo pair.
 
@@ -355,7 +356,10 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         the right view's running best is kept in the same pass).
     subpixel_steps : int, optional
         (``"sgm"``) Disparity samples per pixel, 1 to 4: the right view is shifted by
-        ``f / subpixel_steps`` px with the exact discrete G_u shift for each ``f``.
+        ``f / subpixel_steps`` px with the exact discrete G_u shift for each ``f``.  Default 1
+        (whole pixels and a parabola); 2 gives finer sub-pixel values (a random-dot square at
+        8.4/3.7 px: 92 % → 100 % of pixels within 0.25 px) for ~2.5× the time and memory
+        (``docs/stereo.md``).
     census_radius : int, optional
         (``"sgm"``) Census window ``2r+1`` square, r in 1..3.
     p1, p2 : int, optional
@@ -363,7 +367,10 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         units of the block's summed Hamming distance; default ``6 window²`` and
         ``64 window²`` (measured on the Middlebury scenes of ``benchmarks/stereo.py``).
     paths : {4, 8}, optional
-        (``"sgm"``) Aggregation directions.
+        (``"sgm"``) Aggregation directions: 4 (rows and columns, both ways; the default:
+        measured as accurate as 8 or better on the Middlebury scenes of
+        ``benchmarks/stereo.py`` with these penalties, at ~40 % of the time) or 8 (adds the
+        diagonals).
     uniqueness : int, optional
         (``"sgm"``) Margin in percent by which the best cost must beat every cost more than
         one step away (0 disables).
@@ -415,8 +422,9 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     the left pixel within half a pixel of the window's centre (exact on fronto-parallel
     surfaces).  They stay worse than ``"sgm"`` on real scenes (``docs/stereo.md``).
     ``"sgm"`` uses the Green shift where it is exact and cheap: the fractional disparity
-    samples of the cost volume (``subpixel_steps > 1``).  Census cost, 8-path aggregation and
-    the left-right check follow Hirschmüller (2008).
+    samples of the cost volume (``subpixel_steps > 1``).  Census cost, path aggregation and
+    the left-right check follow Hirschmüller (2008); matching costs saturate at
+    :data:`gfgpu.backends.specs.COST_MAX` (254) so that a cost fits a byte.
 
     References
     ----------
@@ -481,7 +489,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         uniq = _int_arg(uniqueness, "uniqueness")
         if not 0 <= uniq <= 100:
             raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
-        _check_memory(be, lft.shape, d_max, d_min, method, steps)
+        _check_memory(be, lft.shape, d_max, d_min, method, steps, paths)
         disp, conf = _sgm(be, lft, rgt, d_min, d_max, steps, radius, window, p1, p2, paths,
                           uniq, lr_check, report)
         if not subpixel:
@@ -507,28 +515,36 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     return (disp, conf) if return_confidence else disp
 
 
-#: bytes per pixel and disparity sample of the "sgm" method: the int16 cost, aggregate and (CPU
-#: OpenCL) second sweep volumes (6); the numpy specification works in int32 copies (16)
+#: bytes per pixel and disparity sample of the "sgm" method where whole volumes are held: the
+#: numpy specification's int32/int64 copies (16); the int16 cost and aggregate on GPUs and Warp (4)
 _SGM_BYTES = {"numpy": 16}
-_SGM_BYTES_DEFAULT = 6
+_SGM_BYTES_DEFAULT = 4
 
 
-def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", subpixel_steps=2,
+def _streams_bands(be):
+    # the OpenCL matcher on CPU devices streams bands of rows (backends/opencl/stereo.py)
+    return be.name == "opencl" and be.kind == "cpu"
+
+
+def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", subpixel_steps=1, paths=4,
                      backend=None, device=None):
     """Peak working memory of :func:`disparity` in bytes (an estimate, within ~10 %).
 
-    ``"sgm"`` holds O(H·W·D) cost volumes (``D = (max - min) * subpixel_steps + 1`` samples):
-    6 bytes per sample on the OpenCL and Warp backends, 16 on the numpy specification, plus
-    O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity` refuses (a
-    ``ValueError`` before allocating anything) a request above the working set: the device's
-    budget (half a GPU's memory), :func:`gfgpu.working_set` / ``GFGPU_WORKING_SET`` if set, and
-    on CPU devices the host's physical memory.
+    ``"sgm"`` on OpenCL CPU devices streams bands of ``k ≈ sqrt(H/2)`` rows through its two
+    sweeps: it keeps the byte costs of the whole image (1 byte per pixel and disparity sample,
+    ``D = (max - min) * subpixel_steps + 1``) when the working set allows, else recomputes them
+    per band, plus O(k·W·D) band buffers and O((H/k)·W·D) path-state checkpoints.  On GPUs and
+    Warp it holds two int16 (H, W, D) volumes (4 bytes per sample), on the numpy specification
+    16.  Plus O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity`
+    refuses (a ``ValueError`` before allocating anything) a request above the working set: the
+    device's budget (half a GPU's memory), :func:`gfgpu.working_set` / ``GFGPU_WORKING_SET`` if
+    set, and on CPU devices half the host's physical memory.
 
     Parameters
     ----------
     shape : (H, W) or (H, W, C) tuple of int
         Shape of one view.
-    max_disparity, min_disparity, method, subpixel_steps, backend, device
+    max_disparity, min_disparity, method, subpixel_steps, paths, backend, device
         As for :func:`disparity`.
 
     Returns
@@ -542,8 +558,8 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
 
     Examples
     --------
-    >>> round(disparity_memory((1000, 1500), 191, backend="opencl") / 2**30, 2)   # GiB
-    3.33
+    >>> round(disparity_memory((1000, 1500), 191, backend="warp") / 2**30, 2)   # GiB
+    1.17
     """
     shp = tuple(int(v) for v in shape)
     if len(shp) not in (2, 3) or min(shp) < 1:
@@ -554,10 +570,19 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
     if method != "sgm":
         return px * 4 * (SWEEP_PLANES + 12)
     be = resolve_backend(backend, device)
-    steps = int(subpixel_steps)
-    n = (int(max_disparity) - int(min_disparity)) * steps + 1
-    per_sample = _SGM_BYTES.get(be.name, _SGM_BYTES_DEFAULT)
-    return px * (per_sample * n + 16 * (1 + steps) + 40)
+    return _sgm_memory(be, shp[:2], (int(max_disparity) - int(min_disparity)) * int(subpixel_steps) + 1,
+                       int(subpixel_steps), paths, _budget(be))
+
+
+def _sgm_memory(be, shape, n, steps, paths, budget, keep=None):
+    h, w = shape
+    base = h * w * (16 * (1 + steps) + 40)
+    if _streams_bands(be):
+        from ..backends.opencl.stereo import match_memory
+        if keep is None:
+            keep = budget is None or match_memory(h, w, n, paths, True) <= budget
+        return base + match_memory(h, w, n, paths, keep)
+    return base + h * w * n * _SGM_BYTES.get(be.name, _SGM_BYTES_DEFAULT)
 
 
 def _size(nbytes):
@@ -571,18 +596,29 @@ def _host_memory():
         return None
 
 
-def _check_memory(be, shape, d_max, d_min, method, steps):
-    need = disparity_memory(shape, d_max, min_disparity=d_min, method=method, subpixel_steps=steps,
-                            backend=be)
+def _budget(be):
+    """Working memory disparity may use on ``be``: the working set (gfgpu.working_set,
+    GFGPU_WORKING_SET, a GPU's budget), else half the host's physical memory."""
     budget = get_working_set(be)
-    what = "the working set"
     if budget is None:
-        budget, what = _host_memory(), "the host's memory"
+        host = _host_memory()
+        budget = None if host is None else host // 2
+    return budget
+
+
+def _check_memory(be, shape, d_max, d_min, method, steps, paths=4):
+    n = (d_max - d_min) * (steps if method == "sgm" else 1) + 1
+    budget = _budget(be)
+    if method == "sgm":
+        # the least this request can run in (the band matcher recomputes costs when short)
+        need = _sgm_memory(be, shape, n, steps, paths, budget, keep=False)
+    else:
+        need = disparity_memory(shape, d_max, min_disparity=d_min, method=method, backend=be)
     if budget is not None and need > budget:
+        where = "the working set" if get_working_set(be) is not None else "half the host's memory"
         raise ValueError(
-            f"disparity needs about {_size(need)} for {shape[1]}x{shape[0]} px and "
-            f"{(d_max - d_min) * (steps if method == 'sgm' else 1) + 1} disparity samples, more than "
-            f"{what} ({_size(budget)} on {be.name}); lower max_disparity - min_disparity, "
+            f"disparity needs about {_size(need)} for {shape[1]}x{shape[0]} px and {n} disparity samples, "
+            f"more than {where} ({_size(budget)} on {be.name}); lower max_disparity - min_disparity, "
             f"subpixel_steps or the image size, or raise the working set (gfgpu.working_set, "
             f"GFGPU_WORKING_SET)")
 

@@ -134,6 +134,20 @@ def _select(be, kernel, rng):
         _compare(be.to_host(margin), ref_margin, what)
 
 
+@builds("stereo.match")
+def _match(be, kernel, rng):
+    # images taller than a band (the CPU OpenCL launcher's 16 rows): several bands and checkpoints
+    for (h, w, n, steps, first, paths), shift in (((40, 31, 13, 2, 0, 4), 3), ((35, 26, 11, 1, -4, 8), -2),
+                                                  ((17, 20, 25, 2, -6, 8), 1), ((3, 12, 9, 1, 2, 4), 4)):
+        left = rng.integers(0, 2**48, (1, h, w), dtype=np.uint64)
+        right = rng.integers(0, 2**48, (steps, h, w), dtype=np.uint64)
+        right[0] = np.roll(left[0], -shift, axis=1) ^ (rng.random((h, w)) < 0.05).astype(np.uint64)
+        outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
+        kernel(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, 3, 54, 576, paths, 10)
+        for got, ref in zip(outs, kernel.spec(left[0], right, first, n, steps, 3, 54, 576, paths, 10)):
+            _compare(be.to_host(got), ref, f"match {h}x{w}x{n} steps {steps} first {first} {paths} paths")
+
+
 @builds("stereo.sweep")
 def _sweep(be, kernel, rng):
     for (h, w), radius, d_min in (((9, 17), 1, -1.0), ((12, 10), 2, 2.5)):
@@ -169,7 +183,7 @@ def _nms(be, kernel, rng):
 
 def test_every_registered_kernel_is_tested():
     assert REGISTERED, "no fused kernel registered: the applications did not import"
-    assert {"stereo.census", "stereo.cost", "stereo.sgm", "stereo.select", "stereo.sweep",
+    assert {"stereo.census", "stereo.cost", "stereo.sgm", "stereo.select", "stereo.match", "stereo.sweep",
             "edges.nms"} <= set(REGISTERED)
     missing = sorted(set(REGISTERED) - set(BUILDERS))
     stale = sorted(set(BUILDERS) - set(REGISTERED))

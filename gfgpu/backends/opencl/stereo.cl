@@ -67,12 +67,16 @@ typedef uchar2 uchar2_u __attribute__((aligned(1)));
 #define VLOAD(T, N, p) (*(const __global T##N##_u *)(p))
 #define VSTORE(T, N, v, p) (*(__global T##N##_u *)(p) = (v))
 #define TO_USHORT16(v) __builtin_convertvector((v), ushort16)
+#define TO_SHORT16(v) __builtin_convertvector((v), short16)
+#define TO_UCHAR16(v) __builtin_convertvector((v), uchar16)
 #define POPCOUNT(v) __builtin_popcountl(v)         // long is 64-bit in OpenCL C
 #define ALWAYS_INLINE inline __attribute__((always_inline))
 #else
 #define VLOAD(T, N, p) vload##N(0, p)
 #define VSTORE(T, N, v, p) vstore##N((v), 0, p)
 #define TO_USHORT16(v) convert_ushort16(v)
+#define TO_SHORT16(v) convert_short16(v)
+#define TO_UCHAR16(v) convert_uchar16(v)
 #define POPCOUNT(v) popcount(v)
 #define ALWAYS_INLINE inline
 #endif
@@ -110,9 +114,36 @@ static inline void store_last_short(short16 v, __global short *p)
     if (TAIL & 1) p[TAIL - 1] = b[TAIL - 1];
 }
 
+static inline void store_last_uchar(uchar16 v, __global uchar *p)
+{
+    if (TAIL == 16) {
+        VSTORE(uchar, 16, v, p);
+        return;
+    }
+    __private uchar *b = (__private uchar *)&v;
+    if (TAIL & 8) VSTORE(uchar, 8, *(__private uchar8 *)b, p);
+    if (TAIL & 4) VSTORE(uchar, 4, *(__private uchar4 *)(b + (TAIL & 8)), p + (TAIL & 8));
+    if (TAIL & 2) VSTORE(uchar, 2, *(__private uchar2 *)(b + (TAIL & 12)), p + (TAIL & 12));
+    if (TAIL & 1) p[TAIL - 1] = b[TAIL - 1];
+}
+
 #define LOAD_S(p, j) ((j) < NV - 1 ? VLOAD(short, 16, (p) + 16 * (j)) : load_last_short((p) + 16 * (j)))
 #define LOAD_SMAX(p, j) ((j) < NV - 1 ? VLOAD(short, 16, (p) + 16 * (j)) : load_last_short_max((p) + 16 * (j)))
 #define LOAD_UC(p, j) ((j) < NV - 1 ? VLOAD(uchar, 16, (p) + 16 * (j)) : load_last_uchar((p) + 16 * (j)))
+#define STORE_UC(v, p, j) do { if ((j) < NV - 1) VSTORE(uchar, 16, (v), (p) + 16 * (j));             \
+                               else store_last_uchar((v), (p) + 16 * (j)); } while (0)
+// Costs: int16 with -1 out of view (whole volumes, GPUs), or with -D COST_BYTES bytes with
+// COST_OUT (255) out of view (the CPU matcher's volume); both saturated at COST_MAX.
+#define COST_OUT 255
+#ifdef COST_BYTES
+typedef uchar cost_t;
+#define STORE_COST(v, p, j) STORE_UC(TO_UCHAR16((v) < (short16)(0) ? (short16)(COST_OUT) : (v)), p, j)
+#define LOAD_COST(p, j) load_cost_bytes(p, j)
+#else
+typedef short cost_t;
+#define STORE_COST(v, p, j) STORE_S(v, p, j)
+#define LOAD_COST(p, j) LOAD_S(p, j)
+#endif
 #define STORE_S(v, p, j) do { if ((j) < NV - 1) VSTORE(short, 16, (v), (p) + 16 * (j));             \
                               else store_last_short((v), (p) + 16 * (j)); } while (0)
 
@@ -131,19 +162,21 @@ __kernel void census_interleave(__global const ulong *cr, __global ulong *out, c
         dst[-f] = cr[f * plane + (size_t)y * w + x];
 }
 
-// Hamming distances of the census codes, ham[y][x][k] = popcount(L[y][x] ^ R_f[y][x - n]) for the
-// disparity sample t = first_step + k = n*steps + f, or 0 where x - n is outside (never summed
-// into a sample in view; uchar: the distances of 48-bit codes are at most 48).
+// Hamming distances of the census codes, ham[i][x][k] = popcount(L[y][x] ^ R_f[y][x - n]) for the
+// image row y = row0 + i and the disparity sample t = first_step + k = n*steps + f, or 0 where
+// x - n is outside (never summed into a sample in view; uchar: the distances of 48-bit codes are
+// at most 48).  row0 > 0: the rows of one band (launched over its rows only).
 __kernel void census_hamming(__global const ulong *cl, __global const ulong *ri, __global uchar *ham,
-                             const int h, const int w, const int first_step, const int steps)
+                             const int h, const int w, const int first_step, const int steps,
+                             const int row0)
 {
-    const int x = get_global_id(0), y = get_global_id(1);
+    const int x = get_global_id(0), i = get_global_id(1), y = row0 + i;
     if (x >= w || y >= h)
         return;
     const int ws = w * steps;
     const ulong c = cl[(size_t)y * w + x];
     __global const ulong *row = ri + (size_t)y * ws;
-    __global uchar *dst = ham + ((size_t)y * w + x) * N_DISP;
+    __global uchar *dst = ham + ((size_t)i * w + x) * N_DISP;
     const int j0 = x * steps + steps - 1 - first_step;          // right index of sample k is j0 - k
     const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
     int k = 0;
@@ -157,26 +190,27 @@ __kernel void census_hamming(__global const ulong *cl, __global const ulong *ri,
 
 // The block sum of the Hamming distances over the block x block window (clamped at the border):
 // one work-item per row, a running sum along the row of the window's column sums (streaming
-// through memory).  Exact integer sums, wrapped to int16 like the specification's astype
-// (ushort arithmetic wraps).  Samples out of view (the right pixel's block not inside the image:
-// k outside [k_lo, k_hi] at this x) are OUT_OF_VIEW (-1).
+// through memory).  Exact integer sums (ushort: at most 15^2 * 48), saturated at COST_MAX.  Samples out of view (the right pixel's block not inside the image:
+// k outside [k_lo, k_hi] at this x) are OUT_OF_VIEW (-1).  Output row i is image row y0 + i; `ham`
+// holds image rows ham_row0, ... (those of the band and its block margin).
 static inline ushort16 window_column(__global const uchar *ham, const int y, const int x, const int h,
-                                     const int w, const int r, const int j)
+                                     const int w, const int r, const int j, const int ham_row0)
 {
     ushort16 s = (ushort16)(0);
     for (int v = -r; v <= r; ++v) {
-        __global const uchar *p = ham + ((size_t)CLAMPI(y + v, 0, h - 1) * w + x) * N_DISP;
+        __global const uchar *p = ham + ((size_t)(CLAMPI(y + v, 0, h - 1) - ham_row0) * w + x) * N_DISP;
         s += TO_USHORT16(LOAD_UC(p, j));
     }
     return s;
 }
 
-__kernel void block_sum(__global const uchar *ham, __global short *out, const int h, const int w,
-                        const int block, const int first_step, const int steps)
+__kernel void block_sum(__global const uchar *ham, __global cost_t *out, const int h, const int w,
+                        const int block, const int first_step, const int steps, const int y0,
+                        const int rows, const int ham_row0, const int out_row0)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    const int y = get_global_id(0);
-    if (y >= h)
+    const int i = get_global_id(0), y = y0 + i;
+    if (i >= rows || y >= h)
         return;
     const int r = block / 2;
     ushort16 sum[NV];
@@ -184,9 +218,9 @@ __kernel void block_sum(__global const uchar *ham, __global short *out, const in
     for (int j = 0; j < NV; ++j) {
         sum[j] = (ushort16)(0);
         for (int u = -r; u <= r; ++u)
-            sum[j] += window_column(ham, y, CLAMPI(u, 0, w - 1), h, w, r, j);
+            sum[j] += window_column(ham, y, CLAMPI(u, 0, w - 1), h, w, r, j, ham_row0);
     }
-    __global short *dst = out + (size_t)y * w * N_DISP;
+    __global cost_t *dst = out + (size_t)(out_row0 + i) * w * N_DISP;
     for (int x = 0; x < w; ++x, dst += N_DISP) {
         const int add = min(x + r, w - 1), sub = max(x - 1 - r, 0);
         const int moved = x > 0 && add != sub;     // the window moved to columns [x-r, x+r] (clamped)
@@ -198,9 +232,11 @@ __kernel void block_sum(__global const uchar *ham, __global short *out, const in
         #pragma unroll
         for (int j = 0; j < NV; ++j) {
             if (moved)
-                sum[j] += window_column(ham, y, add, h, w, r, j) - window_column(ham, y, sub, h, w, r, j);
+                sum[j] += window_column(ham, y, add, h, w, r, j, ham_row0) -
+                          window_column(ham, y, sub, h, w, r, j, ham_row0);
             const short16 k = lane + (short16)(16 * j);
-            STORE_S((k < k_lo) | (k > k_hi) ? (short16)(-1) : as_short16(sum[j]), dst, j);
+            const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
+            STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
         }
     }
 }
@@ -330,57 +366,74 @@ path_pixel(__global const short *in, const short m_in, __global short *out, cons
     return hmin16(run);
 }
 
-// Semi-global aggregation in two sweeps over the image (for CPUs, as OpenCV's SGBM): work-item 0
-// goes down the rows, each left to right, with the paths (0,1), (1,0) [, (1,1), (1,-1)]; work-item
-// 1 goes up, right to left, with the opposite paths; each writes the sum of its paths (out_fwd,
-// out_bwd).  The path costs of the previous pixels live in `state` (per work-item 5 rows of
-// w + 2 cells: horizontal, vertical, diagonal from x + s, and the diagonal from x - s
-// double-buffered; guard cells of zeros at both ends) and their minima in `state_min` (4
-// rows); reading a guard or the initial zeros is a path's first pixel.  The cost volume is read
-// once per sweep.
-__kernel void sgm_two_sweeps(__global const short *cost, __global short *out_fwd, __global short *out_bwd,
-                             __global short *state, __global short *state_min, const int h,
-                             const int w, const short p1, const short p2, const int diagonals)
+// Semi-global aggregation of a band of rows in two sweeps (for CPUs, as OpenCV's SGBM); the band's
+// byte costs are in `cost` (image row y0 + i at row cost_row0 + i).  Work-item 0 goes down the band's rows, each left
+// to right, with the paths (0,1), (1,0) [, (1,1), (1,-1)] and writes their sum to sum_down;
+// work-item 1 goes up, right to left, with the opposite paths, to sum_up.  The path costs of the
+// previous pixels live in `state` (per work-item 5 rows of w + 2 cells: horizontal, vertical,
+// diagonal from x + s, and the diagonal from x - s double-buffered by the row's parity; guard
+// cells of zeros at both ends) and their minima in `state_min` (4 rows); reading a guard or the
+// initial zeros is a path's first pixel.  The states persist between launches, so a band goes on
+// with the sweep of the band before it; bit p of `init` zeroes work-item p's state first (its
+// sweep enters the image here), bit p of `active` runs work-item p.  write_up = 0: work-item 1
+// only advances its vertical and diagonal paths (a checkpointing sweep: no horizontal path, no
+// output).  Memory O(band rows x w x N_DISP) whatever the image's height.
+#ifdef COST_BYTES
+static inline short16 load_cost_bytes(__global const uchar *p, const int j)
+{
+    const short16 v = TO_SHORT16(LOAD_UC(p, j));
+    return v == (short16)(COST_OUT) ? (short16)(-1) : v;
+}
+
+__kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __global short *sum_up,
+                       __global short *state, __global short *state_min, const int h, const int w,
+                       const int y0, const int rows, const short p1, const short p2,
+                       const int diagonals, const int init, const int active, const int write_up,
+                       const int cost_row0)
 {
     const int pass = get_global_id(0);
-    if (pass > 1)
+    if (pass > 1 || !((active >> pass) & 1))
         return;
-    const int s = pass == 0 ? 1 : -1;
-    __global short *out = pass == 0 ? out_fwd : out_bwd;
+    const int s = pass == 0 ? 1 : -1, write = pass == 0 || write_up;
+    __global short *out = pass == 0 ? sum_down : sum_up;
     const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
     __global short *st = state + (size_t)pass * 5 * row;
     __global short *mins = state_min + (size_t)pass * 4 * cells;
-    for (size_t r = 0; r < 5; ++r) {
-        __global short *p = st + r * row;
-        for (int i = 0; i < 16; ++i)
-            p[i] = PAD_COST;
-        for (size_t c = 0; c < cells; ++c) {
-            for (int i = 0; i < NP; ++i)
-                p[16 + c * CELL + i] = 0;
-            for (int i = NP; i < CELL; ++i)
-                p[16 + c * CELL + i] = PAD_COST;
+    if ((init >> pass) & 1) {
+        for (size_t r = 0; r < 5; ++r) {
+            __global short *p = st + r * row;
+            for (int i = 0; i < 16; ++i)
+                p[i] = PAD_COST;
+            for (size_t c = 0; c < cells; ++c) {
+                for (int i = 0; i < NP; ++i)
+                    p[16 + c * CELL + i] = 0;
+                for (int i = NP; i < CELL; ++i)
+                    p[16 + c * CELL + i] = PAD_COST;
+            }
         }
+        for (size_t i = 0; i < 4 * cells; ++i)
+            mins[i] = 0;
     }
-    for (size_t i = 0; i < 4 * cells; ++i)
-        mins[i] = 0;
     __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
     __global short *mv = mins, *me = mv + cells;
-    for (int yi = 0; yi < h; ++yi) {
-        const int y = pass == 0 ? yi : h - 1 - yi;
-        // the diagonal from x - s: read the previous row's buffer, write this row's
-        __global short *sd_in = se + (1 + (yi & 1)) * row, *sd_out = se + (2 - (yi & 1)) * row;
-        __global short *md_in = me + (1 + (yi & 1)) * cells, *md_out = me + (2 - (yi & 1)) * cells;
+    for (int i = 0; i < rows; ++i) {
+        const int bi = pass == 0 ? i : rows - 1 - i, y = y0 + bi;
+        // the diagonal from x - s: read the buffer of the previous row's parity, write this row's
+        const int in_buf = 1 + ((y & 1) ^ 1), out_buf = 1 + (y & 1);
+        __global short *sd_in = se + in_buf * row, *sd_out = se + out_buf * row;
+        __global short *md_in = me + in_buf * cells, *md_out = me + out_buf * cells;
         short mh = 0;
         for (int xi = 0; xi < w; ++xi) {
             const int x = pass == 0 ? xi : w - 1 - xi, cell = x + 1;
-            __global const short *c = cost + ((size_t)y * w + x) * N_DISP;
+            __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * N_DISP;
             short16 cv[NV], sum[NV];
             #pragma unroll
             for (int j = 0; j < NV; ++j) {
-                cv[j] = LOAD_S(c, j);
+                cv[j] = LOAD_COST(c, j);
                 sum[j] = (short16)(0);
             }
-            mh = path_pixel(sh + (cell - s) * CELL, mh, sh + cell * CELL, cv, sum, p1, p2);
+            if (write)
+                mh = path_pixel(sh + (cell - s) * CELL, mh, sh + cell * CELL, cv, sum, p1, p2);
             mv[cell] = path_pixel(sv + cell * CELL, mv[cell], sv + cell * CELL, cv, sum, p1, p2);
             if (diagonals) {
                 me[cell] = path_pixel(se + (cell + s) * CELL, me[cell + s], se + cell * CELL, cv, sum,
@@ -388,33 +441,17 @@ __kernel void sgm_two_sweeps(__global const short *cost, __global short *out_fwd
                 md_out[cell] = path_pixel(sd_in + (cell - s) * CELL, md_in[cell - s],
                                           sd_out + cell * CELL, cv, sum, p1, p2);
             }
-            __global short *o = out + ((size_t)y * w + x) * N_DISP;
-            #pragma unroll
-            for (int j = 0; j < NV; ++j)
-                STORE_S(cv[j] < (short16)(0) ? (short16)(-1) : sum[j], o, j);
+            if (write) {
+                __global short *o = out + ((size_t)bi * w + x) * N_DISP;
+                #pragma unroll
+                for (int j = 0; j < NV; ++j)
+                    STORE_S(cv[j] < (short16)(0) ? (short16)(-1) : sum[j], o, j);
+            }
         }
     }
 }
 
-// out += add, elementwise over one row of pixels per work-item; entries out of view (-1 in both)
-// stay -1.
-__kernel void add_volume(__global short *out, __global const short *add, const int h, const int w)
-{
-    const int y = get_global_id(0);
-    if (y >= h)
-        return;
-    const size_t len = (size_t)w * N_DISP;
-    __global short *o = out + (size_t)y * len;
-    __global const short *a = add + (size_t)y * len;
-    size_t i = 0;
-    for (; i + 16 <= len; i += 16) {
-        const short16 ov = VLOAD(short, 16, o + i);
-        VSTORE(short, 16, ov < (short16)(0) ? ov : ov + VLOAD(short, 16, a + i), o + i);
-    }
-    for (; i < len; ++i)
-        if (o[i] >= 0)
-            o[i] += a[i];
-}
+#endif  // COST_BYTES
 
 // Lane k of the result takes lane k + 1 of the vectors a[] (fill after the last).
 #define SHIFT_DOWN(a, j, fill) ((short16)(a[j].s1234, a[j].s5678, a[j].s9abc, a[j].sdef,          \
@@ -430,9 +467,10 @@ __kernel void add_volume(__global short *out, __global const short *add, const i
 // (cost, k) of the staircase from entry k of pixel x on: E_x[k] = min(S_x[k], E_x[k + 1]) within
 // a pixel's group of k, min(S_x[k], E_(x+1)[k + 1]) at a group's last k; the winner of right
 // pixel xr is E_(xr + n(0))[0] (ties go to the smaller k, the specification's first minimum).
-__kernel void select_disparity(__global const short *agg, __global float *disp, __global int *right,
-                               __global float *margin, const int h, const int w, const int d_min,
-                               const int steps, const int uniqueness)
+__kernel void select_disparity(__global const short *agg, __global const short *agg2, __global float *disp,
+                               __global int *right, __global float *margin, const int h, const int w,
+                               const int d_min, const int steps, const int uniqueness, const int two,
+                               const int y_out0)
 {
     const int y = get_global_id(0);
     if (y >= h)
@@ -448,18 +486,21 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
         ev[j] = none;                           // E beyond the right edge: no pixel
         ei[j] = k;
     }
-    __global int *rrow = right + (size_t)y * w;
-    __global float *drow = disp + (size_t)y * w;
-    __global float *mrow = margin + (size_t)y * w;
+    __global int *rrow = right + (size_t)(y_out0 + y) * w;
+    __global float *drow = disp + (size_t)(y_out0 + y) * w;
+    __global float *mrow = margin + (size_t)(y_out0 + y) * w;
     for (int x = 0; x < w; ++x)
         rrow[x] = NO_MATCH;
     for (int x = w - 1; x >= 0; --x) {
+        // two = 1: S = agg + agg2 (the band sweeps' sums; both -1 where out of view)
         __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
+        __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
         short16 sv[NV], vmin = none;
         #pragma unroll
         for (int j = 0; j < NV; ++j) {
             const short16 v = LOAD_SMAX(s, j);
-            sv[j] = v < (short16)(0) ? none : v;
+            // (padding lanes read SHRT_MAX in both: kept at none, not summed past it)
+            sv[j] = v < (short16)(0) || v == none ? none : two ? v + LOAD_SMAX(s2, j) : v;
             vmin = VMIN(vmin, sv[j]);
         }
         // ---- left view: the first minimum, the best cost more than one step from it
@@ -481,7 +522,9 @@ __kernel void select_disparity(__global const short *agg, __global float *disp, 
         const int second = hmin16(far);
         const int unique = best < SHRT_MAX && second < SHRT_MAX &&
                            (long)second * 100 > (long)best * (100 + uniqueness);
-        const int sm = s[kb > 0 ? kb - 1 : 0], sp = s[kb < N_DISP - 1 ? kb + 1 : N_DISP - 1];
+        const int km = kb > 0 ? kb - 1 : 0, kp = kb < N_DISP - 1 ? kb + 1 : N_DISP - 1;
+        const int sm = s[km] < 0 || !two ? s[km] : s[km] + s2[km];
+        const int sp = s[kp] < 0 || !two ? s[kp] : s[kp] + s2[kp];
         const int cut = (kb > 0 && sm < 0) || (kb < N_DISP - 1 && sp < 0);
         const float den = (float)(sm - 2 * best + sp);
         float delta = 0.0f;

@@ -5,7 +5,11 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+from ..specs import COST_MAX
 
 
 def _plain(be, a, name, dtype):
@@ -18,9 +22,12 @@ def _plain(be, a, name, dtype):
         raise TypeError(f"{name} must be {np.dtype(dtype)}, got {a.dtype}")
     return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
 
-def _stereo_kernel(be, name, n_disp=None):
-    """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp``."""
-    defines = {} if n_disp is None else {"N_DISP": int(n_disp)}
+def _stereo_kernel(be, name, n_disp=None, cost_bytes=False):
+    """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
+    with ``cost_bytes`` for byte costs)."""
+    defines = {} if n_disp is None else {"N_DISP": int(n_disp), "COST_MAX": COST_MAX}
+    if cost_bytes:
+        defines["COST_BYTES"] = 1
     return be._kernel(name, np.dtype(np.float32), source="stereo.cl", **defines)
 
 def _check_written(a, name):
@@ -47,18 +54,33 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     if out.size == 0:
         return out
     # interleaved right codes -> uchar Hamming volume -> running block sums (stereo.cl)
+    ri = _interleave(be, cr, h, w, steps, n)
+    _band_cost(be, cl_, ri, out, be.empty((h, w, n), np.uint8), 0, h, 0, h, w, first_step, steps, block)
+    return out
+
+
+def _interleave(be, cr, h, w, steps, n):
     ri = be.empty((h, w * steps), np.uint64)
     be._launch(_stereo_kernel(be, "census_interleave", n), (w, h), None, [cr], [ri],
-                 (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
-    ham = be.empty((h, w, n), np.uint8)
-    be._launch(_stereo_kernel(be, "census_hamming", n), (w, h), None, [cl_, ri], [ham],
-                 (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
-                  np.int32(steps)))
+               (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
+    return ri
+
+
+def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, steps, block):
+    """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows] (Hamming
+    distances of the rows and their block margin into ``ham``, then block sums); int16 or byte
+    costs as ``out``'s dtype."""
+    n = out.shape[2]
+    r = block // 2
+    ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
+    be._launch(_stereo_kernel(be, "census_hamming", n), (w, yb - ya), None, [cl_, ri], [ham],
+               (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
+                np.int32(steps), np.int32(ya)))
     group = be._group()
-    be._launch(_stereo_kernel(be, "block_sum", n), (-(-h // group) * group,), (group,), [ham], [out],
-                 (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block), np.int32(first_step),
-                  np.int32(steps)))
-    return out
+    knl = _stereo_kernel(be, "block_sum", n, cost_bytes=out.dtype == np.uint8)
+    be._launch(knl, (-(-rows // group) * group,), (group,), [ham], [out],
+               (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block), np.int32(first_step),
+                np.int32(steps), np.int32(y0), np.int32(rows), np.int32(ya), np.int32(out_row0)))
 
 def launch_sgm(be, cost, out, p1, p2, paths):
     cost = _plain(be, cost, "cost", np.int16)
@@ -69,20 +91,6 @@ def launch_sgm(be, cost, out, p1, p2, paths):
         return out
     if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
         raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
-    if be.kind == "cpu":
-        # two sweeps over the image (one per core), the cost volume read once per sweep
-        nv = -(-n // 16)
-        state = be.empty((2, 5, 16 + (w + 2) * (nv * 16 + 16)), np.int16)
-        state_min = be.empty((2, 4, w + 2), np.int16)
-        back = be.empty((h, w, n), np.int16)
-        be._launch(_stereo_kernel(be, "sgm_two_sweeps", n), (2,), (1,), [cost],
-                     [out, back, state, state_min],
-                     (cost.data, out.data, back.data, state.data, state_min.data, np.int32(h),
-                      np.int32(w), np.int16(p1), np.int16(p2), np.int32(paths == 8)))
-        group = be._group()
-        be._launch(_stereo_kernel(be, "add_volume", n), (-(-h // group) * group,), (group,),
-                     [back], [out], (out.data, back.data, np.int32(h), np.int32(w)))
-        return out
     knl = _stereo_kernel(be, "sgm_line_pair", n)
     group = be._group()   # GPU: a warp's multiple
     # each launch sweeps a direction of gfgpu.backends.specs.SGM_PATHS and its opposite
@@ -105,12 +113,136 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
     if n > 32767:
         raise ValueError(f"aggregated must have at most 32767 disparity samples (int16 lane "
                          f"indices in select_disparity), got {n}")
-    group = be._group()
-    be._launch(_stereo_kernel(be, "select_disparity", n), (-(-h // group) * group,), (group,),
-                 [agg], [disp, disp_right, margin],
-                 (agg.data, disp.data, disp_right.data, margin.data, np.int32(h), np.int32(w),
-                  np.int32(d_min), np.int32(steps), np.int32(uniqueness)))
+    _select(be, agg, None, disp, disp_right, margin, 0, h, w, d_min, steps, uniqueness)
     return disp, disp_right, margin
+
+
+def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, uniqueness):
+    """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows])."""
+    n = agg.shape[2]
+    group = be._group()
+    second = agg if agg2 is None else agg2
+    be._launch(_stereo_kernel(be, "select_disparity", n), (-(-rows // group) * group,), (group,),
+               [agg, second], [disp, disp_right, margin],
+               (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
+                np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
+                np.int32(y0)))
+
+
+def _sgm_state(be, w, n):
+    """The band sweeps' path states (2 work-items x 5 rows of w + 2 cells) and their minima."""
+    nv = -(-n // 16)
+    return (be.empty((2, 5, 16 + (w + 2) * (nv * 16 + 16)), np.int16),
+            be.empty((2, 4, w + 2), np.int16))
+
+
+def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w, p1, p2, paths, init, active,
+                 write_up=True):
+    n = cost.shape[2]
+    be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True), (2,), (1,), [cost],
+               [down, up, state, state_min],
+               (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
+                np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
+                np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0)))
+
+
+#: rows of a band of the CPU matcher: at least this many (fewer launches)
+MIN_BAND_ROWS = 16
+
+
+def band_rows(h, paths):
+    """Rows per band of the CPU matcher: the checkpoints (H / k of them, 1 or 4 state rows of
+    ~2 bytes per sample each) and the band buffers (~4 bytes per sample of each of k rows)
+    balance at k = sqrt(c H / 2), c the state rows (at least :data:`MIN_BAND_ROWS`)."""
+    c = 1 if paths == 4 else 4
+    return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 2)))))
+
+
+def match_memory(h, w, n, paths, keep_cost):
+    """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
+    the band's Hamming distances and sums, the path states and their checkpoints."""
+    k = band_rows(h, paths)
+    cell = -(-n // 16) * 16 + 16
+    state_row = 2 * (16 + (w + 2) * cell)
+    c = 1 if paths == 4 else 4
+    checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
+    cost = h * w * n if keep_cost else k * w * n
+    return cost + (k + 14) * w * n + 4 * k * w * n + 10 * state_row + checkpoints
+
+
+def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
+                 p1, p2, paths, uniqueness, budget=None):
+    cl_ = _plain(be, census_left, "census_left", np.uint64)
+    cr = _plain(be, census_right, "census_right", np.uint64)
+    for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
+                        (margin, "margin", np.float32)):
+        _plain(be, a, name, dt)
+        _check_written(a, name)
+    h, w = disp.shape
+    n = int(n_disp)
+    if be.kind != "cpu":
+        # GPUs: whole int16 volumes, each path's lines in parallel (disparity() checks the
+        # device's memory before allocating)
+        cost = be.empty((h, w, n), np.int16)
+        launch_cost(be, cl_, cr, cost, first_step, steps, block)
+        agg = be.empty((h, w, n), np.int16)
+        launch_sgm(be, cost, agg, p1, p2, paths)
+        del cost
+        return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
+    # CPUs: bands of k rows through the two sweeps (one per core).  The up sweep's state at
+    # each band's top is kept from a first, checkpointing up sweep, and each band's up sums are
+    # recomputed from its checkpoint: O(k W D + (H / k) W D) for the sums instead of (H, W, D)
+    # volumes.  The byte costs of the whole image are kept between the two sweeps when
+    # ``budget`` allows (H W D bytes), else computed again for each band.
+    keep = budget is None or match_memory(h, w, n, paths, True) <= budget
+    k = band_rows(h, paths)
+    ri = _interleave(be, cr, h, w, steps, n)
+    ham = be.empty((k + 2 * (block // 2), w, n), np.uint8)
+    cost = be.empty((h if keep else k, w, n), np.uint8)
+    down, up = be.empty((k, w, n), np.int16), be.empty((k, w, n), np.int16)
+    state, state_min = _sgm_state(be, w, n)
+    bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
+    # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
+    # and the matching rows of the minima
+    srow = state.shape[2] * 2
+    st_off, st_len = (5 + 1) * srow, (4 if paths == 8 else 1) * srow
+    mrow = state_min.shape[2] * 2
+    mn_off, mn_len = 4 * mrow, (4 if paths == 8 else 1) * mrow
+    ckpt = be.empty((max(len(bands) - 1, 1), st_len // 2), np.int16)
+    ckpt_min = be.empty((max(len(bands) - 1, 1), mn_len // 2), np.int16)
+
+    def copy(dst, src, nbytes, dst_off, src_off):
+        evt = be._cl.enqueue_copy(be.queue, dst.data, src.data, byte_count=nbytes, dst_offset=dst_off,
+                                  src_offset=src_off, wait_for=(src.events + dst.events) or None)
+        dst.add_event(evt)
+
+    def band_cost(y0, rows):
+        row0 = y0 if keep else 0
+        _band_cost(be, cl_, ri, cost, ham, y0, rows, row0, h, w, first_step, steps, block)
+        return row0
+
+    # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep
+    # starts from checkpoint b + 1: the state after the first row of band b + 1)
+    for b in range(len(bands) - 1, 0, -1):
+        y0, rows = bands[b]
+        row0 = band_cost(y0, rows)
+        _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
+                     init=2 if b == len(bands) - 1 else 0, active=2, write_up=False)
+        copy(ckpt, state, st_len, (b - 1) * st_len, st_off)
+        copy(ckpt_min, state_min, mn_len, (b - 1) * mn_len, mn_off)
+    # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
+    for b, (y0, rows) in enumerate(bands):
+        last = b == len(bands) - 1
+        row0 = band_cost(y0, rows) if (b == 0 or not keep) else y0
+        if not last:
+            copy(state, ckpt, st_len, st_off, b * st_len)
+            copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
+        _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
+                     init=(1 if b == 0 else 0) | (2 if last else 0), active=3)
+        _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness)
+    return disp, disp_right, margin
+
+
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
     _plain(be, state, "state", np.float32)

@@ -7,11 +7,14 @@ the launchers that :mod:`gfgpu.stereo.kernels` registers.
 
 # ruff: noqa: UP018 - int(0) / float(0.0) declare Warp's dynamic (mutable-in-loop) variables
 
+import numpy as np
 import warp as wp
 
-from ..specs import SGM_PATHS
+from ..specs import COST_MAX, SGM_PATHS
 
 wp.set_module_options({"enable_backward": False})
+
+_COST_MAX = wp.constant(COST_MAX)
 
 NO_MATCH = -2147483647 - 1
 _INT_MAX = 2147483647
@@ -75,7 +78,7 @@ def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64)
         for u in range(-r, r + 1):
             xx = wp.clamp(x + u, 0, w - 1)
             total = total + _popcount(cl[0, yy, xx] ^ cr[f, yy, xx - n])
-    out[y, x, k] = wp.int16(total)
+    out[y, x, k] = wp.int16(wp.min(total, _COST_MAX))
 
 
 @wp.kernel
@@ -274,6 +277,18 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
                     inputs=[aggregated, disp, disp_right, margin, int(d_min), int(steps), int(uniqueness)],
                     device=be._device)
     return disp, disp_right, margin
+
+def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
+                 p1, p2, paths, uniqueness, budget=None):
+    # whole (H, W, D) volumes: each path's lines run in parallel (GPUs; disparity() checks the
+    # memory before allocating)
+    h, w = disp.shape
+    cost = be.empty((h, w, int(n_disp)), np.int16)
+    launch_cost(be, census_left, census_right, cost, first_step, steps, block)
+    agg = be.empty((h, w, int(n_disp)), np.int16)
+    launch_sgm(be, cost, agg, p1, p2, paths)
+    del cost
+    return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
     ls = _contiguous(be, left_shifted, "left_shifted")
