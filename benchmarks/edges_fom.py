@@ -35,6 +35,10 @@ What is measured
   - ``gfgpu``   gfgpu.canny: the chapter's D(x) with a = 1.1, eta = 3.5 (gradient on the default
                 backend, or --backend), interpolated NMS, hysteresis;
   - ``skimage`` skimage.feature.canny (Gaussian smoothing + Sobel, bilinear NMS, hysteresis);
+  - ``cv2``     cv2.Canny after cv2.GaussianBlur at sigma (the scale matched as for skimage: the
+                same sigma grid): Sobel derivatives of the blurred float32 image, scaled to int16,
+                passed to cv2.Canny(dx, dy, low, high, L2gradient=True) with the thresholds at the
+                (low, high) quantiles of the gradient magnitude -- only when cv2 is importable;
   - ``deriche`` cv2.ximgproc.GradientDericheY/X + gfgpu's NMS (numpy reference) + the same
                 hysteresis -- only when cv2.ximgproc (opencv-contrib) is importable.
 
@@ -52,7 +56,9 @@ What is measured
 
 * Timing: each detector on a 2048 x 2048 float32 noisy image (best of 3 after a warm-up, host
   array in, host edge map out): gfgpu.canny (u = 2) on the numpy, warp and opencl backends
-  (those that run), skimage.feature.canny(sigma=2), and the Deriche variant if available.
+  (those that run, or the devices of --backends), skimage.feature.canny(sigma=2),
+  cv2.GaussianBlur(sigma=2) + cv2.Canny (quantile thresholds computed beforehand), and the Deriche
+  variant if available.
 
 * Figures (matplotlib, Agg): docs/edges_camera.png (skimage.data.camera(): gfgpu at u = 0.05
   and u = 1, as in the chapter's Fig. 3, and skimage at sigma = 1 and 2) and docs/edges_fom.png
@@ -63,6 +69,7 @@ Usage
     python benchmarks/edges_fom.py                 # full run: 20 draws, 128 x 128
     python benchmarks/edges_fom.py --quick         # small grids, 4 draws, 512^2 timing (< 1 min)
     python benchmarks/edges_fom.py --draws 40 --size 256 --backend warp --no-figures
+    python benchmarks/edges_fom.py --timing-only --timing-size 4096 --backends warp:cuda:0,opencl:1
 """
 
 from __future__ import annotations
@@ -224,6 +231,39 @@ def have_ximgproc():
         return False
 
 
+def have_cv2():
+    try:
+        import cv2  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def cv2_gradient(img, sigma):
+    """Sobel derivatives of cv2.GaussianBlur(img, sigma) (float32, reflected borders)."""
+    import cv2
+    blur = cv2.GaussianBlur(np.ascontiguousarray(img, dtype=np.float32), (0, 0), sigma,
+                            borderType=cv2.BORDER_REFLECT)
+    return (cv2.Sobel(blur, cv2.CV_32F, 0, 1, ksize=3, borderType=cv2.BORDER_REFLECT),
+            cv2.Sobel(blur, cv2.CV_32F, 1, 0, ksize=3, borderType=cv2.BORDER_REFLECT))
+
+
+def cv2_canny_from(gy, gx, low, high):
+    """cv2.Canny on given derivatives: int16 (scaled to the full range), L2 magnitude."""
+    import cv2
+    scale = 32000.0 / max(float(np.abs(gx).max()), float(np.abs(gy).max()), 1e-30)
+    dx = np.rint(gx * scale).astype(np.int16)
+    dy = np.rint(gy * scale).astype(np.int16)
+    return cv2.Canny(dx, dy, low * scale, high * scale, L2gradient=True) > 0
+
+
+def cv2_canny(img, sigma, low_q, high_q):
+    """cv2.GaussianBlur + cv2.Canny with quantile thresholds of the gradient magnitude."""
+    gy, gx = cv2_gradient(img, sigma)
+    low, high = np.percentile(np.hypot(gy, gx), [100.0 * low_q, 100.0 * high_q])
+    return cv2_canny_from(gy, gx, low, high)
+
+
 def deriche_gradient(img, alpha, omega=1e-3):
     import cv2
     src = np.ascontiguousarray(img, dtype=np.float32)
@@ -274,7 +314,7 @@ def check_fast_path(target, backend, scales, pairs):
     return worst
 
 
-def run_fom(targets, args, backend, grids, deriche):
+def run_fom(targets, args, backend, grids, deriche, opencv=False):
     """FOM arrays: detector -> array [image, snr, scale, pair, draw]."""
     import skimage.feature as skf
     pairs = grids["pairs"]
@@ -282,6 +322,8 @@ def run_fom(targets, args, backend, grids, deriche):
     nimg, nsnr, nd, npair = len(targets), len(SNRS), args.draws, len(pairs)
     res = {"gfgpu": np.zeros((nimg, nsnr, len(grids["u"]), npair, nd)),
            "skimage": np.zeros((nimg, nsnr, len(grids["sigma"]), npair, nd))}
+    if opencv:
+        res["cv2"] = np.zeros((nimg, nsnr, len(grids["sigma"]), npair, nd))
     if deriche:
         res["deriche"] = np.zeros((nimg, nsnr, len(grids["alpha"]), npair, nd))
     defaults = {"gfgpu": np.zeros((nimg, nsnr, nd)), "skimage": np.zeros((nimg, nsnr, nd))}
@@ -303,6 +345,16 @@ def run_fom(targets, args, backend, grids, deriche):
         defaults["skimage"][i, j, k] = t.fom(skf.canny(img))
         t2 = time.perf_counter()
         secs["skimage"] += t2 - t1
+        if opencv:
+            for a, sig in enumerate(grids["sigma"]):
+                gy, gx = cv2_gradient(img, sig)
+                mag = np.hypot(gy, gx)
+                qs = np.percentile(mag, [100.0 * q for p in pairs for q in p]).reshape(-1, 2)
+                for p, (low, high) in enumerate(qs):
+                    res["cv2"][i, j, a, p, k] = t.fom(cv2_canny_from(gy, gx, low, high))
+            t3 = time.perf_counter()
+            secs["cv2"] += t3 - t2
+            t2 = t3
         if deriche:
             for a, al in enumerate(grids["alpha"]):
                 gy, gx = deriche_gradient(img, al)
@@ -342,7 +394,9 @@ def fmt_q(q):
     return f"{q:.3f}".rstrip("0").lstrip("0") if q < 1 else "1"
 
 
-def time_detectors(size, deriche):
+def time_detectors(size, deriche, backends=None):
+    """Rows (detector, backend / device, ms, Mpix/s) on one noisy disc image; ``backends``:
+    ``name`` or ``name:device`` entries (default numpy, warp, opencl on their default devices)."""
     import skimage.feature as skf
     rng = np.random.default_rng(7)
     yy, xx = np.mgrid[:size, :size]
@@ -360,16 +414,30 @@ def time_detectors(size, deriche):
             ts.append(time.perf_counter() - t0)
         return min(ts)
 
-    for be in ("numpy", "warp", "opencl"):
+    for spec in backends or ("numpy", "warp", "opencl"):
         label = f"gfgpu.canny u=2 (D(x), a={EDGE_A}, eta={EDGE_ETA})"
+        name, _, device = spec.partition(":")
         try:
-            desc = str(gfgpu.backends.get_backend(be)).replace("<gfgpu backend ", "").rstrip(">")
+            be = gfgpu.backends.get_backend(name, device or None)
+            desc = str(be).replace("<gfgpu backend ", "").rstrip(">")
             t = bench(lambda be=be: gfgpu.canny(img, 2.0, backend=be))
             rows.append((label, desc, f"{1e3 * t:.1f}", f"{mpix / t:.1f}"))
         except Exception as exc:
-            rows.append((label, be, "unavailable", f"{type(exc).__name__}: {str(exc).splitlines()[0][:70]}"))
+            rows.append((label, spec, "unavailable", f"{type(exc).__name__}: {str(exc).splitlines()[0][:70]}"))
     t = bench(lambda: skf.canny(img, 2.0))
     rows.append(("skimage.feature.canny sigma=2", "numpy/scipy (host)", f"{1e3 * t:.1f}", f"{mpix / t:.1f}"))
+    if have_cv2():
+        import cv2
+        # thresholds: skimage's defaults as quantiles are not comparable; use the quantiles
+        # (0.8, 0.9) of the magnitude, computed once outside the timing
+        gy, gx = cv2_gradient(img, 2.0)
+        low, high = np.percentile(np.hypot(gy, gx), [80.0, 90.0])
+        t = bench(lambda: cv2_canny_from(*cv2_gradient(img, 2.0), low, high))
+        rows.append(("cv2.GaussianBlur sigma=2 + Sobel + cv2.Canny (L2)",
+                     f"OpenCV {cv2.__version__}, {cv2.getNumThreads()} threads", f"{1e3 * t:.1f}",
+                     f"{mpix / t:.1f}"))
+    else:
+        rows.append(("cv2.Canny", "-", "skipped", "cv2 not installed"))
     if deriche:
         try:
             t = bench(lambda: deriche_canny(img, 0.5, 0.8, 0.9))
@@ -380,6 +448,15 @@ def time_detectors(size, deriche):
     else:
         rows.append(("cv2.ximgproc Deriche", "-", "skipped", "cv2.ximgproc not installed (opencv-contrib)"))
     return rows
+
+
+def print_timing(tsize, deriche, backends=None):
+    print(f"\n## Timing: {tsize}x{tsize} float32 noisy image, best of 3 after a warm-up "
+          f"(host in, host out; default thresholds for gfgpu and skimage)\n")
+    print("| detector | backend / device | ms | Mpix/s |")
+    print("|---|---|---|---|")
+    for row in time_detectors(tsize, deriche, backends):
+        print("| " + " | ".join(row) + " |")
 
 
 # --------------------------------------------------------------------------------------
@@ -413,7 +490,7 @@ def figure_fom(path, bests, defaults, names):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    colors = {"gfgpu": "C0", "skimage": "C1", "deriche": "C2"}
+    colors = {"gfgpu": "C0", "skimage": "C1", "deriche": "C2", "cv2": "C3"}
     fig, axes = plt.subplots(2, len(IMAGES), figsize=(4.2 * len(IMAGES), 7.0), sharex=True,
                              layout="constrained")
     for i, name in enumerate(IMAGES):
@@ -450,7 +527,20 @@ def main(argv=None):
     ap.add_argument("--timing-size", type=int, default=None, help="timing image size (default 2048)")
     ap.add_argument("--no-figures", action="store_true")
     ap.add_argument("--no-timing", action="store_true")
+    ap.add_argument("--timing-only", action="store_true", help="print the timing table only")
+    ap.add_argument("--backends", default=None,
+                    help="comma-separated gfgpu backends of the timing table, 'name' or 'name:device' "
+                         "(default numpy,warp,opencl)")
     args = ap.parse_args(argv)
+    if args.timing_size is not None and args.timing_size < 16:
+        ap.error(f"--timing-size must be at least 16, got {args.timing_size}")
+    timing_backends = [b for b in (args.backends or "").split(",") if b] or None
+    if args.timing_only:
+        print("# Edge detection: speed\n")
+        if not have_cv2():
+            print("- cv2 not installed: the cv2.Canny row is skipped")
+        print_timing(args.timing_size or 2048, have_ximgproc(), timing_backends)
+        return
     if args.quick:
         if args.draws == 20:
             args.draws = 4
@@ -469,6 +559,7 @@ def main(argv=None):
     t_start = time.perf_counter()
 
     deriche = have_ximgproc()
+    opencv = have_cv2()
     _, be, tried = pick_backend(args.backend)
     print("# Edge detection: Pratt's figure of merit and speed\n")
     print(f"Images {args.size}x{args.size}, contrast 1, additive Gaussian noise, SNR = contrast / sigma_noise "
@@ -476,6 +567,8 @@ def main(argv=None):
           f"FOM alpha = 1/9. gfgpu D(x): a = {EDGE_A}, eta = {EDGE_ETA}; FOM runs on backend {be}.")
     for line in tried:
         print(f"- backend fallback: {line}")
+    if not opencv:
+        print("- cv2 not installed: the cv2.Canny detector is skipped.")
     if not deriche:
         print("- Deriche detector skipped: cv2.ximgproc is not available "
               "(opencv-python-headless has no contrib modules).")
@@ -497,10 +590,10 @@ def main(argv=None):
           f"{mism} differing pixels (worst of 9 checks)")
     sys.stdout.flush()
 
-    res, defaults, secs = run_fom(targets, args, be, grids, deriche)
+    res, defaults, secs = run_fom(targets, args, be, grids, deriche, opencv)
     names = list(res)
-    scales = {"gfgpu": grids["u"], "skimage": grids["sigma"], "deriche": grids["alpha"]}
-    sym = {"gfgpu": "u", "skimage": "σ", "deriche": "α"}
+    scales = {"gfgpu": grids["u"], "skimage": grids["sigma"], "cv2": grids["sigma"], "deriche": grids["alpha"]}
+    sym = {"gfgpu": "u", "skimage": "σ", "cv2": "σ", "deriche": "α"}
     bests = {d: best(res[d], scales[d], grids["pairs"]) for d in names}
 
     print(f"\n## Best parameters per (image, SNR): mean ± std FOM over {args.draws} draws\n")
@@ -542,12 +635,7 @@ def main(argv=None):
           f"{len(grids['sigma']) * len(grids['pairs'])} canny calls per draw).")
 
     if not args.no_timing:
-        print(f"\n## Timing: {tsize}x{tsize} float32 noisy image, best of 3 after a warm-up "
-              f"(host in, host out; default thresholds)\n")
-        print("| detector | backend / device | ms | Mpix/s |")
-        print("|---|---|---|---|")
-        for row in time_detectors(tsize, deriche):
-            print("| " + " | ".join(row) + " |")
+        print_timing(tsize, deriche, timing_backends)
 
     if not args.no_figures:
         os.makedirs(DOCS, exist_ok=True)

@@ -9,6 +9,11 @@ memory-bound) for, on a SIZE x SIZE float32 image:
 * ``gfgpu.shift`` by (1.5, 2.5) (two passes) and ``gfgpu.gradient`` (u = 1, 8 passes);
 * the public ``gfgpu.shift`` by (3.25, -7.5), numpy in and numpy out, with the Green and the
   cubic fractional part, beside ``scipy.ndimage.shift`` (order 1 and 3);
+* host in/out of one pass: ``gfgpu.shift(img, (0, 3))`` (an integer translation, one pass),
+  numpy in and numpy out, into a given ``output=`` array (the public call, the finite check
+  included) and into a new array, beside the same translation as the primitive on
+  device-resident arrays (``backend.translate``) and beside ``numpy.copyto`` and
+  ``img.copy()`` (a new array: its first-touch page faults are part of any numpy-out call);
 * an accuracy table of ``shift`` (rel. L2 against the exact Fourier shift of a band-limited
   256 x 256 image, mode wrap) for the shifts of the core issue, every backend, beside scipy;
 * peers: scipy.signal.lfilter with the same 2-pole recursion, scipy.ndimage.convolve1d with
@@ -18,6 +23,9 @@ memory-bound) for, on a SIZE x SIZE float32 image:
 and the cold compile time of each backend (a fresh process with empty kernel caches).
 
 Usage:  python benchmarks/filters.py [--size 4096] [--repeat 5] [--backends numpy,warp,opencl]
+                                    [--no-cold] [--no-accuracy]
+
+A backend may name its device as ``GFGPU_BACKEND`` does: ``--backends warp:cuda:0,opencl:1``.
 """
 
 from __future__ import annotations
@@ -33,7 +41,7 @@ import numpy as np
 
 import gfgpu
 from gfgpu import greens
-from gfgpu._core import recursion
+from gfgpu._core import recursion, translation
 from gfgpu.backends import get_backend
 
 U = 3.0
@@ -51,13 +59,14 @@ def best_time(fn, repeat, sync=lambda: None):
     return min(times)
 
 
-def cold_compile(name):
+def cold_compile(name, device=None):
     """Seconds for the first and the second tiny call in a fresh process with empty caches."""
     code = (
         "import time, numpy as np, gfgpu\n"
         "img = np.ones((64, 64), np.float32)\n"
-        f"t0 = time.perf_counter(); gfgpu.gradient(img, 1.0, backend={name!r}); t1 = time.perf_counter()\n"
-        f"gfgpu.gradient(img, 1.0, backend={name!r}); t2 = time.perf_counter()\n"
+        f"t0 = time.perf_counter(); gfgpu.gradient(img, 1.0, backend={name!r}, device={device!r})\n"
+        "t1 = time.perf_counter()\n"
+        f"gfgpu.gradient(img, 1.0, backend={name!r}, device={device!r}); t2 = time.perf_counter()\n"
         "print(t1 - t0, t2 - t1)\n")
     with tempfile.TemporaryDirectory() as tmp:
         env = dict(os.environ, WARP_CACHE_PATH=os.path.join(tmp, "warp"),
@@ -91,6 +100,16 @@ def bench_backend(be, img, repeat, record):
     record(f"{tag}: gradient u=1", best_time(
         lambda: gfgpu.gradient(dev, 1.0, backend=be), repeat, sync), "8 passes, 2 outputs")
     host_out = np.empty_like(img)
+    # host in/out of one pass: the integer translation (0, 3), public call and primitive
+    line_axis = 2
+    index = translation.window_index(n, 3, 0, "reflect")
+    record(f"{tag}: shift (0, 3), translate (primitive)", best_time(
+        lambda: be.translate(src3, dst3, line_axis, index, 0.0), repeat, sync), "device arrays, one pass")
+    record(f"{tag}: shift (0, 3), numpy in/out, output=", best_time(
+        lambda: gfgpu.shift(img, (0, 3), output=host_out, backend=be), repeat),
+        "public call: finite check + pass + result on the host")
+    record(f"{tag}: shift (0, 3), numpy in/out, new array", best_time(
+        lambda: gfgpu.shift(img, (0, 3), backend=be), repeat), "as above, into a new array (compare img.copy())")
     for interp in ("green", "cubic"):
         record(f"{tag}: shift (3.25, -7.5), {interp}, numpy in/out", best_time(
             lambda interp=interp: gfgpu.shift(img, SHIFT, interpolation=interp, output=host_out, backend=be),
@@ -137,6 +156,7 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=5)
     ap.add_argument("--backends", default="numpy,warp,opencl")
     ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile measurement")
+    ap.add_argument("--no-accuracy", action="store_true", help="skip the shift accuracy table")
     args = ap.parse_args(argv)
 
     n = args.size
@@ -151,6 +171,7 @@ def main(argv=None):
     # ---- memory bound and peers ----------------------------------------------------
     dst = np.empty_like(img)
     record("numpy.copyto (memory bound)", best_time(lambda: np.copyto(dst, img), args.repeat))
+    record("img.copy() (a new array)", best_time(img.copy, args.repeat), "copy + first touch of new memory")
     from scipy import ndimage, signal
     r = np.exp(-1 / U)
     b = [0.0, (2 / U) * r * np.sin(1 / U)]
@@ -183,16 +204,17 @@ def main(argv=None):
     # ---- gfgpu backends ---------------------------------------------------------------
     cold = {}
     used = []
-    for name in args.backends.split(","):
+    for spec in filter(None, args.backends.split(",")):
+        name, _, device = spec.partition(":")
         try:
-            be = get_backend(name)
+            be = get_backend(name, device or None)
         except Exception as exc:  # report and carry on with the others
-            print(f"# {name}: unavailable ({exc})", file=sys.stderr)
+            print(f"# {spec}: unavailable ({exc})", file=sys.stderr)
             continue
         used.append(be)
         bench_backend(be, img, args.repeat, record)
         if not args.no_cold:
-            cold[name] = cold_compile(name)
+            cold[spec] = cold_compile(name, device or None)
 
     copy = rows["numpy.copyto (memory bound)"][0]
     lfilter_rows = rows["scipy.signal.lfilter, rows"][0]
@@ -201,8 +223,9 @@ def main(argv=None):
     print("|---|---:|---:|---:|---|")
     for name, (rate, note) in rows.items():
         print(f"| {name} | {rate:,.0f} | {rate / copy:.3f} | {rate / lfilter_rows:.2f} | {note} |")
-    print("\nshift accuracy: rel. L2 against the exact Fourier shift, band-limited 256x256 float32, mode wrap\n")
-    print("\n".join(shift_accuracy(used)))
+    if not args.no_accuracy:
+        print("\nshift accuracy: rel. L2 against the exact Fourier shift, band-limited 256x256 float32, mode wrap\n")
+        print("\n".join(shift_accuracy(used)))
     if cold:
         print("\n| backend | first call, empty caches (s) | next call (s) |")
         print("|---|---:|---:|")

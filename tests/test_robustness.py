@@ -316,3 +316,38 @@ def test_device_outputs_and_inputs_of_the_wrong_kind_are_clear_errors(require_ba
         gfgpu.shift(cla.to_device(be.queue, img), (0, 1.5), backend="numpy")
     with pytest.raises(TypeError, match="shift must be a real number"):
         gfgpu.shift(img, True)
+
+
+@pytest.mark.parametrize("where", [0, -1, 70000])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_nonfinite_input_is_refused_and_the_output_left_untouched(backend, where, bad):
+    # large enough for the host-memory paths (zero-copy views, the check fused into the pass)
+    img = np.linspace(0, 1, 300 * 301, dtype=np.float32).reshape(300, 301)
+    img.reshape(-1)[where] = bad
+    for call in (lambda **kw: gfgpu.shift(img, (0, 3), backend=backend, **kw),      # one fused pass
+                 lambda **kw: gfgpu.shift(img, (-2, 3), backend=backend, **kw),     # two passes
+                 lambda **kw: gfgpu.shift(img, (0, 2.5), backend=backend, **kw)):   # a recursion
+        with pytest.raises(ValueError, match="input contains NaN or infinite values"):
+            call()
+        out = np.full(img.shape, 7.0, np.float32)
+        with pytest.raises(ValueError, match="input contains NaN or infinite values"):
+            call(output=out)
+        assert (out == 7.0).all()              # nothing written before the error
+
+
+@pytest.mark.parametrize("shift", [(0, 3), (-5, 0), (0, -400), (2, -1)])
+@pytest.mark.parametrize("mode", ["reflect", "constant", "wrap", "nearest", "mirror"])
+def test_integer_translation_is_index_arithmetic_on_every_backend(backend, shift, mode, rng):
+    # numpy.pad builds each mode's extension independently of the translate primitive
+    img = rng.random((37, 300)).astype(np.float32)
+    pad_mode = {"reflect": "symmetric", "mirror": "reflect", "nearest": "edge", "wrap": "wrap",
+                "constant": "constant"}[mode]
+    big = 450
+    ext = np.pad(img, big, mode=pad_mode, **({"constant_values": 1.25} if mode == "constant" else {}))
+    dy, dx = shift
+    ref = ext[big - dy:big - dy + 37, big - dx:big - dx + 300]
+    out = np.empty_like(img)
+    res = gfgpu.shift(img, shift, mode=mode, cval=1.25, output=out, backend=backend)
+    assert res is out
+    np.testing.assert_array_equal(out, ref)
+    np.testing.assert_array_equal(gfgpu.shift(img, shift, mode=mode, cval=1.25, backend=backend), ref)

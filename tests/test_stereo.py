@@ -450,3 +450,37 @@ def test_estimate_max_disparity():
     assert stereo.estimate_max_disparity(tiny, tiny, backend="numpy") == 7      # W // 4 fallback
     with pytest.raises(ValueError, match="factor"):
         stereo.estimate_max_disparity(left, right, factor=1)
+
+
+def test_band_matcher_keeps_or_recomputes_costs_with_the_same_result(require_backend, monkeypatch):
+    # issue 14, item 2: the CPU OpenCL matcher streams bands of rows; with a working set too
+    # small for the byte cost volume it recomputes each band's costs (bit-identical maps), and
+    # a working set too small even for the bands is refused before any work
+    import gfgpu
+    from gfgpu.backends.opencl.stereo import band_rows
+    be = require_backend("opencl")
+    if be.kind != "cpu":
+        pytest.skip("the band matcher runs on OpenCL CPU devices")
+    left, right, _ = random_dot_pair(slanted, shape=(90, 72), seed=5)
+    monkeypatch.setattr("gfgpu.backends.opencl.stereo.BAND_BYTES", 1)   # bands of the fewest rows
+    assert band_rows(90, 4, 72, 16) < 90                # several bands, checkpoints
+    keep = stereo.disparity(left, right, 12, min_disparity=-3, backend=be)
+    full = stereo.disparity_memory(left.shape, 12, min_disparity=-3, backend=be)
+    with gfgpu.working_set(full - 90 * 72 * 8):        # no room for the (H, W, D) byte costs
+        again = stereo.disparity(left, right, 12, min_disparity=-3, backend=be)
+        assert stereo.disparity_memory(left.shape, 12, min_disparity=-3, backend=be) < full
+    np.testing.assert_array_equal(again, keep)
+    ref = stereo.disparity(left, right, 12, min_disparity=-3, backend="numpy")
+    np.testing.assert_allclose(keep, ref, atol=1e-5)
+    with gfgpu.working_set("64K"), pytest.raises(ValueError, match="working set"):
+        stereo.disparity(left, right, 12, min_disparity=-3, backend=be)
+
+
+def test_band_matcher_memory_stays_below_a_volume():
+    # the CPU matcher's working memory grows like H W D bytes (costs), not like the 4-6 bytes per
+    # sample of whole int16 volumes; with the costs recomputed, far below that
+    from gfgpu.backends.opencl.stereo import match_memory
+    h, w, n = 1000, 1500, 192
+    assert match_memory(h, w, n, 4, True) < 1.3 * h * w * n
+    assert match_memory(h, w, n, 4, False) < 0.35 * h * w * n
+    assert match_memory(h, w, n, 8, False) < 0.55 * h * w * n

@@ -11,8 +11,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import strips
-from .program import run_passes
+from .program import is_translation, run_passes, run_translation_checked
 from .validation import host_all_finite, work_dtype
+
+NONFINITE = "input contains NaN or infinite values"
 
 __all__ = ["Job", "apply_program", "copy_of_input"]
 
@@ -62,10 +64,11 @@ class Job:
             self.dtype = out_dtype
             self.output = None
         if self.host_input:
-            if not host_all_finite(arr):
-                raise ValueError("input contains NaN or infinite values")
-            self.source = arr           # converted and placed on the device when first used
+            # the finite check runs before the input is first used: on the device that reads it,
+            # or fused into the first pass (apply_program), one read of the image instead of two
+            self._source = arr          # converted and placed on the device when first used
             self._data = None
+            self.check_pending = arr.dtype.kind not in "biu"   # integers hold no NaN or infinity
         else:
             dev_dtype = np.dtype(be.dtype_of(arr))
             if dev_dtype not in (np.float32, np.float64):
@@ -76,16 +79,37 @@ class Job:
             if work_dtype(be.dtype_of(arr)) != self.dtype:
                 raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
             if not be.all_finite(arr):
-                raise ValueError("input contains NaN or infinite values")
-            self.source = self._data = arr
+                raise ValueError(NONFINITE)
+            self._source = self._data = arr
+            self.check_pending = False
         if self.output is not None:
             self._check_output(self.output)
 
     @property
+    def source(self):
+        """The caller's input (host images: checked to be finite first)."""
+        if self.check_pending:
+            if not host_all_finite(self._source):
+                raise ValueError(NONFINITE)
+            self.check_pending = False
+        return self._source
+
+    @property
     def data(self):
-        """The input as a device array of the work dtype (host images: uploaded on first use)."""
+        """The input as a device array of the work dtype (host images: uploaded on first use
+        and checked to be finite)."""
+        data = self.unchecked_data()
+        if self.check_pending:
+            if not self.backend.input_finite(self._source, data):
+                raise ValueError(NONFINITE)
+            self.check_pending = False
+        return data
+
+    def unchecked_data(self):
+        """:attr:`data` without the finite check: the caller runs it, fused into a pass
+        (:func:`apply_program`), before any result reaches the caller."""
         if self._data is None:
-            self._data = self.backend.host_view(np.ascontiguousarray(self.source, dtype=self.dtype))
+            self._data = self.backend.host_view(np.ascontiguousarray(self._source, dtype=self.dtype))
         return self._data
 
     @property
@@ -126,10 +150,10 @@ class Job:
             if out is None:
                 return be.host_result(self.shape, self.dtype)
             direct = (out.dtype == self.dtype and out.flags.c_contiguous and out.flags.writeable
-                      and not np.may_share_memory(out, self.source))
+                      and not np.may_share_memory(out, self._source))
             return be.host_result(self.shape, self.dtype, into=out) if direct else self.empty()
         if (out is not None and be.dtype_of(out) == self.dtype and be.is_contiguous(out)
-                and not be.may_share_memory(out, self.source)):
+                and not be.may_share_memory(out, self._source)):
             return out
         return self.empty()
 
@@ -165,8 +189,18 @@ def apply_program(job, program, mode, cval):
         return job.finish(copy_of_input(job))
     bufs = [job.empty() for _ in range(min(2, len(steps)))]
     bufs[(len(steps) - 1) % 2] = job.result_buffer()
-    cur = job.data
-    for i, (passes, axis, angle) in enumerate(steps):
+    done = 0
+    passes, axis, angle = steps[0]
+    # the finite check fused into a first translation, unless that pass writes the caller's own
+    # output array (which a non-finite input must leave untouched)
+    if job.check_pending and is_translation(passes, angle) and (len(steps) > 1 or job.output is None):
+        if not run_translation_checked(job.backend, job.unchecked_data(), bufs[0], passes, mode, cval, axis,
+                                       job.shape):
+            raise ValueError(NONFINITE)
+        job.check_pending = False
+        done = 1
+    cur = bufs[0] if done else job.data
+    for i, (passes, axis, angle) in enumerate(steps[done:], start=done):
         nxt = bufs[i % 2]
         run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle,
                    plane=program.plane, shape=job.shape)

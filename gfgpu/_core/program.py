@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
@@ -16,11 +17,19 @@ import numpy as np
 from .lines import axis_view_shape, direction, normalize_axis
 from .oblique import run_oblique_passes
 from .recursion import plan_pass
-from .translation import crop_index, decay_length, padded_view, step_offset, translate_index, without_offset
+from .translation import (
+    crop_index,
+    decay_length,
+    padded_view,
+    step_offset,
+    translate_index,
+    window_index,
+    without_offset,
+)
 from .validation import finite_scalar
 
-__all__ = ["Program", "run_passes", "run_steps", "direction_steps", "plane_axes", "axes_list",
-           "per_axis", "is_axis_angle"]
+__all__ = ["Program", "run_passes", "run_translation_checked", "run_steps", "direction_steps", "plane_axes",
+           "axes_list", "per_axis", "is_axis_angle", "is_translation", "line_index"]
 
 
 class Program(NamedTuple):
@@ -68,8 +77,7 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
             be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
         return dst
     if len(passes) == 1 and passes[0].is_identity:
-        be.gather(be.reshape(src, (-1,)), translate_index(view, line_axis, offset, 0, mode), cval,
-                  be.reshape(dst, (-1,)))
+        be.translate(s3, d3, line_axis, line_index(n, offset, mode), cval)
         return dst
     pad = decay_length(passes, dtype)
     view, line_axis, padded = padded_view(shape, axis, pad)
@@ -84,6 +92,28 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
         be.recurse(window, result, line_axis, plan, cval, accumulate=i > 0)
     be.gather(be.reshape(result, (-1,)), crop_index(view, line_axis, pad), 0.0, be.reshape(dst, (-1,)))
     return dst
+
+
+@lru_cache(maxsize=32)
+def line_index(n, offset, mode):
+    """The source index of each sample of a line of ``n`` translated by ``offset`` (-1: cval),
+    read-only: backends cache its upload by identity."""
+    index = window_index(n, offset, 0, mode)
+    index.setflags(write=False)
+    return index
+
+
+def is_translation(passes, angle):
+    """True when a step is a pure integer translation along an axis (one :meth:`translate`)."""
+    return angle is None and len(passes) == 1 and passes[0].is_identity and passes[0].offset != 0
+
+
+def run_translation_checked(be, src, dst, passes, mode, cval, axis, shape):
+    """Run a pure translation step (:func:`is_translation`) and test, in the same read, that
+    ``src`` is finite; returns that bool (``dst`` is written either way)."""
+    view, line_axis = axis_view_shape(tuple(shape), axis)
+    return bool(be.translate(be.reshape(src, view), be.reshape(dst, view), line_axis,
+                             line_index(view[line_axis], step_offset(passes), mode), cval, check=True))
 
 
 def run_steps(be, data, dtype, steps, mode, cval, plane=None, shape=None):

@@ -154,6 +154,30 @@ class Backend:
         """
         raise NotImplementedError
 
+    def translate(self, src, dst, axis, index, cval=0.0, check=False):
+        """Integer translation of lines: one index per position, shared by every line.
+
+        ``src`` and ``dst`` are distinct C-contiguous ``(B, N, M)`` device arrays of one dtype;
+        along ``axis`` (1 or 2), ``dst`` at position ``k`` is ``src`` at ``index[k]``, or
+        ``cval`` where ``index[k] < 0`` (``index``: a host integer array of ``N`` or ``M``
+        elements, e.g. :func:`gfgpu._core.translation.window_index`).
+
+        With ``check=True`` the pass also tests, in the same read of ``src``, that every element
+        of ``src`` is finite, and returns that bool (``dst`` is then written either way); without
+        it, returns None.  The default is a :meth:`gather` with the full index.
+        """
+        from .._core.translation import _flat_index
+        finite = self.all_finite(src) if check else None
+        self.gather(self.reshape(src, (-1,)), _flat_index(tuple(src.shape), axis, index), cval,
+                    self.reshape(dst, (-1,)))
+        return finite
+
+    def input_finite(self, host, data) -> bool:
+        """True if the host input ``host``, placed on the device as ``data`` (its
+        :meth:`host_view`), holds no NaN or infinity; devices may test ``data`` in parallel."""
+        from .._core.validation import host_all_finite
+        return host_all_finite(host)
+
     # ---- pickling: by name, rebuilt in the receiving process ----------------------------
     @property
     def spec(self):

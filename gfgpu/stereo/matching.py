@@ -251,8 +251,9 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
     margin = be.empty((h, w), np.float32)
     # cost, aggregation and selection in one fused kernel: on CPUs it streams bands of rows
     # (memory O(band x W x D)), on GPUs it holds (H, W, D) volumes
+    budget = _budget(be)
     kernels.match(be, cen_l, cen_r, disp, right_steps, margin, d_min * steps, n_disp, steps, block, p1, p2,
-                  paths, uniqueness, _budget(be))
+                  paths, uniqueness, None if budget is None else budget - _sgm_base((h, w), steps))
     progress(1)
     disp, margin = be.to_host(disp), be.to_host(margin)
     if lr_check:
@@ -574,13 +575,18 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
                        int(subpixel_steps), paths, _budget(be))
 
 
+def _sgm_base(shape, steps):
+    # images, census codes (left and ``steps`` right planes), maps and the host's checks
+    return shape[0] * shape[1] * (16 * (1 + steps) + 40)
+
+
 def _sgm_memory(be, shape, n, steps, paths, budget, keep=None):
     h, w = shape
-    base = h * w * (16 * (1 + steps) + 40)
+    base = _sgm_base(shape, steps)
     if _streams_bands(be):
         from ..backends.opencl.stereo import match_memory
         if keep is None:
-            keep = budget is None or match_memory(h, w, n, paths, True) <= budget
+            keep = budget is None or base + match_memory(h, w, n, paths, True) <= budget
         return base + match_memory(h, w, n, paths, keep)
     return base + h * w * n * _SGM_BYTES.get(be.name, _SGM_BYTES_DEFAULT)
 

@@ -1,5 +1,6 @@
 """The ``backend`` fixture (tests/conftest.py): an unavailable backend is skipped, unless
-``GFGPU_TEST_BACKENDS`` requests it, which turns it into a failure; unknown names are an error.
+``GFGPU_TEST_BACKENDS`` requests it, which turns it into a failure; unknown names are an error;
+``name:device`` entries run the fixture on those devices (a device run skips host-only tests).
 
 Checked in a separate pytest run with Warp and PyOpenCL made unimportable."""
 import os
@@ -18,6 +19,9 @@ def test_every_backend(backend):
 
 def test_one_backend(require_backend):
     assert require_backend("warp").name == "warp"
+
+def test_host_only():
+    pass
 """
 
 # Warp and PyOpenCL cannot be imported in the child: both backends fail to load
@@ -45,7 +49,7 @@ def probe(tmp_path_factory):
 def test_unavailable_backends_are_skipped_unless_requested(probe):
     status, out = probe(None)
     assert status == 0, out
-    assert "1 passed, 3 skipped" in out, out
+    assert "2 passed, 3 skipped" in out, out
     assert "warp backend unavailable" in out and "opencl backend unavailable" in out, out
 
 
@@ -53,7 +57,7 @@ def test_a_requested_backend_that_does_not_load_fails(probe):
     status, out = probe(" numpy, warp ")
     assert status == 1, out
     # a fixture that fails reports its tests as errors ("ERROR at setup"): the run fails either way
-    assert "1 failed, 1 passed, 1 skipped, 1 error" in out, out
+    assert "1 failed, 2 passed, 1 skipped, 1 error" in out, out
     assert "ERROR test_probe.py::test_every_backend[warp]" in out, out
     assert "FAILED test_probe.py::test_one_backend" in out, out
     assert "requested by GFGPU_TEST_BACKENDS=' numpy, warp '" in out, out
@@ -64,3 +68,28 @@ def test_unknown_backend_names_are_an_error(probe):
     status, out = probe("numpy,bogus")
     assert status == 4, out           # pytest's usage error
     assert "GFGPU_TEST_BACKENDS='numpy,bogus' names unknown backend(s) 'bogus'" in out, out
+
+
+def test_device_entries_run_only_the_named_devices(probe):
+    status, out = probe("numpy:cpu")
+    assert status == 0, out
+    assert "PASSED test_probe.py::test_every_backend[numpy:cpu]" in out, out
+    # warp is not named in a device run, and the host-only test is not a device test
+    assert "1 passed, 2 skipped" in out, out
+    assert "warp is not named in GFGPU_TEST_BACKENDS='numpy:cpu'" in out, out
+    assert "host-only test" in out, out
+
+
+def test_a_requested_device_that_does_not_exist_fails(probe):
+    status, out = probe("numpy:cuda:0,warp")
+    assert status == 1, out
+    assert "ERROR test_probe.py::test_every_backend[numpy:cuda:0]" in out, out
+    assert "numpy:cuda:0 backend unavailable: BackendUnavailable: the numpy backend runs on the host only" in out, out
+    # not a device run (warp names no device): the host-only test runs
+    assert "PASSED test_probe.py::test_host_only" in out, out
+
+
+def test_unknown_names_with_devices_are_an_error(probe):
+    status, out = probe("bogus:cuda:0")
+    assert status == 4, out
+    assert "names unknown backend(s) 'bogus'" in out, out

@@ -194,3 +194,20 @@ class NumpyBackend(Backend):
         res[idx < 0] = cval
         out.reshape(-1)[...] = res
         return out
+
+    def translate(self, src, dst, axis, index, cval=0.0, check=False):
+        if axis not in (1, 2):
+            raise ValueError(f"axis must be 1 or 2, got {axis}")
+        if src.ndim != 3 or src.shape != dst.shape:
+            raise ValueError(f"src and dst must be 3-D arrays of one shape, got {src.shape} and {dst.shape}")
+        if np.may_share_memory(src, dst):
+            raise ValueError("dst may not overlap src")
+        idx = np.asarray(index).reshape(-1)
+        if idx.size != src.shape[axis]:
+            raise ValueError(f"index has {idx.size} elements, axis {axis} has {src.shape[axis]}")
+        finite = bool(np.isfinite(src).all()) if check else None
+        np.take(src, np.maximum(idx, 0), axis=axis, out=dst)
+        outside = [slice(None)] * 3
+        outside[axis] = idx < 0
+        dst[tuple(outside)] = cval
+        return finite

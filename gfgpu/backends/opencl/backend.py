@@ -13,6 +13,7 @@ the first process on a machine pays the compile time.
 from __future__ import annotations
 
 import atexit
+import ctypes
 import os
 import shutil
 import tempfile
@@ -22,6 +23,7 @@ from functools import cache
 
 import numpy as np
 
+from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 
 REALS = (np.dtype(np.float32), np.dtype(np.float64))
@@ -205,6 +207,12 @@ _ZERO_COPY_BYTES = 1 << 16
 _IN_FLIGHT_MAX = 32           # wrapped host arrays kept alive before the queue is drained
 
 
+def _aligned_copy(host, align):
+    out = _aligned_empty(host.shape, host.dtype, align)
+    np.copyto(out, host)
+    return out
+
+
 def _aligned_empty(shape, dtype, align):
     """``np.empty`` whose data starts on an ``align``-byte boundary."""
     dtype = np.dtype(dtype)
@@ -212,6 +220,26 @@ def _aligned_empty(shape, dtype, align):
     raw = np.empty(nbytes + align, np.uint8)
     start = -raw.ctypes.data % align
     return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+def _interior(index):
+    """``(lo, hi, shift)`` with ``index[j] == j - shift`` for ``lo <= j < hi``, the longest
+    such run of a translation's line index (``(0, 0, 0)`` if there is none)."""
+    j = np.arange(index.size)
+    diff = j - index
+    valid = index >= 0
+    if not valid.any():
+        return 0, 0, 0
+    shift = int(np.median(diff[valid]))
+    same = np.flatnonzero(valid & (diff == shift))
+    if same.size == 0:
+        return 0, 0, 0
+    # the longest run of consecutive positions with index == j - shift
+    breaks = np.flatnonzero(np.diff(same) != 1)
+    starts = np.concatenate([[0], breaks + 1])
+    ends = np.concatenate([breaks + 1, [same.size]])
+    longest = int(np.argmax(ends - starts))
+    return int(same[starts[longest]]), int(same[ends[longest] - 1]) + 1, shift
 
 
 class OpenCLBackend(Backend):
@@ -330,7 +358,7 @@ class OpenCLBackend(Backend):
             # a host_result array: its memory is the numpy array; mapping it (no copy on a CPU
             # device) is what makes the kernels' writes visible to the host, per the spec
             mapped, _ = self._cl.enqueue_map_buffer(self.queue, array.base_data, self._cl.map_flags.READ,
-                                                    0, host.shape, host.dtype, is_blocking=True)
+                                                    array.offset, host.shape, host.dtype, is_blocking=True)
             mapped.base.release(self.queue)
             self._in_flight.clear()   # the queue is in order: every earlier command is done
             return host
@@ -339,8 +367,18 @@ class OpenCLBackend(Backend):
         return out
 
     def _wrap_host(self, host, flags):
-        buf = self._cl.Buffer(self.context, flags | self._cl.mem_flags.USE_HOST_PTR, hostbuf=host)
-        arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf)
+        # PoCL uses host memory in place only from an address aligned to the device's base-address
+        # alignment (128 bytes; numpy gives 16): otherwise it copies the array at every use and map.
+        # The buffer therefore starts at the aligned address below the data (same page: readable,
+        # never written) and the array begins at an element offset within it.
+        addr = host.ctypes.data
+        delta = addr % self._host_align
+        if delta % host.dtype.itemsize:
+            host = _aligned_copy(host, self._host_align)   # misaligned elements: a copy, as numpy would make
+            addr, delta = host.ctypes.data, 0
+        memory = (ctypes.c_char * (host.nbytes + delta)).from_address(addr - delta) if delta else host
+        buf = self._cl.Buffer(self.context, flags | self._cl.mem_flags.USE_HOST_PTR, hostbuf=memory)
+        arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf, offset=delta)
         arr.gfgpu_host = host       # keeps the memory alive as long as the device array
         # ... and until queued kernels have read it, even if the caller drops the array first
         if len(self._in_flight) >= _IN_FLIGHT_MAX:
@@ -361,8 +399,7 @@ class OpenCLBackend(Backend):
         dtype = self._check_dtype(dtype)
         if self.kind != "cpu" or int(np.prod(shape)) * dtype.itemsize < _ZERO_COPY_BYTES:
             return self.empty(shape, dtype)
-        # a CPU device uses host memory in place only when it is aligned to its base-address
-        # alignment (PoCL: 128 bytes; numpy gives 16): otherwise it copies at every map
+        # new results start aligned; a caller's output is wrapped from the aligned address below it
         host = _aligned_empty(shape, dtype, self._host_align) if into is None else into
         return self._wrap_host(host, self._cl.mem_flags.READ_WRITE)
 
@@ -579,6 +616,49 @@ class OpenCLBackend(Backend):
                 np.int32(b), np.int32(n), np.int32(m))
         self._launch(knl, gsize, lsize, [src], [dst], args)
         return dst
+
+    def translate(self, src, dst, axis, index, cval=0.0, check=False):
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or a.ndim != 3 or not a.flags.c_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous 3-D pyopencl.array.Array in the context of "
+                                f"{self.device}")
+        if axis not in (1, 2):
+            raise ValueError(f"axis must be 1 or 2, got {axis}")
+        if src.shape != dst.shape or src.dtype != dst.dtype:
+            raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
+        if self.may_share_memory(src, dst):
+            raise ValueError("dst may not overlap src")
+        dtype = self._check_dtype(src.dtype)
+        if dtype not in REALS:
+            raise TypeError(f"src must be float32 or float64, got {dtype}")
+        b, n, m = src.shape
+        length = src.shape[axis]
+        idx = np.asarray(index).reshape(-1)
+        if idx.size != length:
+            raise ValueError(f"index has {idx.size} elements, axis {axis} has {length}")
+        if src.size == 0:
+            return True if check else None
+        dev_index, _ = self._index_array(index, length)
+        lo, hi, shift = _interior(idx) if axis == 2 else (0, 0, 0)
+        seg = 2048 if self.kind == "cpu" else 1   # CPU: a vectorised loop per segment; GPU: coalesced items
+        group = self._group()
+        items = -(-m // seg)
+        knl = self._kernel("translate", dtype, CHECK=int(bool(check)))
+        flag = np.zeros(1, np.int32)
+        mf = self._cl.mem_flags
+        flag_buf = self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+        args = (src.base_data, np.int64(src.offset // dtype.itemsize), dev_index.data, dst.base_data,
+                np.int64(dst.offset // dtype.itemsize), dtype.type(cval), np.int32(n), np.int32(m),
+                np.int32(axis == 2), np.int32(seg), np.int32(lo), np.int32(hi), np.int32(shift), flag_buf)
+        evt = self._launch(knl, (-(-items // group) * group, b * n), (group, 1), [src, dev_index], [dst], args)
+        if not check:
+            return None
+        self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
+        return int(flag[0]) == 0
+
+    def input_finite(self, host, data):
+        # a GPU tests its copy; on a CPU device numpy's test of the same memory was measured faster
+        return host_all_finite(host) if self.kind == "cpu" else self.all_finite(data)
 
     def _index_array(self, index, size):
         """Upload a gather index once per identity, as int32 (the kernel's index type).

@@ -428,6 +428,10 @@ __kernel void gather(__global const REAL *src, const long src_off, __global cons
     out[out_off + i] = j >= 0 ? src[src_off + j] : cval;
 }
 
+/* x - x is +0 for every finite x and NaN for NaN and infinities (IEEE arithmetic: the programs are
+ * built without fast-math); unlike isfinite() it vectorises on CPU devices */
+#define NONFINITE(x) (((x) - (x)) != (REAL)0)
+
 /* ---- any_nonfinite: *flag |= 1 if some x[i] (i < size) is NaN or infinite ------------------
  * Work-item g reads x[g*first + j*stride], j < count: contiguous chunks on a CPU
  * (first = chunk, stride = 1), a grid-stride loop on a GPU (first = 1, stride = items). */
@@ -437,8 +441,66 @@ __kernel void any_nonfinite(__global const REAL *x, const long off, const long s
 {
     long i = (long)get_global_id(0) * first;
     int bad = 0;
-    for (long j = 0; j < count && i < size; ++j, i += stride)
-        bad |= !isfinite(x[off + i]);
+    if (stride == 1) {   /* a counted loop over one chunk: vectorised */
+        const long end = min(i + count, size);
+        for (long k = i; k < end; ++k)
+            bad |= NONFINITE(x[off + k]);
+    } else {
+        for (long j = 0; j < count && i < size; ++j, i += stride)
+            bad |= NONFINITE(x[off + i]);
+    }
     if (bad)
         atomic_or(flag, 1);
+}
+
+/* ---- translate: an integer translation of lines, one index per position -------------------
+ * The data are rows of m samples (B*N rows).  Along rows (along_rows = 1), out[r, j] =
+ * src[r, index[j]]; positions lo <= j < hi are the interior, where index[j] = j - shift (a
+ * contiguous copy the compiler vectorises).  Along columns, row r = b*n + k of out is row
+ * b*n + index[k] of src.  index < 0 means cval.  Work-item (s, r) writes segment s (seg
+ * samples) of row r; with CHECK it also tests the src samples at its own positions, which the
+ * copy has just brought into the cache: every sample of src is tested once, one read in all. */
+__kernel void translate(__global const REAL *src, const long src_off, __global const int *index,
+                        __global REAL *out, const long out_off, const REAL cval, const int n,
+                        const int m, const int along_rows, const int seg, const int lo, const int hi,
+                        const int shift, __global int *flag)
+{
+    const int j0 = (int)get_global_id(0) * seg;
+    if (j0 >= m)
+        return;
+    const int j1 = min(j0 + seg, m);
+    const long r = (long)get_global_id(1);
+    __global const REAL *line = src + src_off + r * m;
+    __global REAL *o = out + out_off + r * m;
+    if (along_rows) {
+        const int a = max(j0, lo), z = max(a, min(j1, hi));
+        for (int j = j0; j < min(j1, a); ++j) {
+            const int i = index[j];
+            o[j] = i >= 0 ? line[i] : cval;
+        }
+        for (int j = a; j < z; ++j)
+            o[j] = line[j - shift];
+        for (int j = z; j < j1; ++j) {
+            const int i = index[j];
+            o[j] = i >= 0 ? line[i] : cval;
+        }
+    } else {
+        const int k = (int)(r % n);
+        const int i = index[k];
+        if (i >= 0) {
+            __global const REAL *from = src + src_off + (r - k + i) * m;
+            for (int j = j0; j < j1; ++j)
+                o[j] = from[j];
+        } else {
+            for (int j = j0; j < j1; ++j)
+                o[j] = cval;
+        }
+    }
+#if CHECK
+    int bad = 0;
+    for (int j = j0; j < j1; ++j)
+        bad |= NONFINITE(line[j]);
+    if (bad)
+        atomic_or(flag, 1);
+#endif
 }

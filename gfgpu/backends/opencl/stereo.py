@@ -146,22 +146,27 @@ def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w
                 np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0)))
 
 
-#: rows of a band of the CPU matcher: at least this many (fewer launches)
+#: rows of a band of the CPU matcher: at least this many (fewer launches) ...
 MIN_BAND_ROWS = 16
+#: ... and as many as fit this many bytes of band buffers (small images: one band, no
+#: checkpointing sweep at all)
+BAND_BYTES = 64 * 2**20
 
 
-def band_rows(h, paths):
-    """Rows per band of the CPU matcher: the checkpoints (H / k of them, 1 or 4 state rows of
-    ~2 bytes per sample each) and the band buffers (~4 bytes per sample of each of k rows)
-    balance at k = sqrt(c H / 2), c the state rows (at least :data:`MIN_BAND_ROWS`)."""
+def band_rows(h, paths, w=1, n=1):
+    """Rows per band of the CPU matcher for an (h, w) image and n disparity samples: the
+    checkpoints (h / k of them, 1 or 4 state rows of ~2 bytes per sample each) and the band
+    buffers (~7 bytes per sample of each of k rows) balance at k = sqrt(c h / 3.5), c the
+    state rows; at least :data:`MIN_BAND_ROWS`, and as many as :data:`BAND_BYTES` hold."""
     c = 1 if paths == 4 else 4
-    return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 2)))))
+    fit = BAND_BYTES // (7 * w * n)
+    return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 3.5)), fit)))
 
 
 def match_memory(h, w, n, paths, keep_cost):
     """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
     the band's Hamming distances and sums, the path states and their checkpoints."""
-    k = band_rows(h, paths)
+    k = band_rows(h, paths, w, n)
     cell = -(-n // 16) * 16 + 16
     state_row = 2 * (16 + (w + 2) * cell)
     c = 1 if paths == 4 else 4
@@ -195,7 +200,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # volumes.  The byte costs of the whole image are kept between the two sweeps when
     # ``budget`` allows (H W D bytes), else computed again for each band.
     keep = budget is None or match_memory(h, w, n, paths, True) <= budget
-    k = band_rows(h, paths)
+    k = band_rows(h, paths, w, n)
     ri = _interleave(be, cr, h, w, steps, n)
     ham = be.empty((k + 2 * (block // 2), w, n), np.uint8)
     cost = be.empty((h if keep else k, w, n), np.uint8)

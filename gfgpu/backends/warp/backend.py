@@ -19,6 +19,8 @@ from functools import cache
 
 import numpy as np
 
+from ..._core.translation import _flat_index
+from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
@@ -206,6 +208,7 @@ class WarpBackend(Backend):
             f"{self._device.alias} ({self._device.name})"
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, arrays)
         self._indices = OrderedDict()  # id(index) -> (index, device array, max index)
+        self._flat = {}                # (id(line index), shape, axis) -> (line index, flat gather index)
 
     # ---- arrays -------------------------------------------------------------------
     def owns(self, array):
@@ -420,6 +423,48 @@ class WarpBackend(Backend):
         if top >= size:
             raise ValueError(f"index holds {top}, beyond the source's {size} elements")
         return dev
+
+    def translate(self, src, dst, axis, index, cval=0.0, check=False):
+        wp = self._wp
+        if axis not in (1, 2):
+            raise ValueError(f"axis must be 1 or 2, got {axis}")
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or a.ndim != 3 or not a.is_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous 3-D warp.array on {self.device}")
+        if tuple(src.shape) != tuple(dst.shape) or src.dtype != dst.dtype:
+            raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
+        if self.may_share_memory(src, dst):
+            raise ValueError("dst may not overlap src")
+        b, n, m = src.shape
+        length = src.shape[axis]
+        if np.asarray(index).size != length:
+            raise ValueError(f"index has {np.asarray(index).size} elements, axis {axis} has {length}")
+        if src.size == 0:
+            return True if check else None
+        if self._device.is_cpu:
+            # Warp's CPU kernels run on one thread: the flat gather (its index cached) measured
+            # faster than a kernel that computes the index; the check is numpy's on the same memory
+            finite = host_all_finite(src.numpy()) if check else None
+            key = (id(index), tuple(src.shape), axis)
+            hit = self._flat.get(key)
+            if hit is None or hit[0] is not index:
+                hit = self._flat[key] = (index, _flat_index(tuple(src.shape), axis, index))
+                if len(self._flat) > _INDEX_CACHE_SIZE:
+                    self._flat.pop(next(iter(self._flat)))
+            self.gather(src.flatten(), hit[1], cval, dst.flatten())
+            return finite
+        dev_index = self._index_array(index, length)
+        if dev_index.dtype != wp.int32:
+            raise ValueError("index must fit in int32")
+        flag = wp.zeros(1, dtype=wp.int32, device=self._device)
+        wp.launch(self._k.translate, dim=(b * n, m),
+                  inputs=[src.reshape((b * n, m)), dev_index, src.dtype(cval), n, int(axis == 2), int(bool(check)),
+                          dst.reshape((b * n, m)), flag], device=self._device)
+        return int(flag.numpy()[0]) == 0 if check else None
+
+    def input_finite(self, host, data):
+        # a GPU tests its copy in parallel; Warp's CPU kernels run on one thread, as numpy does
+        return host_all_finite(host) if self._device.is_cpu else self.all_finite(data)
 
     def gather(self, src, index, cval, out):
         wp = self._wp

@@ -1,4 +1,4 @@
-"""Warp kernels: the recursion primitive, the gather and the non-finite count.
+"""Warp kernels: the recursion primitive, the gather, the translation and the non-finite count.
 
 Each kernel has one generic body (``typing.Any``) overloaded at the bottom of this module;
 the host side is :mod:`gfgpu.backends.warp.backend` and the executable specification is
@@ -156,6 +156,32 @@ def gather(src: wp.array(dtype=Any), index: wp.array(dtype=Any), cval: Any, out:
 
 
 @wp.kernel
+def translate(src: wp.array2d(dtype=Any), index: wp.array(dtype=wp.int32), cval: Any, n: int, along_rows: int,
+              check: int, dst: wp.array2d(dtype=Any), flag: wp.array(dtype=wp.int32)):
+    """Integer translation of the rows ``(B*N, M)``: along rows ``dst[r, j] = src[r, index[j]]``,
+    along columns row ``r = b*n + k`` of ``dst`` is row ``b*n + index[k]`` of ``src``; ``cval``
+    where the index is negative.  With ``check``, ``flag[0] = 1`` if ``src[r, j]`` (each sample
+    once, in the same pass) is NaN or infinite."""
+    r, j = wp.tid()
+    if along_rows != 0:
+        i = index[j]
+        if i >= 0:
+            dst[r, j] = src[r, i]
+        else:
+            dst[r, j] = cval
+    else:
+        k = r % n
+        i = index[k]
+        if i >= 0:
+            dst[r, j] = src[r - k + i, j]
+        else:
+            dst[r, j] = cval
+    if check != 0:
+        if not wp.isfinite(src[r, j]):
+            flag[0] = 1
+
+
+@wp.kernel
 def count_nonfinite(values: wp.array(dtype=Any), count: wp.array(dtype=wp.int32)):
     """``count[0] += 1`` for every NaN or infinite element of ``values``."""
     t = wp.tid()
@@ -178,4 +204,5 @@ for _real in (wp.float32, wp.float64):
         wp.overload(gather, {"src": wp.array(dtype=_real), "index": wp.array(dtype=_index),
                              "cval": _real, "out": wp.array(dtype=_real)})
     wp.overload(count_nonfinite, {"values": wp.array(dtype=_real)})
+    wp.overload(translate, {"src": wp.array2d(dtype=_real), "cval": _real, "dst": wp.array2d(dtype=_real)})
 del _real, _plan, _sample, _index
