@@ -90,19 +90,20 @@ def random_dots(kind, shape=(240, 320), seed=0):
     return left.astype(np.uint8), right.astype(np.uint8), gt, mask, float(gt.max())
 
 
-def synthetic(shape=(1000, 1500), seed=0):
+def synthetic(shape=(1000, 1500), seed=0, top=180.0):
     """Camera-size pair: a smooth random texture (``random_dot_stereogram``) shifted by a smooth
-    disparity field (a sum of broad Gaussians, 30..180 px); 192 disparities searched."""
+    disparity field (a sum of broad Gaussians, 30..``top`` px); 192 disparities searched
+    (``synth-3000``: 2000 x 3000, 30..240 px, 256 disparities)."""
     from scipy import ndimage
     h, w = shape
     rng = np.random.default_rng(seed + 1)
     field = ndimage.gaussian_filter(rng.standard_normal((h // 50, w // 50)), 2.0)
     field = ndimage.zoom(field, (h / field.shape[0], w / field.shape[1]), order=3)[:h, :w]
-    gt = 30 + 150 * (field - field.min()) / np.ptp(field)
+    gt = 30 + (top - 30) * (field - field.min()) / np.ptp(field)
     left, right = random_dot_stereogram(gt, seed)
     xx = np.arange(w)[None]
     mask = (xx - gt >= 8) & (xx < w - 8)       # the match inside the right view
-    return left.astype(np.uint8), right.astype(np.uint8), gt, mask, 191.0 - 1
+    return left.astype(np.uint8), right.astype(np.uint8), gt, mask, 16 * np.ceil((top + 12) / 16) - 2
 
 
 def load_scene(scene):
@@ -112,6 +113,8 @@ def load_scene(scene):
         return load_motorcycle()
     if scene == "synth-1500":
         return synthetic()
+    if scene == "synth-3000":
+        return synthetic((2000, 3000), top=240.0)
     return random_dots(scene)
 
 

@@ -484,3 +484,21 @@ def test_band_matcher_memory_stays_below_a_volume():
     assert match_memory(h, w, n, 4, True) < 1.3 * h * w * n
     assert match_memory(h, w, n, 4, False) < 0.35 * h * w * n
     assert match_memory(h, w, n, 8, False) < 0.55 * h * w * n
+
+
+def test_gpu_code_path_of_the_matcher_runs_on_the_cpu_device(require_backend, monkeypatch):
+    # the OpenCL matcher's GPU branch (whole int16 volumes: Hamming distances per pixel, block
+    # sums, one work-item per path line, selection) has no GPU here: run it on the CPU device
+    be = require_backend("opencl")
+    monkeypatch.setattr(be, "kind", "gpu")
+    rng = np.random.default_rng(7)
+    for (h, w, n, steps, first, paths) in ((23, 31, 13, 2, -4, 8), (9, 40, 17, 1, 3, 4)):
+        left = rng.integers(0, 2**48, (1, h, w), dtype=np.uint64)
+        right = rng.integers(0, 2**48, (steps, h, w), dtype=np.uint64)
+        right[0] = np.roll(left[0], -2, axis=1) ^ (rng.random((h, w)) < 0.05).astype(np.uint64)
+        outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
+        stereo_kernels.match(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, 3, 54, 576,
+                             paths, 10, None)
+        ref = specs.semi_global_match_reference(left[0], right, first, n, steps, 3, 54, 576, paths, 10)
+        for got, want in zip(outs, ref):
+            np.testing.assert_array_equal(be.to_host(got), want)

@@ -40,9 +40,9 @@ def launch_census(be, image, out, plane, radius):
     _check_written(out, "out")
     h, w = image.shape
     knl = be._kernel("census", np.dtype(np.float32), source="stereo.cl", CENSUS_RADIUS=int(radius))
-    be._launch(knl, (w, h), None, [image], [out],
-                 (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w),
-                  np.int32(radius)))
+    group = be._group()
+    be._launch(knl, (-(-h // group) * group,), (group,), [image], [out],
+               (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w)))
     return out
 
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
@@ -55,7 +55,8 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
         return out
     # interleaved right codes -> uchar Hamming volume -> running block sums (stereo.cl)
     ri = _interleave(be, cr, h, w, steps, n)
-    _band_cost(be, cl_, ri, out, be.empty((h, w, n), np.uint8), 0, h, 0, h, w, first_step, steps, block)
+    ham = None if be.kind == "cpu" else be.empty((h, w, n), np.uint8)
+    _band_cost(be, cl_, ri, out, ham, 0, h, 0, h, w, first_step, steps, block)
     return out
 
 
@@ -67,20 +68,30 @@ def _interleave(be, cr, h, w, steps, n):
 
 
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, steps, block):
-    """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows] (Hamming
-    distances of the rows and their block margin into ``ham``, then block sums); int16 or byte
-    costs as ``out``'s dtype."""
+    """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows], int16 or
+    byte costs as ``out``'s dtype.  CPUs: straight from the census codes, one row per
+    work-item (block_cost); GPUs: Hamming distances of the rows and their block margin into
+    ``ham`` (one work-item per pixel), then block sums."""
     n = out.shape[2]
+    group = be._group()
+    gsize = (-(-rows // group) * group,)
+    if ham is None:
+        knl = be._kernel("block_cost", np.dtype(np.float32), source="stereo.cl", N_DISP=n, COST_MAX=COST_MAX,
+                         BLOCK=int(block), **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}))
+        be._launch(knl, gsize, (group,), [cl_, ri], [out],
+                   (cl_.data, ri.data, out.data, np.int32(h), np.int32(w), np.int32(first_step),
+                    np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0)))
+        return
     r = block // 2
     ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
     be._launch(_stereo_kernel(be, "census_hamming", n), (w, yb - ya), None, [cl_, ri], [ham],
                (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
                 np.int32(steps), np.int32(ya)))
-    group = be._group()
     knl = _stereo_kernel(be, "block_sum", n, cost_bytes=out.dtype == np.uint8)
-    be._launch(knl, (-(-rows // group) * group,), (group,), [ham], [out],
+    be._launch(knl, gsize, (group,), [ham], [out],
                (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block), np.int32(first_step),
                 np.int32(steps), np.int32(y0), np.int32(rows), np.int32(ya), np.int32(out_row0)))
+
 
 def launch_sgm(be, cost, out, p1, p2, paths):
     cost = _plain(be, cost, "cost", np.int16)
@@ -172,7 +183,7 @@ def match_memory(h, w, n, paths, keep_cost):
     c = 1 if paths == 4 else 4
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
     cost = h * w * n if keep_cost else k * w * n
-    return cost + (k + 14) * w * n + 4 * k * w * n + 10 * state_row + checkpoints
+    return cost + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -202,7 +213,6 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     keep = budget is None or match_memory(h, w, n, paths, True) <= budget
     k = band_rows(h, paths, w, n)
     ri = _interleave(be, cr, h, w, steps, n)
-    ham = be.empty((k + 2 * (block // 2), w, n), np.uint8)
     cost = be.empty((h if keep else k, w, n), np.uint8)
     down, up = be.empty((k, w, n), np.int16), be.empty((k, w, n), np.int16)
     state, state_min = _sgm_state(be, w, n)
@@ -223,7 +233,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
 
     def band_cost(y0, rows):
         row0 = y0 if keep else 0
-        _band_cost(be, cl_, ri, cost, ham, y0, rows, row0, h, w, first_step, steps, block)
+        _band_cost(be, cl_, ri, cost, None, y0, rows, row0, h, w, first_step, steps, block)
         return row0
 
     # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep
