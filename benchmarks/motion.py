@@ -10,10 +10,17 @@
     scipy.ndimage.convolve1d with the equivalent line kernel (the G_u shift taps truncated at
     L + 1 taps: the same length of motion), and numpy.copyto (memory bound);
 (c) ``--figure``: docs/motion_examples.png (uniform, zoom and rotation blur of the camera image);
-(d) rotation: the pre-image map of the three-shear rotation by radius, and its speed on a
-    (SIZE/2)^2 image beside one scipy.ndimage.rotate.
+(d) spin blur along the arcs (polar grid), its speed on a (SIZE/2)^2 image beside one
+    scipy.ndimage.rotate;
+(e) ``--targets``: psf="box" against supersampled renderings (512 exactly warped copies, cubic
+    spline; for the field 512 samples along each pixel's own velocity) on a band-limited 256²
+    image, mode wrap, 40-px margin: uniform (23, -9), zoom u1 = 0.12, spin 10 degrees, a smooth
+    random field up to 15 px; and the polar grid's resampling blur (a spin by 1e-6 degrees).
+    The box speed rows sit beside cv2.filter2D with fspecial('motion')'s line kernel (L taps of
+    1/L) and kornia.filters.motion_blur when installed.
 
 Usage:  python benchmarks/motion.py [--size 4096] [--repeat 3] [--backends numpy,warp,opencl] [--figure]
+        [--targets]
 """
 
 from __future__ import annotations
@@ -130,6 +137,13 @@ def speed_table(size, repeat, backends):
         except Exception as exc:   # report an unusable backend, keep measuring the others
             cells = [f"unavailable: {type(exc).__name__}"] * len(LENGTHS)
         rows.append(f"| gfgpu.motion_blur, backend={name} (numpy in, output=) | " + " | ".join(cells) + " |")
+        try:
+            cells = [fmt(best_time(lambda L=L, name=name: motion_blur(img, (0.0, float(L)), psf="box", output=out,
+                                                                      backend=name), repeat))
+                     for L in LENGTHS]
+        except Exception as exc:
+            cells = [f"unavailable: {type(exc).__name__}"] * len(LENGTHS)
+        rows.append(f"| gfgpu.motion_blur psf='box', backend={name} | " + " | ".join(cells) + " |")
 
     def taps(L):
         lam, kap, tap = greens.shift_coefficients(float(L))
@@ -145,6 +159,12 @@ def speed_table(size, repeat, backends):
             cells.append(fmt(best_time(lambda k=k, L=L: cv2.filter2D(img, -1, k, dst=out, anchor=(L, 0),
                                                                      borderType=cv2.BORDER_REFLECT), repeat)))
         rows.append("| cv2.filter2D, line kernel of L + 1 taps | " + " | ".join(cells) + " |")
+        cells = []
+        for L in LENGTHS:
+            k = np.full((1, L), 1.0 / L, np.float32)     # fspecial('motion', L, 0): L taps of 1/L
+            cells.append(fmt(best_time(lambda k=k: cv2.filter2D(img, -1, k, dst=out, borderType=cv2.BORDER_REFLECT),
+                                       repeat)))
+        rows.append("| cv2.filter2D, fspecial('motion', L, 0) box kernel | " + " | ".join(cells) + " |")
     except ImportError:
         rows.append("| cv2.filter2D | (OpenCV not installed) |")
     from scipy import ndimage
@@ -156,11 +176,19 @@ def speed_table(size, repeat, backends):
     rows.append("| scipy.ndimage.convolve1d, L + 1 taps | " + " | ".join(cells) + " |")
     t = best_time(lambda: np.copyto(out, img), repeat)
     rows.append(f"| numpy.copyto (memory bound) | {fmt(t)} | | |")
+    try:
+        import kornia
+        import torch
+        ti = torch.from_numpy(img)[None, None]
+        cells = [fmt(best_time(lambda L=L: kornia.filters.motion_blur(ti, L | 1, 0.0, 1.0), repeat)) for L in LENGTHS]
+        rows.append("| kornia.filters.motion_blur (CPU, odd L) | " + " | ".join(cells) + " |")
+    except ImportError:
+        rows.append("| kornia.filters.motion_blur | (kornia not installed) | | |")
     return "\n".join(rows)
 
 
 def rotation_speed_table(size, repeat, backends, degrees=10.0):
-    """Rotation blur (three per-line shear passes) beside one scipy.ndimage.rotate.
+    """Spin blur along the arcs (polar grid) beside one scipy.ndimage.rotate.
 
     There is no library rotation *blur* to compare with; the usual way to synthesise one is to
     accumulate K rotated copies, K ~ the arc length r_max * theta in pixels (no gaps at the
@@ -176,18 +204,87 @@ def rotation_speed_table(size, repeat, backends, degrees=10.0):
             f"(best of {repeat}):", "",
             "| method | time (ms) | Mpix/s |", "|---|---:|---:|"]
     for name in backends:
-        try:
-            t = best_time(lambda name=name: motion_blur(img, degrees, kind="rotation", output=out,
-                                                        backend=name), repeat)
-            rows.append(f"| gfgpu.motion_blur(kind='rotation'), backend={name} | {t[0] * 1e3:.0f} | "
-                        f"{mpix / t[0]:.0f} |")
-        except Exception as exc:
-            rows.append(f"| gfgpu rotation, backend={name} | unavailable: {type(exc).__name__} | |")
+        for psf in ("box", "green"):
+            try:
+                t = best_time(lambda name=name, psf=psf: motion_blur(img, degrees, kind="rotation", psf=psf, output=out,
+                                                                     backend=name), repeat)
+                rows.append(f"| gfgpu.motion_blur(kind='rotation', psf='{psf}'), backend={name} | {t[0] * 1e3:.0f} | "
+                            f"{mpix / t[0]:.1f} |")
+            except Exception as exc:
+                rows.append(f"| gfgpu rotation, backend={name} | unavailable: {type(exc).__name__} | |")
     t = best_time(lambda: ndimage.rotate(img, degrees, reshape=False, order=1, output=out), repeat)
     rows.append(f"| scipy.ndimage.rotate, order 1, ONE rotation (no blur) | {t[0] * 1e3:.0f} | "
                 f"{mpix / t[0]:.0f} |")
     rows.append(f"| accumulating K = {k_needed} such rotations (gap-free blur at the corners), estimate | "
                 f"{k_needed * t[0] * 1e3:.0f} | {mpix / (k_needed * t[0]):.1f} |")
+    return "\n".join(rows)
+
+
+def _half_field(shape):
+    field = np.zeros((2,) + shape)
+    field[1, :, shape[1] // 2:] = 25.0        # (rows, cols): the right half moves 25 px right
+    return field
+
+
+def _bandlimited(n, cut, seed=0):
+    rng = np.random.default_rng(seed)
+    f = np.fft.fft2(rng.standard_normal((n, n)))
+    fy, fx = np.fft.fftfreq(n)[:, None], np.fft.fftfreq(n)[None, :]
+    img = np.real(np.fft.ifft2(f * (np.hypot(fy, fx) < cut)))
+    return img / img.std()
+
+
+def _render(img, preimage, copies=512):
+    """Average of ``copies`` exactly warped copies (cubic spline, scipy, periodic)."""
+    from scipy import ndimage
+    h, w = img.shape
+    yy, xx = np.mgrid[:h, :w].astype(np.float64)
+    coef = ndimage.spline_filter(img, 3, mode="grid-wrap")
+    acc = np.zeros((h, w))
+    for k in range(copies):
+        py, px = preimage(yy, xx, (k + 0.5) / copies)
+        acc += ndimage.map_coordinates(coef, [py, px], order=3, mode="grid-wrap", prefilter=False)
+    return acc / copies
+
+
+def targets_table(backends, size=256, margin=40):
+    from scipy import ndimage
+    c = (size - 1) / 2.0
+    rng = np.random.default_rng(1)
+    field = np.stack([ndimage.gaussian_filter(rng.standard_normal((size, size)), 24, mode="wrap") for _ in range(2)])
+    field *= 15.0 / np.abs(field).max()
+    a = 0.12 / 1.12
+
+    def spin(yy, xx, t):
+        th = np.radians(10.0) * t
+        dy, dx = yy - c, xx - c
+        return c + np.sin(th) * dx + np.cos(th) * dy, c + np.cos(th) * dx - np.sin(th) * dy
+
+    cases = [("uniform (vy, vx) = (23, -9)", (23.0, -9.0), {}, lambda yy, xx, t: (yy - 23 * t, xx + 9 * t)),
+             ("zoom u1 = 0.12 about the centre", 0.12, {"kind": "zoom"},
+              lambda yy, xx, t: (c + (yy - c) * (1 - a * t), c + (xx - c) * (1 - a * t))),
+             ("spin 10 deg about the centre", 10.0, {"kind": "rotation"}, spin),
+             ("smooth random field, |v| <= 15 px", field, {}, lambda yy, xx, t: (yy - t * field[0], xx - t * field[1]))]
+    rows = [f"psf='box', mode='wrap', band-limited {size}² image (noise cut at CUT cycles/px), float32 on each "
+            f"backend, against 512 warped copies; ‖out − ref‖/‖ref‖ and max abs over the {margin}-px-margin interior "
+            f"(target: rel. L2 <= 2 %).", "",
+            "| case | cut | " + " | ".join(backends) + " |", "|---|---|" + "---|" * len(backends)]
+    for cut in (0.25, 0.1):
+        img = _bandlimited(size, cut)
+        for name, vel, kw, pre in cases:
+            ref = _render(img, pre)
+            cells = []
+            for b in backends:
+                out = motion_blur(img.astype(np.float32), vel, psf="box", mode="wrap", backend=b, **kw)
+                d = (out - ref)[margin:-margin, margin:-margin]
+                r = ref[margin:-margin, margin:-margin]
+                cells.append(f"{np.linalg.norm(d) / np.linalg.norm(r) * 100:.2f} % ({np.abs(d).max():.3f})")
+            rows.append(f"| {name} | {cut} | " + " | ".join(cells) + " |")
+        out = motion_blur(img.astype(np.float32), 1e-6, kind="rotation", psf="box", mode="wrap", backend=backends[0])
+        d = (out - img)[margin:-margin, margin:-margin]
+        rows.append(f"| polar resampling blur (spin by 1e-6 deg, {backends[0]}) | {cut} | "
+                    f"{np.linalg.norm(d) / np.linalg.norm(img[margin:-margin, margin:-margin]) * 100:.2f} % "
+                    f"({np.abs(d).max():.3f}) |" + " |" * (len(backends) - 1))
     return "\n".join(rows)
 
 
@@ -206,9 +303,16 @@ def figure(path):
                                                                   backend="numpy")),
               ("zoom-in u1 = 0.08 about (row, col) = (200, 250)",
                motion_blur(cam, 0.08, kind="zoom", center=(200, 250), backend="numpy")),
-              ("rotation 12 deg about (200, 250), displace=False",
-               motion_blur(cam, 12.0, kind="rotation", center=(200, 250), displace=False, backend="numpy"))]
-    fig, axes = plt.subplots(1, 5, figsize=(20, 4.4))
+              ("zoom-in u1 = 0.15, psf='box' (along the rays)",
+               motion_blur(cam, 0.15, kind="zoom", psf="box", center=(200, 250), backend="numpy")),
+              ("spin 12 deg about (200, 250), psf='box', displace=False",
+               motion_blur(cam, 12.0, kind="rotation", psf="box", center=(200, 250), displace=False,
+                           backend="numpy")),
+              ("per-pixel field: left half still, right half (0, 25)", motion_blur(cam, _half_field(cam.shape),
+                                                                                 psf="box", backend="numpy"))]
+    fig, axes = plt.subplots(2, 4, figsize=(16, 8.4))
+    axes = axes.ravel()
+    axes[-1].axis("off")
     for ax, (title, im) in zip(axes, panels):
         ax.imshow(im, cmap="gray", vmin=0, vmax=255)
         ax.set_title(title, fontsize=10)
@@ -226,7 +330,11 @@ def main():
     ap.add_argument("--figure", action="store_true")
     ap.add_argument("--skip-speed", action="store_true")
     ap.add_argument("--skip-accuracy", action="store_true")
+    ap.add_argument("--targets", action="store_true")
     args = ap.parse_args()
+    if args.targets:
+        print("## Targets (issue 15)\n")
+        print(targets_table([b for b in args.backends.split(",") if b]))
     if not args.skip_accuracy:
         print("## Accuracy\n")
         print(accuracy_table())

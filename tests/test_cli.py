@@ -107,6 +107,15 @@ def small_png(tmp_path):
     ("batch", "gradient", "{img}", "-o", "{out}"),
 ])
 def test_each_command_names_its_backend(argv, small_png, tmp_path, capsys):
+    if argv[0] == "depth":
+        # shape from shading needs shading: white noise is all flat background (no depth to fit)
+        import imageio.v3 as iio
+
+        from gfgpu.shading import lambertian_shading
+        yy, xx = np.mgrid[-20:20, -24:24] + 0.5
+        shaded = lambertian_shading(6 * np.exp(-(xx**2 + yy**2) / 120), (1, 0, 1))
+        small_png = tmp_path / "shaded.png"
+        iio.imwrite(small_png, np.clip(shaded * 255, 0, 255).astype(np.uint8))
     args = [str(a).format(img=small_png, out=tmp_path / "result") for a in argv]
     assert main([*args, "--backend", "numpy"]) == 0, capsys.readouterr().err
     name = argv[0] if argv[0] != "batch" else "batch"

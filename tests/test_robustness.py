@@ -351,3 +351,34 @@ def test_integer_translation_is_index_arithmetic_on_every_backend(backend, shift
     assert res is out
     np.testing.assert_array_equal(out, ref)
     np.testing.assert_array_equal(gfgpu.shift(img, shift, mode=mode, cval=1.25, backend=backend), ref)
+
+
+def test_threads_launching_one_kernel_at_once_get_their_own_results(require_backend):
+    # a pyopencl kernel call sets the shared kernel object's arguments and then enqueues it;
+    # without a lock two threads swapped arguments (wrong pixels in shift and disparity under a
+    # tiny switch interval): every launch now holds one lock
+    import sys
+    import threading
+    be = require_backend("opencl")
+    rng = np.random.default_rng(0)
+    imgs = [rng.random(shape).astype(np.float32) for shape in ((64, 80), (70, 50), (33, 91), (52, 61))]
+    refs = [gfgpu.shift(a, (1.5, -2.25), backend="numpy") for a in imgs]
+    bad = []
+
+    def work(t):
+        for rep in range(20):
+            i = (t + rep) % 4
+            if np.abs(gfgpu.shift(imgs[i], (1.5, -2.25), backend=be) - refs[i]).max() > 1e-3:
+                bad.append((t, rep, i))
+
+    saved = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)
+    try:
+        threads = [threading.Thread(target=work, args=(t,)) for t in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(saved)
+    assert not bad

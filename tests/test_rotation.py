@@ -1,4 +1,4 @@
-"""Per-line recursion plans and the three-shear rotation blur (motion_blur kind='rotation')."""
+"""Per-line recursion plans, Paeth's three shears, and the spin blur along arcs (motion_blur kind='rotation')."""
 import math
 
 import numpy as np
@@ -71,61 +71,35 @@ def test_shears_compose_to_the_rotation():
         np.testing.assert_allclose(mat, [[math.cos(t), math.sin(t)], [-math.sin(t), math.cos(t)]], atol=1e-12)
 
 
-def _shear_oracle(img, rate, axis, centre):
-    """Direct summation of each line's shift taps w[0] = tap, w[m] = Re(K lam^(m-1)), zeros
-    beyond the image (mode 'constant', cval 0); causal for a positive displacement."""
-    out = np.empty_like(img)
-    lines = img if axis == -1 else img.T
-    res = out if axis == -1 else out.T
-    n = lines.shape[1]
-    m = np.arange(1, n)
-    for i, line in enumerate(lines):
-        d = rate * (i - centre)
-        if abs(d) <= 1e-9:
-            res[i] = line
-            continue
-        lam, kap, tap = greens.shift_coefficients(abs(d))
-        w = np.concatenate([[tap], np.real(kap * lam ** (m - 1))])
-        full = np.convolve(line if d > 0 else line[::-1], w)[:n]
-        res[i] = full if d > 0 else full[::-1]
-    return out
-
-
-@pytest.mark.parametrize("displace", [True, False])
-def test_rotation_matches_direct_summation(backend, displace, rng):
-    img = rng.random((40, 52))
-    degrees, centre = 12.0, (17.5, 30.0)    # (row, col)
-    shears = rotation_shears(degrees) if displace else rotation_shears(-degrees / 2) + rotation_shears(degrees / 2)
-    ref = img
-    for axis, rate in shears:
-        ref = _shear_oracle(ref, rate, axis, centre[0] if axis == -1 else centre[1])
-    for dtype in _dtypes(backend):
-        out = motion_blur(img.astype(dtype), degrees, kind="rotation", center=centre, displace=displace,
-                          mode="constant", backend=backend.name)
-        assert out.dtype == dtype
-        tol = 1e-12 if dtype == np.float64 else 1e-5
-        assert np.linalg.norm(out - ref) / np.linalg.norm(ref) < tol
-
-
-def test_rotation_maps_points(backend):
-    """Output pixel q shows the input at c + R^-1 (q - c): the rotation of the coordinate
-    images (exact for linear content away from the borders, every shear being moment-exact)."""
+@pytest.mark.parametrize("psf", ["green", "box"])
+def test_spin_keeps_rotation_invariant_content(backend, psf):
+    """A function of the radius alone is unchanged by a spin about its centre (every point is
+    blurred along its own circle), on a non-square image with an off-centre fixed point."""
     dtype = _dtypes(backend)[-1]
-    yy, xx = np.mgrid[:200, :220].astype(dtype)
-    c = (96.0, 109.5)                               # (row, col)
-    inner = np.hypot(xx - c[1], yy - c[0]) < 45
-    tol = 1e-6 if dtype == np.float64 else 2e-3     # float64: the tails reaching the border
-    for degrees in (-6.0, 4.0):
-        t = math.radians(degrees)
-        mx = motion_blur(xx, degrees, kind="rotation", center=c, mode="nearest", backend=backend.name)
-        my = motion_blur(yy, degrees, kind="rotation", center=c, mode="nearest", backend=backend.name)
-        dx, dy = xx - c[1], yy - c[0]
-        px, py = c[1] + math.cos(t) * dx - math.sin(t) * dy, c[0] + math.sin(t) * dx + math.cos(t) * dy
-        assert np.abs(mx - px)[inner].max() < tol and np.abs(my - py)[inner].max() < tol
-        # in place (displace=False): the identity map, blurred symmetrically
-        kx = motion_blur(xx, degrees, kind="rotation", center=c, mode="nearest", displace=False,
-                         backend=backend.name)
-        assert np.abs(kx - xx)[inner].max() < tol
+    yy, xx = np.mgrid[:90, :120].astype(np.float64)
+    c = (41.0, 57.5)                                 # (row, col)
+    r = np.hypot(yy - c[0], xx - c[1])
+    img = np.cos(r / 5.0).astype(dtype)
+    inner = (r > 3) & (r < 38)
+    for degrees in (-6.0, 25.0):
+        for displace in (True, False):
+            out = motion_blur(img, degrees, kind="rotation", psf=psf, center=c, displace=displace,
+                              mode="nearest", backend=backend.name)
+            assert np.abs(out - img)[inner].max() < 2e-3
+
+
+def test_spin_moves_content_along_the_arc_by_the_angle(backend):
+    """Green's PSF has mean exactly one velocity: a blob's angular centroid turns by the angle."""
+    yy, xx = np.mgrid[:101, :101].astype(np.float64)
+    c = (50.0, 50.0)
+    img = np.exp(-((yy - 50.0) ** 2 + (xx - 85.0) ** 2) / 8.0)    # 35 px right of the centre
+    for degrees, psf in ((20.0, "green"), (-30.0, "box")):
+        out = motion_blur(img, degrees, kind="rotation", psf=psf, center=c, mode="constant", backend=backend.name)
+        phi = np.arctan2(c[0] - yy, xx - c[1])
+        mean = math.degrees(float((out * phi).sum() / out.sum()))
+        expected = degrees if psf == "green" else degrees / 2.0          # the box: the middle of the path
+        assert abs(mean - expected) < 0.3
+        assert abs(out.sum() - img.sum()) < 1e-3 * img.sum()
 
 
 def test_rotation_blur_grows_with_radius_and_keeps_the_centre():
@@ -143,7 +117,7 @@ def test_rotation_blur_grows_with_radius_and_keeps_the_centre():
 def test_rotation_inputs():
     img = np.random.default_rng(1).random((30, 40))
     assert np.array_equal(motion_blur(img, 0.0, kind="rotation", backend="numpy"), img)
-    for bad in (95.0, -90.5, float("nan")):
+    for bad in (361.0, -400.0, float("nan")):
         with pytest.raises(ValueError, match="rotation angle"):
             motion_blur(img, bad, kind="rotation", backend="numpy")
     rgb = np.random.default_rng(2).random((30, 40, 3)).astype(np.float32)
@@ -162,14 +136,13 @@ def test_rotation_center_is_row_col():
     row, col = 20, 85
     img[row, col] = 1.0
     img[row, col + 20] = 1.0                      # 20 px to the right of the centre
-    out = motion_blur(img, 30.0, kind="rotation", center=(row, col), mode="constant", backend="numpy")
+    out = motion_blur(img, 30.0, kind="rotation", psf="box", center=(row, col), mode="constant", backend="numpy")
     assert abs(out[row, col] - 1.0) < 1e-9        # the centre does not move
-    # counter-clockwise on screen: the right-hand point moves up (to smaller rows)
+    # counter-clockwise on screen: the right-hand point moves up (to smaller rows), along its
+    # circle: its angular centroid about (row, col) is the middle of the path (box PSF)
     window = out[:row + 5, col + 5:]
     yy, xx = np.mgrid[:window.shape[0], :window.shape[1]]
-    cy = (window * yy).sum() / window.sum()
-    cx = (window * xx).sum() / window.sum() + col + 5
-    t = math.radians(30.0)
-    assert abs(cy - (row - 20 * math.sin(t))) < 0.2 and abs(cx - (col + 20 * math.cos(t))) < 0.2   # tails cut
+    phi = np.arctan2(row - yy, xx + col + 5 - col)
+    assert abs(math.degrees((window * phi).sum() / window.sum()) - 15.0) < 0.3
     with pytest.raises(ValueError, match="inside the image"):   # (x, y) order would be outside
         motion_blur(img, 0.3, kind="zoom", center=(col, row), backend="numpy")

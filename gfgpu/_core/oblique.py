@@ -36,7 +36,7 @@ from .lines import direction, shear_maps, shear_offsets
 from .recursion import TOL, line_plans, plan_pass
 from .translation import crop_index, decay_length, step_offset, translate_index, without_offset
 
-__all__ = ["run_oblique_passes", "run_oblique_steps", "allpass_delay", "column_delays"]
+__all__ = ["run_oblique_passes", "run_oblique_steps", "run_oblique_lines", "allpass_delay", "column_delays"]
 
 
 def allpass_delay(d):
@@ -111,6 +111,26 @@ def run_oblique_steps(be, src, dst, dtype, groups, mode, cval, angle, plane, tra
     The result equals running the steps one after another except that the image is resampled
     twice in all rather than twice per step.
     """
+    def along(be, rows_in, rows_out, axis, reverse):
+        for passes in groups:
+            oriented = [replace(lp, reverse=lp.reverse != reverse, offset=-lp.offset if reverse else lp.offset)
+                        for lp in passes]
+            _passes_along(be, rows_in, rows_out, axis, dtype, oriented, mode, cval)
+            rows_in, rows_out = rows_out, rows_in
+        return rows_in
+
+    return run_oblique_lines(be, src, dst, dtype, along, mode, cval, angle, plane, transposed)
+
+
+def run_oblique_lines(be, src, dst, dtype, along, mode, cval, angle, plane, transposed=None):
+    """Run any line operation along the direction ``angle``: shear, ``along``, shear back.
+
+    ``along(be, rows_in, rows_out, axis, reverse)`` processes the lines of the sheared layout,
+    which run along ``axis`` (1 or 2) of two ``(B, N, M)`` device arrays, and returns the one that
+    holds its result (it may overwrite ``rows_in``); ``reverse`` is True where the direction
+    points toward decreasing indices along the lines.  Lines carry the continuous direction:
+    one sample per step of the dominant axis.  Arguments otherwise as :func:`run_oblique_passes`.
+    """
     shape = tuple(src.shape)
     ya, xa = plane
     if (ya, xa) != (len(shape) - 2, len(shape) - 1):
@@ -126,17 +146,13 @@ def run_oblique_steps(be, src, dst, dtype, groups, mode, cval, angle, plane, tra
     lines = maps.lines
     forward, inverse = _column_plans(steps, gamma, lines, np.dtype(dtype).str)
     layout = (batch, steps, lines) if transposed else (batch, lines, steps)
-    along, across = (1, 2) if transposed else (2, 1)
+    axis, across = (1, 2) if transposed else (2, 1)
     rows_in = be.empty(layout, dtype)
     rows_out = be.empty(layout, dtype)
     be.gather(be.reshape(src, (-1,)), maps.shear, cval, be.reshape(rows_in, (-1,)))
     if forward is not None:
         be.recurse_lines(rows_in, rows_in, across, forward, cval)
-    for passes in groups:
-        oriented = [replace(lp, reverse=lp.reverse != reverse, offset=-lp.offset if reverse else lp.offset)
-                    for lp in passes]
-        _passes_along(be, rows_in, rows_out, along, dtype, oriented, mode, cval)
-        rows_in, rows_out = rows_out, rows_in
+    rows_in = along(be, rows_in, rows_out, axis, reverse)
     if inverse is not None:
         be.recurse_lines(rows_in, rows_in, across, inverse, cval)
     be.gather(be.reshape(rows_in, (-1,)), maps.unshear, 0.0, be.reshape(dst, (-1,)))

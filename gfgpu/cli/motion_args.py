@@ -20,8 +20,8 @@ def motion_args(p):
                    help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1); "
                         "u1 > 0 zooms in, u1 < 0 zooms out (reads beyond the border through --mode)")
     p.add_argument("--rotate", type=finite_float, metavar="DEGREES",
-                   help="rotation during the exposure, in [-90, 90] degrees, counter-clockwise on "
-                        "screen for > 0, about the centre (three Green's shears)")
+                   help="rotation during the exposure, in [-360, 360] degrees, counter-clockwise on "
+                        "screen for > 0, about the centre (blurred along the arcs)")
     p.add_argument("--center-x", type=finite_float, metavar="X",
                    help="column of the zoom/rotation centre (default: middle)")
     p.add_argument("--center-y", type=finite_float, metavar="Y",

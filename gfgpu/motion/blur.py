@@ -1,57 +1,74 @@
-"""``motion_blur``: uniform motion, zoom or rotation through the chapter's Green's filters."""
+"""``motion_blur``: uniform motion, per-pixel velocity fields, zoom and spin, with the chapter's
+Green's function or a box exposure as the point-spread function."""
 
 from __future__ import annotations
+
+import numpy as np
 
 from .._core.job import apply_program
 from .._core.recursion import check_mode
 from .._core.validation import finite_cval, flag
+from ..backends.specs_motion import PSF_CODES
 from ..filters import make_job
-from .params import KINDS, move_channels, velocity_pair, zoom_factors
-from .rotation import apply_rotation, rotation_angle
+from .box import apply_uniform_box
+from .field import apply_field, check_field, is_field
+from .params import KINDS, center_point, move_channels, psf_name, velocity_pair, zoom_factors
+from .polar import apply_radial_zoom, apply_spin
+from .rotation import rotation_angle
 from .uniform import uniform_motion_program
 from .zoom import apply_zoom
 
 __all__ = ["motion_blur"]
 
 
-def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, mode="reflect",
+def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, displace=True, mode="reflect",
                 cval=0.0, channel_axis=None, output=None, backend=None, device=None):
-    """Motion blur through the chapter's Green's filters: uniform motion, a zoom or a rotation.
+    """Motion blur along the true path of uniform motion, a per-pixel velocity field, a zoom or a spin.
 
     Parameters
     ----------
     image : array_like, warp.array or pyopencl.array.Array
         Image ``(H, W)``, stack ``(..., H, W)`` (the image plane is the last two axes), or a
         colour image with ``channel_axis`` (numpy input).  float32/float64 kept, integers ->
-        float32.
-    velocity : pair of float, or float for ``kind="zoom"`` and ``kind="rotation"``
+        float32 (see :func:`gfgpu.io.to_output` to write them back at their depth).
+    velocity : pair of float, array (2, H, W), or float for ``kind="zoom"`` and ``kind="rotation"``
         ``kind="uniform"``: the displacement ``(vy, vx)`` in pixels during the exposure, in
         array-axis order (rows, cols) as :func:`gfgpu.shift`: ``vy`` down the rows, ``vx``
-        right along the columns.  ``(0, 0)`` returns a copy.
+        right along the columns; at most 1e9 px.  ``(0, 0)`` returns a copy.
+        A **velocity field** of shape ``(2, H, W)`` (rows, cols components, the order of
+        scikit-image's optical flow; numpy array, any real dtype, finite, components within
+        ±4096 px; used in the computation's dtype) blurs every pixel along its own velocity:
+        pixel ``x`` gathers the image along ``x - t v(x)`` (the standard post-process model).
         ``kind="zoom"``: the affine rate ``u1`` (eq. 10, ``U = u1 (x - x_U)``), one value or a
         pair ``(u1_y, u1_x)`` (rows, cols); ``2 - 2 sqrt(2) < u1 < 2`` (about -0.828 .. 2):
-        ``u1 > 0`` zooms in, ``u1 < 0`` zooms out, 0 leaves that axis unchanged.  A point at
-        column ``x`` moves to ``x_U + (x - x_U)(1 + u1_x)`` (rows likewise with ``u1_y``).
+        ``u1 > 0`` zooms in, ``u1 < 0`` zooms out.  A point at ``x`` moves to
+        ``c + (x - c)(1 + u1)``.
         ``kind="rotation"``: the angle turned during the exposure, in degrees, within
-        [-90, 90]; positive turns counter-clockwise on screen (x = column to the right, y = row
+        [-360, 360]; positive turns counter-clockwise on screen (x = column to the right, y = row
         down): a point at ``p = (x, y)`` moves to ``c + R (p - c)``,
         ``R = [[cos, sin], [-sin, cos]]``.
     kind : {'uniform', 'zoom', 'rotation'}
+    psf : {'green', 'box'}
+        Point-spread function along the path.  ``'green'``: the chapter's G_u (eq. 9), whose
+        mean is exactly the displacement (a comet-like smear whose tail runs to ~5 lengths).
+        ``'box'``: a uniform exposure over the shutter interval (content at every time weighted
+        equally; fractional lengths exact).
     center : pair of float, optional
-        Fixed point ``(row, col)`` of the zoom (inside the image) or of the rotation, i.e.
-        ``(y_U, x_U)``; default the image centre ``((H - 1)/2, (W - 1)/2)``.
+        Fixed point ``(row, col)`` of the zoom (inside the image) or of the rotation (within
+        twice the diagonal of the image centre), i.e. ``(y_U, x_U)``; default the image centre
+        ``((H - 1)/2, (W - 1)/2)``.
     displace : bool, optional
-        Uniform motion and rotation.  True: content moves by ``velocity`` and is blurred along
-        its path (the G_u point-spread function).  False: content stays in place (centroid kept
-        exactly; a rotation by ``-velocity/2`` then ``+velocity/2``) and is blurred
-        symmetrically along the path.
+        True: content moves by ``velocity`` and is blurred along its path (trailing: the
+        output at ``x`` sees the content that passed over it, ``x - t v`` for ``t`` in the
+        shutter).  False: content stays in place and is blurred symmetrically along the path
+        (the box over ``t`` in ``[-1/2, 1/2]``; G_u as an anticausal half shift then a causal
+        one).  Ignored by the Green zoom, which always displaces.
     mode, cval : optional
-        Boundary extension along the motion (scipy.ndimage names, see :func:`gfgpu.green_filter`).
-        A zoom-in reads no sample beyond the image (its sources lie between the fixed point and
-        the output), so ``mode`` does not affect it.  A zoom-out reads outward to infinity:
-        ``mode`` extends the image beyond the border (see Notes).
+        Boundary extension (scipy.ndimage names, see :func:`gfgpu.green_filter`).
     channel_axis : int, optional
-        Axis of colour channels of a numpy image (e.g. ``-1`` for ``(H, W, 3)``).
+        Axis of colour channels of a numpy image (e.g. ``-1`` for ``(H, W, 3)``).  Blur an RGBA
+        image premultiplied by its alpha (as ``gfgpu blur`` does), so that transparent pixels
+        leave no dark fringe.
     output : ndarray or dtype, optional
         As in :func:`gfgpu.green_filter` (not with ``channel_axis``).
     backend, device : str, optional
@@ -66,67 +83,54 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     Raises
     ------
     ValueError
-        Unknown ``kind``, non-finite or malformed ``velocity``, ``u1`` outside
-        ``(2 - 2 sqrt(2), 2)``, a rotation angle outside [-90, 90] degrees, a zoom
-        ``center`` outside the image, ``channel_axis`` out of range or combined with
-        ``output``, bad ``mode``, empty or non-finite input.
+        Unknown ``kind`` or ``psf``, non-finite or malformed ``velocity`` (a field of another
+        shape than ``(2, H, W)``, or with ``kind`` other than ``'uniform'``), ``u1`` outside
+        ``(2 - 2 sqrt(2), 2)``, a rotation angle outside [-360, 360] degrees, a ``center``
+        outside its range, ``channel_axis`` out of range or combined with ``output``, bad
+        ``mode``, empty or non-finite input.
     TypeError
         Unsupported dtype or non-numeric parameters.
 
     Notes
     -----
-    **Uniform motion** (eq. 7-9).  One recursive pass along the direction of ``velocity`` of
-    the discrete G_u shift (:func:`gfgpu.greens.shift_pass`: G_u's poles ``e^{(-1±i)/L}``, unit
-    DC gain and first moment exactly ``L``), ``L = max(|vy|, |vx|)`` steps of the dominant axis
-    along the digital lines of :mod:`gfgpu._core.lines`.  Along an axis or a diagonal the displacement
-    is exact (to 1e-6 px); along other directions the displacement of the dominant axis is
-    exact and that of the minor axis is exact on average but quantised per pixel (error up to
-    0.5 px, see ``docs/motion.md``).  ``displace=False`` runs the anticausal shift by ``L/2`` then
-    the causal one by ``L/2``: the PSF is the autocorrelation of the half-shift kernel (even,
-    single-peaked, zero phase) and its mean is exactly 0.  Cost: one (two) pass(es), O(1) per
-    pixel whatever ``L``.
+    Every kind runs along its true path (``docs/motion.md`` has the method and the measured
+    accuracy against supersampled renderings: the average of 512 exactly warped copies).
 
-    **Zoom** (eq. 10-12).  G_U^(1) is an exact affine warp to second order (zero variance, mean
-    at the pre-image ``x_U + (x - x_U)/(1 + u1)``; ``docs/motion.md``).  It is applied separably,
-    along the rows about ``x_U`` then along the columns about ``y_U``, each line split at the fixed point and the
-    recursion run outward on each side.  Point samples of eq. 11 fail near the fixed point
-    (the kernel has an integrable singularity there), so the source taps are the exact cell
-    integrals of eq. 11 (:func:`zoom_cell_weights`): unit DC gain at every pixel, mean within
-    0.3 px of the pre-image (0.13 px beyond 5 px from the fixed point for 0.25 <= u1 <= 1.5;
-    measured in ``docs/motion.md``).
-    The output pixel's own half cell needs a per-position direct
-    term, realised by laying each pixel out twice (two sections, see ``docs/motion.md``).
+    **Uniform motion**, along the continuous direction (the sheared layout of
+    :mod:`gfgpu._core.oblique`; lines step one pixel of the dominant axis, so the length is
+    ``L = max(|vy|, |vx|)`` steps).  G_u: one recursive pass of the discrete G_u shift
+    (:func:`gfgpu.greens.shift_pass`: unit DC gain, first moment exactly ``L``);
+    ``displace=False`` runs the anticausal shift by ``L/2`` then the causal one.  Box: the mean
+    of the line's piecewise-linear interpolant over the window ``[x - L, x]`` (centred
+    ``[x - L/2, x + L/2]``), a difference of running sums (:mod:`gfgpu.motion.box`).  Cost: O(1)
+    per pixel whatever ``L``.
 
-    **Zoom-out** (``u1 < 0``).  The bounded solution of eq. 10 is then anticausal: the sources
-    of the output at distance ``s`` from the fixed point lie further out, ``x0 > s``, with
-    ``G = 2/(u1^2 beta x0) (x0/s)^(-alpha) sin(beta ln(x0/s))`` (``alpha = 1/2 - 1/u1 > 0``,
-    ``beta = sqrt(1 + u1 - u1^2/4)/|u1|``, real for ``u1 > 2 - 2 sqrt(2)``; ``docs/motion.md``).  It
-    has unit integral and its mean is at the pre-image ``x_U + (x - x_U)/(1 + u1)`` (zero
-    variance for ``u1 > -2/3``; infinite below).  Same cell-integrated taps and factorisation,
-    but the recursion runs inward, from beyond the border toward the fixed point.  The kernel's
-    tail decays only like ``(s/x0)^alpha``, so it reaches past the border: one line length of
-    the ``mode`` extension is laid out beyond each border, and the last extended pixel's cell
-    takes the rest of the tail (exact for ``'nearest'`` and ``'constant'``; for
-    ``'reflect'/'mirror'/'wrap'`` the extension is constant beyond one image length).  Unit DC
-    gain everywhere except with ``mode='constant'``, where the mass beyond the border is
-    ``cval``'s.  The mapping is accurate (0.04 px at ``u1 = -0.1``, 0.06 px at ``-0.3``) where
-    ``s`` is small beside the distance ``S`` to the border (``s <= S/3`` and ``S/10``); closer
-    to the border the extension shows (``docs/motion.md``).
+    **Velocity fields** (:mod:`gfgpu.motion.field`): each pixel samples the cubic B-spline image
+    at ``n`` points of its own path with the PSF's exact cell masses as weights (box: ``t`` in
+    ``[0, 1]``; G_u with ``u = |v|``).  Cost: ``L + 1`` samples (box) or ``18 L`` samples (G_u, whose
+    tail reaches 18 lengths before its mass is below float32 rounding) of 16 coefficients
+    each, ``L`` the pixel's dominant component: paths that differ from pixel to pixel share no
+    running sum, so the cost grows with the length.
 
-    *Rotation* is the product of three shears, ``R = X(tan(θ/2)) Y(-sin θ) X(tan(θ/2))``
-    (Paeth 1986, :func:`rotation_shears`): each shear moves every row (column) by its own
-    amount ``a (y - y_c)`` with the discrete G_u shift of that amount (unit DC gain, mean
-    exactly the amount), run by the per-line primitive (:meth:`Backend.recurse_lines`).  The
-    mapping is therefore exact for linear content (every pixel shows its rotation pre-image,
-    away from the border's reach) and the blur of each shear runs along its own direction:
-    the composite smear approximates the arc of length ``r θ`` (radians) at radius r by three
-    straight strokes, which is close for small angles and coarser towards 90 degrees.
+    **Spin** (:mod:`gfgpu.motion.polar`): the image is resampled onto a polar grid about the
+    centre, blurred along every ring by one periodic pass (box window or G_u recursion; the
+    angle is the same number of samples on every ring) and resampled back: each point is
+    blurred along its arc.  O(1) per pixel.
+
+    **Zoom.**  Box: along the rays (same polar grid): the output at ``x`` is the mean over the
+    segment from ``x`` to its pre-image ``c + (x - c)/(1 + u1)`` (a camera moving toward the scene
+    at constant speed), a running-sum window on every ray; a pair of different rates
+    ``(u1_y, u1_x)`` runs as the affine velocity field ``v = (u1/(1 + u1)) (x - c)`` per axis.
+    G_u: the exact affine G_U^(1) (eq. 10-12, :mod:`gfgpu.motion.zoom`), applied separably
+    along the rows then the columns (cell-integrated taps, mean at the pre-image to 0.3 px,
+    zoom-out read through ``mode``; see ``docs/motion.md``).
 
     References
     ----------
     .. [1] Torreão et al., "Green's Functions of Matching Equations", 2007, eqs. 7-12.
     .. [2] Ferreira Jr. et al., "Motion synthesis through 1D affine matching", PAA, 2008.
-    .. [3] A. W. Paeth, "A fast algorithm for general raster rotation", Graphics Interface, 1986.
+    .. [3] M. Unser, "Splines: a perfect fit for signal and image processing", IEEE SPM, 1999
+       (cubic B-spline interpolation by recursive prefiltering).
 
     Examples
     --------
@@ -136,37 +140,71 @@ def motion_blur(image, velocity, *, kind="uniform", center=None, displace=True, 
     >>> out = motion_blur(img, (0, 12.5), mode="constant", backend="numpy")   # (vy, vx)
     >>> round(float((out[16] * np.arange(256)).sum()), 4)
     22.5
+    >>> ramp = np.tile(np.arange(64.0), (4, 1))
+    >>> box = motion_blur(ramp, (0, 4.5), psf="box", mode="nearest", backend="numpy")
+    >>> box[0, 30:33]   # the mean of x over [x - 4.5, x]: x - 2.25
+    array([27.75, 28.75, 29.75])
+    >>> field = np.zeros((2, 32, 256)); field[1, :, 128:] = 8.0          # right half moves 8 px right
+    >>> f = motion_blur(img, field, psf="box", mode="constant", backend="numpy")
+    >>> bool(np.allclose(f[:, :128], img[:, :128]))                     # left half untouched
+    True
     >>> z = motion_blur(np.tile(np.arange(64.0), (8, 1)), 0.5, kind="zoom", center=(4, 20),
     ...                 backend="numpy")   # center (row, col)
     >>> round(float(z[4, 50]), 1)  # samples the pre-image 20 + 30 / 1.5
     40.0
-    >>> zo = motion_blur(np.tile(np.arange(512.0), (8, 1)), -0.2, kind="zoom", center=(4, 200),
-    ...                  mode="nearest", backend="numpy")
-    >>> round(float(zo[4, 216]), 2)  # zoom-out: samples the pre-image 200 + 16 / 0.8
-    220.0
     >>> yy, xx = np.mgrid[:101, :101].astype(float)
-    >>> r = motion_blur(xx, 5.0, kind="rotation", center=(50, 50), mode="nearest", backend="numpy")
-    >>> round(float(r[40, 50]), 4)  # 10 px above the centre: pre-image x = 50 + 10 sin(5 deg)
-    50.8716
+    >>> r = np.hypot(yy - 50, xx - 50)
+    >>> rings = np.cos(r / 5)
+    >>> s = motion_blur(rings, 30.0, kind="rotation", psf="box", center=(50, 50), backend="numpy")
+    >>> bool(np.abs(s - rings)[(r > 3) & (r < 45)].max() < 2e-3)   # content moves along its circle
+    True
     """
     if kind not in KINDS:
         raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    psf = psf_name(psf)
     check_mode(mode)
     cval = finite_cval(cval)
+    displace = flag("displace", displace)
     if channel_axis is not None:
         if output is not None:
             raise ValueError("output cannot be combined with channel_axis; use the return value")
         moved, undo = move_channels(image, channel_axis)
-        return undo(motion_blur(moved, velocity, kind=kind, center=center, displace=displace, mode=mode,
-                                cval=cval, backend=backend, device=device))
-    if kind == "uniform":
-        velocity_pair(velocity)
+        return undo(motion_blur(moved, velocity, kind=kind, psf=psf, center=center, displace=displace,
+                                mode=mode, cval=cval, backend=backend, device=device))
+    if is_field(velocity):
+        if kind != "uniform":
+            raise ValueError(f"a velocity field (2, H, W) goes with kind='uniform', got kind={kind!r}")
         job = make_job(image, output, backend, device, min_ndim=2)
-        return apply_program(job, uniform_motion_program(job.ndim, velocity, flag("displace", displace)), mode, cval)
+        field = check_field(velocity, job.shape)
+        return apply_field(job, field, PSF_CODES[psf, displace], mode, cval)
+    if kind == "uniform":
+        vy, vx = velocity_pair(velocity)
+        moving = bool(uniform_motion_program(2, (vy, vx), displace).steps)   # checks the length first
+        job = make_job(image, output, backend, device, min_ndim=2)
+        if psf == "box" and moving:
+            return apply_uniform_box(job, vy, vx, displace, mode, cval)
+        return apply_program(job, uniform_motion_program(job.ndim, (vy, vx), displace), mode, cval)
     if kind == "rotation":
         degrees = rotation_angle(velocity)
         job = make_job(image, output, backend, device, min_ndim=2)
-        return apply_rotation(job, degrees, center, flag("displace", displace), mode, cval)
+        cy, cx = center_point(center, job.shape[-2], job.shape[-1])
+        return apply_spin(job, degrees, cy, cx, psf, displace, mode, cval)
     u1y, u1x = zoom_factors(velocity)
     job = make_job(image, output, backend, device, min_ndim=2)
-    return apply_zoom(job, u1y, u1x, center, mode, cval)
+    if psf == "green":
+        return apply_zoom(job, u1y, u1x, center, mode, cval)
+    return _box_zoom(job, u1y, u1x, center, displace, mode, cval)
+
+
+def _box_zoom(job, u1y, u1x, center, displace, mode, cval):
+    """Box zoom: along the rays on the polar grid, or the affine field for unequal rates."""
+    height, width = job.shape[-2], job.shape[-1]
+    cy, cx = center_point(center, height, width)
+    if not (0.0 <= cy <= height - 1 and 0.0 <= cx <= width - 1):
+        raise ValueError(f"center (row, col) = ({cy:g}, {cx:g}) must lie inside the image, "
+                         f"0 <= row <= {height - 1} and 0 <= col <= {width - 1}")
+    if u1y == u1x:
+        return apply_radial_zoom(job, u1x, cy, cx, displace, mode, cval)
+    yy, xx = np.mgrid[:height, :width].astype(np.float64)
+    field = np.stack([(u1y / (1.0 + u1y)) * (yy - cy), (u1x / (1.0 + u1x)) * (xx - cx)])
+    return apply_field(job, check_field(field, job.shape), PSF_CODES["box", displace], mode, cval)

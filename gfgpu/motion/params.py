@@ -12,10 +12,20 @@ import numpy as np
 
 from .._core.validation import finite_scalar
 
-__all__ = ["KINDS", "U1_MIN", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "center_point",
+__all__ = ["KINDS", "PSFS", "U1_MIN", "psf_name", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "center_point",
            "move_channels"]
 
 KINDS = ("uniform", "zoom", "rotation")
+
+#: point-spread functions: the chapter's G_u, and the box of a uniform exposure
+PSFS = ("green", "box")
+
+
+def psf_name(psf):
+    """``psf`` checked against :data:`PSFS`."""
+    if not isinstance(psf, str) or psf not in PSFS:
+        raise ValueError(f"psf must be one of {', '.join(map(repr, PSFS))}, got {psf!r}")
+    return psf
 
 
 def pair(value, name):

@@ -1,4 +1,10 @@
-"""Spin blur: a rotation by three Green's shears (Paeth), each line shifted by its own amount."""
+"""Rotation angles of the spin blur, and Paeth's three-shear factorisation of a rotation.
+
+The spin blur itself runs along the arcs on a polar grid (:mod:`gfgpu.motion.polar`).  The
+shears (each line shifted by its own amount with the Green shift) are kept as a building block
+for comparisons (``benchmarks/oblique.py``): their blur runs along three straight strokes,
+not along the arc.
+"""
 
 from __future__ import annotations
 
@@ -7,22 +13,19 @@ import math
 import numpy as np
 
 from .. import greens
-from .._core import strips
-from .._core.job import copy_of_input
 from .._core.recursion import line_plans
 from .._core.validation import finite_scalar
-from .params import center_point
 
-__all__ = ["ROTATION_MAX_DEGREES", "rotation_angle", "rotation_shears", "apply_rotation"]
+__all__ = ["ROTATION_MAX_DEGREES", "rotation_angle", "rotation_shears"]
 
-ROTATION_MAX_DEGREES = 90.0   # tan(θ/2) <= 1: the shears stay at most one pixel per pixel
+ROTATION_MAX_DEGREES = 360.0   # one turn: beyond it, every ring's window wraps over itself
 
 
 def rotation_angle(velocity):
     theta = finite_scalar("velocity (rotation angle in degrees)", velocity)
     if abs(theta) > ROTATION_MAX_DEGREES:
         raise ValueError(f"velocity (rotation angle) must lie in [-{ROTATION_MAX_DEGREES:g}, "
-                         f"{ROTATION_MAX_DEGREES:g}] degrees for the three-shear rotation, got {theta!r}")
+                         f"{ROTATION_MAX_DEGREES:g}] degrees (one turn), got {theta!r}")
     return theta
 
 
@@ -54,28 +57,3 @@ def _shear_plans(rate, n_lines, centre, n, mode, dtype):
     amounts, where = np.unique(np.where(identity, 1.0, np.abs(d)), return_inverse=True)
     lam, kap, tap = (c[where] for c in greens.shift_coefficients_many(amounts))
     return line_plans(lam, kap, tap, d < 0, n, mode, dtype, identity)
-
-
-def apply_rotation(job, degrees, center, displace, mode, cval):
-    """Rotate ``job``'s image planes by ``degrees`` about ``center = (row, col)`` (default the middle)."""
-    height, width = job.shape[-2], job.shape[-1]
-    cy, cx = center_point(center, height, width)
-    strips.require_whole_image(job, "a rotation (its shears move whole rows and columns)")
-    if degrees == 0.0:
-        return job.finish(copy_of_input(job))
-    shears = rotation_shears(degrees) if displace else \
-        rotation_shears(-degrees / 2.0) + rotation_shears(degrees / 2.0)
-    be, dtype = job.backend, job.dtype
-    batch = int(np.prod(job.shape[:-2], dtype=np.int64))
-    cur = be.reshape(job.data, (batch, height, width))
-    bufs = [be.empty((batch, height, width), dtype) for _ in range(2)]
-    for i, (axis, rate) in enumerate(shears):
-        # rows (axis -1): line = row y, about y_c; columns (axis -2): line = column x, about x_c
-        lines, n, centre = (height, width, cy) if axis == -1 else (width, height, cx)
-        plans = _shear_plans(rate, lines, centre, n, mode, dtype)
-        nxt = bufs[i % 2]
-        be.recurse_lines(cur, nxt, 2 if axis == -1 else 1, plans, cval)
-        cur = nxt
-    result = job.result_buffer()
-    be.copy(cur, be.reshape(result, (batch, height, width)))
-    return job.finish(result)

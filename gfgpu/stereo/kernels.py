@@ -36,9 +36,11 @@ sgm = register("stereo.sgm", specs.sgm_aggregate_reference, **_launchers("sgm"))
 select = register("stereo.select", specs.select_disparity_reference, **_launchers("select"))
 
 #: ``match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block, p1,
-#: p2, paths, uniqueness)``: cost, aggregation and selection in one (``semi_global_match_reference``;
-#: ``census_left`` (1, H, W), ``census_right`` (steps, H, W) uint64; outputs as for ``select``); on
-#: CPUs the OpenCL launcher streams bands of rows instead of holding (H, W, D) volumes
+#: p2, paths, uniqueness, budget)``: cost, aggregation and selection in one
+#: (``semi_global_match_reference``; ``census_left`` (1, H, W), ``census_right`` (steps, H, W) uint64;
+#: outputs as for ``select``; ``first_step`` a multiple of ``steps``); on CPUs the OpenCL launcher
+#: streams bands of rows instead of holding (H, W, D) volumes, and keeps the byte costs of the whole
+#: image only if that fits ``budget`` bytes (None: no limit)
 match = register("stereo.match", specs.semi_global_match_reference, **_launchers("match"))
 
 #: ``sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius)``:

@@ -517,8 +517,9 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
 
 
 #: bytes per pixel and disparity sample of the "sgm" method where whole volumes are held: the
-#: numpy specification's int32/int64 copies (16); the int16 cost and aggregate on GPUs and Warp (4)
-_SGM_BYTES = {"numpy": 16}
+#: numpy specification's int32/int64 temporaries (40, measured: ru_maxrss growth of a 300x450,
+#: 96-disparity call); the int16 cost and aggregate on GPUs and Warp (4)
+_SGM_BYTES = {"numpy": 40}
 _SGM_BYTES_DEFAULT = 4
 
 
@@ -536,7 +537,7 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
     ``D = (max - min) * subpixel_steps + 1``) when the working set allows, else recomputes them
     per band, plus O(k·W·D) band buffers and O((H/k)·W·D) path-state checkpoints.  On GPUs and
     Warp it holds two int16 (H, W, D) volumes (4 bytes per sample), on the numpy specification
-    16.  Plus O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity`
+    ~40.  Plus O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity`
     refuses (a ``ValueError`` before allocating anything) a request above the working set: the
     device's budget (half a GPU's memory), :func:`gfgpu.working_set` / ``GFGPU_WORKING_SET`` if
     set, and on CPU devices half the host's physical memory.
@@ -592,7 +593,7 @@ def _sgm_memory(be, shape, n, steps, paths, budget, keep=None):
 
 
 def _size(nbytes):
-    return f"{nbytes / 2**30:.2f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.1f} MiB"
+    return f"{nbytes / 2**30:.3f} GiB" if nbytes >= 2**30 else f"{nbytes / 2**20:.2f} MiB"
 
 
 def _host_memory():

@@ -181,6 +181,57 @@ def _nms(be, kernel, rng):
             _compare(be.to_host(out), kernel.spec(a, b), f"nms {np.dtype(dtype).name} {case}")
 
 
+def _close(be, got, ref, dtype, what):
+    got = be.to_host(got).reshape(ref.shape)
+    tol = 1e-11 if np.dtype(dtype) == np.float64 else 2e-5
+    assert np.abs(got - ref).max() <= tol * max(1.0, np.abs(ref).max()), what
+
+
+def _motion_dtypes(be):
+    return (np.float32, np.float64) if be.supports_float64 else (np.float32,)
+
+
+@builds("motion.box_lines")
+def _box_lines(be, kernel, rng):
+    for dtype in _motion_dtypes(be):
+        src = rng.standard_normal((2, 7, 33)).astype(dtype)
+        for axis, window, mode in ((1, (-5.3, 1.0, 0.0, 1.0), "reflect"), (2, (0.0, 1.0, 7.25, 1.0), "wrap"),
+                                   (2, (-40.5, 1.0, 0.0, 1.0), "constant"), (1, (0.0, 0.8, 0.0, 1.3), "nearest")):
+            dst = be.empty(src.shape, dtype)
+            kernel(be, be.asarray(src), dst, axis, *window, mode, 0.7)
+            _close(be, dst, kernel.spec(src, axis, *window, mode, 0.7), dtype, f"box_lines {axis} {window} {mode}")
+
+
+@builds("motion.field_blur")
+def _field_blur(be, kernel, rng):
+    for dtype in _motion_dtypes(be):
+        coef = rng.standard_normal((2, 20, 24)).astype(dtype)
+        field = (rng.standard_normal((2, 20, 24)) * 4).astype(dtype)
+        for psf, mode in ((0, "reflect"), (1, "wrap"), (2, "constant"), (3, "mirror")):
+            out = be.empty(coef.shape, dtype)
+            kernel(be, be.asarray(coef), be.asarray(field), out, psf, 2.0, mode, 0.3)
+            _close(be, out, kernel.spec(coef, field, psf, 2.0, mode, 0.3), dtype, f"field_blur {psf} {mode}")
+
+
+@builds("motion.to_polar")
+def _to_polar(be, kernel, rng):
+    for dtype in _motion_dtypes(be):
+        coef = rng.standard_normal((2, 20, 24)).astype(dtype)
+        for mode in ("reflect", "constant"):
+            polar = be.empty((2, 18, 64), dtype)
+            kernel(be, be.asarray(coef), polar, 9.5, 11.2, mode, 0.3)
+            _close(be, polar, kernel.spec(coef, 9.5, 11.2, 18, 64, mode, 0.3), dtype, f"to_polar {mode}")
+
+
+@builds("motion.from_polar")
+def _from_polar(be, kernel, rng):
+    for dtype in _motion_dtypes(be):
+        pcoef = rng.standard_normal((2, 18, 64)).astype(dtype)
+        back = be.empty((2, 20, 24), dtype)
+        kernel(be, be.asarray(pcoef), back, 9.5, 11.2)
+        _close(be, back, kernel.spec(pcoef, 9.5, 11.2, 20, 24), dtype, "from_polar")
+
+
 def test_every_registered_kernel_is_tested():
     assert REGISTERED, "no fused kernel registered: the applications did not import"
     assert {"stereo.census", "stereo.cost", "stereo.sgm", "stereo.select", "stereo.match", "stereo.sweep",
@@ -191,7 +242,9 @@ def test_every_registered_kernel_is_tested():
     assert not stale, f"input builders for kernels nobody registers: {stale}"
     for name, kernel in fused.registered().items():
         assert set(kernel.launchers) == set(BACKENDS), f"{name} runs on {sorted(kernel.launchers)} only"
-        assert callable(kernel.spec) and kernel.spec.__module__ == "gfgpu.backends.specs", name
+        # the numpy specifications: gfgpu.backends.specs (stereo, edges), specs_motion (motion)
+        assert callable(kernel.spec) and kernel.spec.__module__ in ("gfgpu.backends.specs",
+                                                                    "gfgpu.backends.specs_motion"), name
 
 
 @pytest.mark.parametrize("name", REGISTERED)

@@ -17,6 +17,7 @@ import ctypes
 import os
 import shutil
 import tempfile
+import threading
 import warnings
 from collections import OrderedDict
 from functools import cache
@@ -34,6 +35,11 @@ _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
 
 _programs = {}             # (context, source, defines) -> built pyopencl.Program
 _kernels = {}              # (context, source, defines, name) -> pyopencl.Kernel (one per kernel)
+# a pyopencl.Kernel call sets the shared kernel object's arguments, then enqueues it: two threads
+# launching one kernel at once could enqueue each other's arguments (seen under a tiny
+# sys.setswitchinterval: wrong pixels in shift and disparity) -- every launch holds this lock
+_LAUNCH_LOCK = threading.RLock()
+_KERNEL_LOCK = threading.RLock()   # one kernel object per key, also when threads build at once
 _queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
 
 
@@ -479,7 +485,8 @@ class OpenCLBackend(Backend):
         args = (array.base_data, np.int64(array.offset // dtype.itemsize), np.int64(size),
                 np.int64(first), np.int64(stride), np.int64(count), flag_buf)
         gsize = -(-items // group) * group
-        evt = knl(self.queue, (gsize,), (group,), *args, wait_for=array.events or None)
+        with _LAUNCH_LOCK:
+            evt = knl(self.queue, (gsize,), (group,), *args, wait_for=array.events or None)
         self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
         return int(flag[0]) == 0
 
@@ -516,8 +523,11 @@ class OpenCLBackend(Backend):
         key = (self.context, source, defines, name)
         knl = _kernels.get(key)
         if knl is None:
-            # each attribute access would create a new kernel object: keep one
-            knl = _kernels[key] = getattr(_program(self.context, source, defines), name)
+            with _KERNEL_LOCK:
+                knl = _kernels.get(key)
+                if knl is None:
+                    # each attribute access would create a new kernel object: keep one
+                    knl = _kernels[key] = getattr(_program(self.context, source, defines), name)
         return knl
 
     def recurse_lines(self, src, dst, axis, plans, cval=0.0):
@@ -568,7 +578,8 @@ class OpenCLBackend(Backend):
 
     def _launch(self, knl, gsize, lsize, arrays_in, arrays_out, args):
         wait = [e for a in arrays_in + arrays_out for e in a.events]
-        evt = knl(self.queue, gsize, lsize, *args, wait_for=wait or None)
+        with _LAUNCH_LOCK:
+            evt = knl(self.queue, gsize, lsize, *args, wait_for=wait or None)
         for a in arrays_out:
             a.add_event(evt)
         return evt

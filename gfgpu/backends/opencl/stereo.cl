@@ -92,6 +92,13 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 #define TAIL (N_DISP - 16 * (NV - 1))      // lanes of the last vector that are disparities, 1..16
 #define PAD_COST 16384                     // path cost of the padding lanes: never a minimum
 #define NP (16 * NV)                       // padded disparities of a state vector
+// Loops over a pixel's vectors unroll (SIMD over all its disparities, arrays in registers) up to
+// 256 samples; wider ranges stay loops: unrolled, 4096 samples took PoCL minutes to build
+#if NV <= 16
+#define UNROLL_NV _Pragma("unroll")
+#else
+#define UNROLL_NV _Pragma("nounroll")
+#endif
 
 // Vector loads and stores at element alignment, and the elementwise minimum, as operators: PoCL
 // calls (does not inline) vloadn/vstoren/min, which would dominate the loops.
@@ -254,7 +261,7 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
         return;
     const int r = block / 2;
     ushort16 sum[NV];
-    #pragma unroll
+    UNROLL_NV
     for (int j = 0; j < NV; ++j) {
         sum[j] = (ushort16)(0);
         for (int u = -r; u <= r; ++u)
@@ -269,7 +276,7 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
         const long lo = (long)(x + r - (w - 1)) * steps - first_step;
         const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
         const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             if (moved)
                 sum[j] += window_column(ham, y, add, h, w, r, j, ham_row0) -
@@ -291,14 +298,14 @@ static void column_sum(ushort16 *col, __global const ulong *cl, __global const u
                        const int c, const int h, const int w, const int first_step, const int steps)
 {
     __private ushort *d = (__private ushort *)col;
-    #pragma unroll
+    UNROLL_NV
     for (int j = 0; j < NV; ++j)
         col[j] = (ushort16)(0);
     const int ws = w * steps, j0 = c * steps + steps - 1 - first_step;   // sample k: index j0 - k
     const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
     ulong lc[BLOCK];
     __global const ulong *row[BLOCK];
-    #pragma unroll
+    UNROLL_NV
     for (int v = 0; v < BLOCK; ++v) {
         const int yy = CLAMPI(y + v - BLOCK / 2, 0, h - 1);
         lc[v] = cl[(size_t)yy * w + c];
@@ -306,7 +313,7 @@ static void column_sum(ushort16 *col, __global const ulong *cl, __global const u
     }
     for (int k = k_lo; k < k_hi; ++k) {
         uint t = 0;
-        #pragma unroll
+        UNROLL_NV
         for (int v = 0; v < BLOCK; ++v)
             t += POPCOUNT(lc[v] ^ row[v][-k]);
         d[k] = (ushort)t;
@@ -324,7 +331,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
     ushort16 ring[BLOCK][NV], sum[NV];
     // the window at x = 0: columns clamp(u) for u = -r .. r
     int slot = 0, last = -1;
-    #pragma unroll
+    UNROLL_NV
     for (int j = 0; j < NV; ++j)
         sum[j] = (ushort16)(0);
     for (int u = -r; u <= r; ++u, ++slot) {
@@ -336,7 +343,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
             column_sum(ring[slot], cl, ri, y, c, h, w, first_step, steps);
         }
         last = c;
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j)
             sum[j] += ring[slot][j];
     }
@@ -349,14 +356,14 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
             const int c = min(x + r, w - 1);
             ushort16 fresh[NV];
             if (c == last) {
-                #pragma unroll
+                UNROLL_NV
                 for (int j = 0; j < NV; ++j)
                     fresh[j] = ring[newest][j];
             } else {
                 column_sum(fresh, cl, ri, y, c, h, w, first_step, steps);
             }
             last = c;
-            #pragma unroll
+            UNROLL_NV
             for (int j = 0; j < NV; ++j) {
                 sum[j] += fresh[j] - ring[oldest][j];
                 ring[oldest][j] = fresh[j];
@@ -368,7 +375,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
         const long lo = (long)(x + r - (w - 1)) * steps - first_step;
         const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
         const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             const short16 k = lane + (short16)(16 * j);
             const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
@@ -405,7 +412,7 @@ static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *
         __global short *tot = total + base;
         const short16 vm = (short16)(m), jump = (short16)(m + p2);
         short16 before = pad, mv = pad;
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             const short16 cv = LOAD_S(c, j);
             short16 cur = cv;
@@ -483,7 +490,7 @@ path_pixel(__global const short *in, const short m_in, __global short *out, cons
     const short16 vp1 = (short16)(p1), vp2 = (short16)(p2);
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     short16 cur[NV], run = pad;
-    #pragma unroll
+    UNROLL_NV
     for (int j = 0; j < NV; ++j) {
         const short16 old = VLOAD(short, 16, in + 16 * j);
         const short16 lower = VLOAD(short, 16, in + 16 * j - 1);
@@ -497,7 +504,7 @@ path_pixel(__global const short *in, const short m_in, __global short *out, cons
         run = VMIN(run, v);
         sum[j] += out_of_view ? (short16)(0) : v;
     }
-    #pragma unroll
+    UNROLL_NV
     for (int j = 0; j < NV; ++j)
         VSTORE(short, 16, cur[j], out + 16 * j);
     return hmin16(run);
@@ -564,7 +571,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             const int x = pass == 0 ? xi : w - 1 - xi, cell = x + 1;
             __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * N_DISP;
             short16 cv[NV], sum[NV];
-            #pragma unroll
+            UNROLL_NV
             for (int j = 0; j < NV; ++j) {
                 cv[j] = LOAD_COST(c, j);
                 sum[j] = (short16)(0);
@@ -580,7 +587,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             }
             if (write) {
                 __global short *o = out + ((size_t)bi * w + x) * N_DISP;
-                #pragma unroll
+                UNROLL_NV
                 for (int j = 0; j < NV; ++j)
                     STORE_S(cv[j] < (short16)(0) ? (short16)(-1) : sum[j], o, j);
             }
@@ -616,7 +623,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
     short16 group_end[NV], ev[NV], ei[NV];      // lanes whose k + 1 is on the next pixel; E_x
-    #pragma unroll
+    UNROLL_NV
     for (int j = 0; j < NV; ++j) {
         const short16 k = lane + (short16)(16 * j);
         group_end[j] = (k + (short16)(f0)) % (short16)(steps) == (short16)(steps - 1);
@@ -633,7 +640,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
         __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
         short16 sv[NV], vmin = none;
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             const short16 v = LOAD_SMAX(s, j);
             // (padding lanes read SHRT_MAX in both: kept at none, not summed past it)
@@ -644,13 +651,13 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         const int best = hmin16(vmin);
         const short16 vbest = (short16)(best);
         short16 first = none;
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j)
             first = VMIN(first, sv[j] == vbest ? lane + (short16)(16 * j) : none);
         const int kb = hmin16(first);
         const short16 below = (short16)(kb - 1), above = (short16)(kb + 1);
         short16 far = none;
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             const short16 k = lane + (short16)(16 * j);
             far = VMIN(far, (k < below) | (k > above) ? sv[j] : none);
@@ -671,7 +678,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
         mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
         // ---- right view: E_x from E_(x+1) (at group ends), then within the groups
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             const short16 k = lane + (short16)(16 * j);
             const short16 cv = SHIFT_DOWN(ev, j, SHRT_MAX), ci = SHIFT_DOWN(ei, j, 0);
@@ -680,7 +687,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
             ei[j] = take ? k : ci;
         }
         for (int round = 1; round < steps; ++round) {
-            #pragma unroll
+            UNROLL_NV
             for (int j = 0; j < NV; ++j) {
                 const short16 cv = SHIFT_DOWN(ev, j, SHRT_MAX), ci = SHIFT_DOWN(ei, j, 0);
                 const short16 take = (ev[j] <= cv) | group_end[j];
@@ -697,7 +704,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     const int xr_end = min(w, -n0);
     if (xr_end > 0) {
         short idx[NP], val[NP];
-        #pragma unroll
+        UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             *(__private short16 *)(idx + 16 * j) = ei[j];
             *(__private short16 *)(val + 16 * j) = ev[j];

@@ -196,6 +196,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         _check_written(a, name)
     h, w = disp.shape
     n = int(n_disp)
+    if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
+        raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
     if be.kind != "cpu":
         # GPUs: whole int16 volumes, each path's lines in parallel (disparity() checks the
         # device's memory before allocating)

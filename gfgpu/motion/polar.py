@@ -1,0 +1,126 @@
+"""Spin and radial zoom blur along their true paths, on a polar grid about the centre.
+
+A rotation about ``c`` moves every point along its circle, a zoom along its ray: in polar
+coordinates ``(r, phi)`` about ``c`` both are motions along one array axis.  The image (its
+cubic B-spline, :mod:`gfgpu.motion.spline`) is resampled onto ``n_r`` rings ``r = 0, 1, ...``
+of ``n_phi`` angles each (:data:`gfgpu.motion.kernels.to_polar`), blurred along the rings or
+the rays, and resampled back (:data:`gfgpu.motion.kernels.from_polar`).
+
+- **Spin** by ``θ``: content at ``phi`` moves to ``phi + θ``, i.e. ``D = θ n_phi / 2π`` samples
+  along every ring, the same on every ring: one shift-invariant pass along the rows of the
+  polar grid with periodic boundaries (``mode="wrap"`` is exact there).  The box is the
+  running-sum window of :mod:`gfgpu.motion.box`; G_u is the chapter's recursion
+  (:func:`gfgpu.greens.shift_pass`, mean exactly ``D``).  A point at radius ``r`` is blurred
+  along its arc of length ``r θ``.
+- **Zoom** (box, ``u1_y = u1_x``): pixel ``x`` gathers uniformly along the segment from ``x`` to
+  its pre-image ``c + (x - c)/(1 + u1)`` (a camera moving toward the scene at constant speed:
+  the pre-image moves linearly in time), i.e. the radii ``[r/(1 + u1), r]``, a window whose ends
+  grow linearly along the ray: the same running-sum kernel with slopes ``(1/(1+u1), 1)``.
+
+Both are O(1) per pixel whatever the angle or the rate: two spline prefilters (recursions),
+two resamplings of 16 coefficients per sample and one running sum or recursion per sample.
+``n_phi = ceil(2π R)`` angles on the outermost ring ``R`` keep the arc spacing at most one
+pixel everywhere.  The resampling blur (a spin by 0 through the grid) is measured in
+``docs/motion.md``.
+"""
+
+from __future__ import annotations
+
+import math
+
+from .. import greens
+from .._core import strips
+from .._core.job import copy_of_input
+from .._core.program import run_axis_passes
+from .box import box_window
+from .kernels import box_lines, from_polar, to_polar
+from .spline import line_coefficients, spline_coefficients
+
+__all__ = ["polar_grid", "apply_spin", "apply_radial_zoom"]
+
+#: rings beyond the farthest pixel (the spline's support reaches two samples outward)
+_EXTRA_RINGS = 4
+
+
+def polar_grid(height, width, cy, cx, reach=1.0):
+    """``(n_r, n_phi)`` of the polar grid about ``(cy, cx)``: rings out to ``reach`` times the
+    farthest pixel (windows that read outward), angles spaced at most one pixel on the
+    outermost image ring, a multiple of 16 (vector lanes)."""
+    radius = max(math.hypot(y - cy, x - cx) for y in (0, height - 1) for x in (0, width - 1))
+    n_r = int(math.ceil(radius * reach)) + _EXTRA_RINGS
+    n_phi = max(16, 16 * math.ceil(2.0 * math.pi * max(radius, 1.0) / 16.0))
+    return n_r, n_phi
+
+
+def _check_center(cy, cx, height, width):
+    # the grid's size grows with the centre's distance: keep it within a few image sizes
+    reach = 2.0 * math.hypot(height, width)
+    if math.hypot(cy - (height - 1) / 2.0, cx - (width - 1) / 2.0) > reach:
+        raise ValueError(f"center (row, col) = ({cy:g}, {cx:g}) must lie within {reach:.0f} pixels of the "
+                         f"image centre (twice the diagonal) for a spin or zoom on the polar grid")
+
+
+def _run_polar(job, cy, cx, reach, blur, mode, cval, what):
+    """Resample to the polar grid, ``blur(be, polar, shape)`` -> blurred polar array, resample back."""
+    be, dtype, shape = job.backend, job.dtype, job.shape
+    height, width = shape[-2], shape[-1]
+    _check_center(cy, cx, height, width)
+    strips.require_whole_image(job, what)
+    planes = (math.prod(shape[:-2]), height, width)
+    n_r, n_phi = polar_grid(height, width, cy, cx, reach)
+    pshape = (planes[0], n_r, n_phi)
+    coef = spline_coefficients(be, be.reshape(job.data, planes), dtype, planes, (mode, mode), cval)
+    polar = be.empty(pshape, dtype)
+    to_polar(be, coef, polar, cy, cx, mode, cval)
+    del coef
+    blurred = blur(be, polar, pshape)
+    pcoef = spline_coefficients(be, blurred, dtype, pshape, ("mirror", "wrap"))
+    result = job.result_buffer()
+    from_polar(be, pcoef, be.reshape(result, planes), cy, cx)
+    return job.finish(result)
+
+
+def apply_spin(job, degrees, cy, cx, psf, displace, mode, cval):
+    """Spin blur of ``job``'s image planes by ``degrees`` about ``(cy, cx)``, along the arcs."""
+    def blur(be, polar, pshape):
+        n_phi = pshape[2]
+        d = math.radians(degrees) * n_phi / (2.0 * math.pi)     # samples along every ring
+        if psf == "box":
+            coef = line_coefficients(be, polar, be.empty(pshape, job.dtype), job.dtype, pshape, 2, "wrap")
+            a0, b0 = box_window(abs(d), displace, d < 0)
+            box_lines(be, coef, polar, 2, a0, 1.0, b0, 1.0, "wrap", 0.0)
+            return polar
+        steps = [[greens.shift_pass(d)]] if displace else [[greens.shift_pass(-d / 2)], [greens.shift_pass(d / 2)]]
+        cur = polar
+        for passes in steps:
+            nxt = be.empty(pshape, job.dtype)
+            run_axis_passes(be, cur, nxt, job.dtype, passes, "wrap", 0.0, 2, pshape)
+            cur = nxt
+        return cur
+
+    if degrees == 0.0:
+        return job.finish(copy_of_input(job))
+    return _run_polar(job, cy, cx, 1.0, blur, mode, cval, "a spin blur (its polar grid holds the whole image)")
+
+
+def zoom_window(u1, displace):
+    """``(a1, b1)``: the radii ``[a1 r, b1 r]`` that the output at radius ``r`` averages."""
+    pre = 1.0 / (1.0 + u1)          # the pre-image's radius, per unit radius
+    if displace:
+        return min(pre, 1.0), max(pre, 1.0)
+    half = abs(1.0 - pre) / 2.0      # centred: the path's middle at r
+    return 1.0 - half, 1.0 + half
+
+
+def apply_radial_zoom(job, u1, cy, cx, displace, mode, cval):
+    """Box zoom blur of ``job``'s image planes at the rate ``u1`` about ``(cy, cx)``, along the rays."""
+    a1, b1 = zoom_window(u1, displace)
+
+    def blur(be, polar, pshape):
+        coef = line_coefficients(be, polar, be.empty(pshape, job.dtype), job.dtype, pshape, 1, "mirror")
+        box_lines(be, coef, polar, 1, 0.0, a1, 0.0, b1, "mirror", 0.0)
+        return polar
+
+    return _run_polar(job, cy, cx, b1, blur, mode, cval, "a zoom blur (its polar grid holds the whole image)")
+
+
