@@ -156,7 +156,7 @@ def timed(fn, repeat):
     return out, best
 
 
-def stage_times(scene_images, d_max, backend, repeat, steps=1, paths=4):
+def stage_times(scene_images, d_max, backend, repeat, steps=2, paths=4):
     """Steady-state seconds of each stage of ``disparity(..., method="sgm")`` on ``backend``:
     census (with the Green shifts of the right view when ``steps > 1``), the fused matcher
     (cost, aggregation and selection; on CPUs streamed in bands of rows), and the whole call
@@ -215,8 +215,9 @@ def _run_isolated(scene, name, backends, sweep_backend, repeat):
         fn = lambda: opencv_matchers(num_disp)[name](left, right)
     else:
         method, be = name.split()[1], name.split("(")[1].rstrip(")")
-        # "sgm-halfpx": half-pixel cost samples from the Green-shifted right view
-        options = {"method": "sgm", "subpixel_steps": 2} if method == "sgm-halfpx" else {"method": method}
+        # "sgm": the defaults (half-pixel cost samples from the Green-shifted right view);
+        # "sgm-fast": whole-pixel samples (subpixel_steps=1)
+        options = {"method": "sgm", "subpixel_steps": 1} if method == "sgm-fast" else {"method": method}
         fn = lambda: disparity(left, right, d_max, backend=be, **options)
     base = _rss_mb()
     disp, seconds = timed(fn, repeat)
@@ -233,8 +234,8 @@ def scores(disp, gt, mask):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--backends", nargs="+", default=["opencl"])
-    ap.add_argument("--methods", nargs="+", default=["sgm", "sgm-halfpx", "uniform", "affine"],
-                    help="sgm: the default; sgm-halfpx: subpixel_steps=2; uniform, affine: the chapter's sweeps")
+    ap.add_argument("--methods", nargs="+", default=["sgm", "sgm-fast", "uniform", "affine"],
+                    help="sgm: the defaults; sgm-fast: subpixel_steps=1; uniform, affine: the chapter's sweeps")
     ap.add_argument("--sweep-backend", default="opencl", help="backend of the uniform/affine rows")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--scenes", nargs="+", default=list(SCENES) + ["motorcycle", "rds-steps", "rds-slant"])

@@ -45,10 +45,9 @@ def _score(d, truth, margin=12):
 @pytest.mark.parametrize("disp_fn", [square, square_subpixel, slanted], ids=["integer", "subpixel", "slanted"])
 def test_random_dots_sgm(backend, disp_fn):
     left, right, truth = random_dot_pair(disp_fn)
-    # sub-pixel truth: half-pixel cost samples from the Green-shifted right view (the default,
-    # whole-pixel samples and a parabola, keeps 92 % of these pixels within 0.25 px)
-    steps = 2 if disp_fn is square_subpixel else 1
-    d = stereo.disparity(left, right, 16, subpixel_steps=steps, backend=backend)
+    # half-pixel cost samples from the Green-shifted right view (the default; whole-pixel
+    # samples and a parabola keep only 92 % of the sub-pixel square within 0.25 px)
+    d = stereo.disparity(left, right, 16, backend=backend)
     assert d.dtype == np.float32 and d.shape == left.shape
     assert _score(d, truth) >= 0.95
 
