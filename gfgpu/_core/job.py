@@ -192,8 +192,10 @@ def apply_program(job, program, mode, cval):
     done = 0
     passes, axis, angle = steps[0]
     # the finite check fused into a first translation, unless that pass writes the caller's own
-    # output array (which a non-finite input must leave untouched)
-    if job.check_pending and is_translation(passes, angle) and (len(steps) > 1 or job.output is None):
+    # output array (which a non-finite input must leave untouched): the first pass writes bufs[0],
+    # the result buffer whenever the number of steps is odd
+    first_writes_result = (len(steps) - 1) % 2 == 0
+    if job.check_pending and is_translation(passes, angle) and not (first_writes_result and job.output is not None):
         if not run_translation_checked(job.backend, job.unchecked_data(), bufs[0], passes, mode, cval, axis,
                                        job.shape):
             raise ValueError(NONFINITE)

@@ -15,6 +15,7 @@ import numpy as np
 from .. import greens
 from .._core.lines import direction as _line_direction
 from .._core.validation import finite_scalar, positive
+from ..backends import resolve_backend
 from ..filters import green_filter
 from . import line_fit
 from .light import estimate_illuminant, fit_depth_scale
@@ -246,6 +247,7 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
     img = checked_image(image)
     m = checked_mask(mask, img.shape)
     check_contrast(img, m)
+    be = resolve_backend(backend, device)      # an unknown backend or device: refused before work
     if boundary not in ("auto", "background", "free"):
         raise ValueError(f"boundary must be 'auto', 'background' or 'free', got {boundary!r}")
     k1_given = _checked_k1(k1)
@@ -264,8 +266,7 @@ def shape_from_shading(image, *, light=None, u=None, k1="render", mask=None, dir
     if boundary == "background":
         # the background is the reference plane: it adds no slope, only noise, to the integral
         centred = np.where(obj, centred, 0).astype(img.dtype, copy=False)
-    bar = green_filter(centred, ShadingGreen(u_px / step), angle=angle, mode="constant", cval=0.0,
-                       backend=backend, device=device)
+    bar = green_filter(centred, ShadingGreen(u_px / step), angle=angle, mode="constant", cval=0.0, backend=be)
     z_unit = u_px * np.asarray(bar, np.float64)      # eq. 31 with k1 = 1, k0 ramp removed
     line, t = line_fit.line_coordinates(img.shape, angle)
     if boundary == "background":

@@ -34,6 +34,10 @@ def checked_mask(mask, shape):
     m = np.asarray(mask)
     if m.shape != shape:
         raise ValueError(f"mask must have the image's shape {shape}, got {m.shape}")
+    if m.dtype != bool:
+        # 0/1 masks are masks; NaN or fractional values are not (astype(bool) would make them True)
+        if m.dtype.kind not in "biuf" or not np.isin(m, (0, 1)).all():
+            raise ValueError(f"mask must be boolean (True/False or 0/1), got dtype {m.dtype} with other values")
     m = m.astype(bool)
     if m.sum() < 16:
         raise ValueError(f"mask must select at least 16 pixels, got {int(m.sum())}")

@@ -9,6 +9,7 @@ import numpy as np
 from .. import greens
 from .._core.lines import direction as _line_direction
 from .._core.validation import finite_scalar, positive
+from ..backends import resolve_backend
 from ..filters import green_filter
 from .gsfs import resolve_light
 from .light import fit_depth_scale
@@ -111,6 +112,7 @@ def photometric_motion(image, *, light=None, direction=None, shift=1.0, fixed_po
     img = checked_image(image)
     m = checked_mask(mask, img.shape)
     check_contrast(img, m)
+    be = resolve_backend(backend, device)      # an unknown backend or device: refused before work
     L, _ = resolve_light(img, light, m)
     tilt, slant = tilt_slant(L)
     if direction is None:
@@ -133,7 +135,7 @@ def photometric_motion(image, *, light=None, direction=None, shift=1.0, fixed_po
     sigma = math.sqrt(u0 * abs(x_U))
     kappa = finite_scalar("kappa", kappa)
     i2 = np.asarray(green_filter(img, greens.AffineGreenApprox(sigma, x_U), angle=angle, mode=mode,
-                                 backend=backend, device=device), np.float64)
+                                 backend=be), np.float64)
     s = t - x_U                                    # distance from the fixed point, > 0
 
     def depth_unit(k):
