@@ -1,8 +1,8 @@
 """Oblique passes: accuracy against the continuous direction, impulse centroids, throughput, plan cost.
 
 Passes along an angle run on a sheared layout (``gfgpu._core.oblique``): integer part of the
-shear by a gather, the remaining delay (2.05 to 3.05 px) by a second-order allpass along each
-column, the passes along the rows, then the mirrored allpass and a gather back.  Two other
+shear by a gather, the remaining delay (2.3 to 3.3 px) by a third-order Thiran allpass along each
+column (two cascaded recursions), the passes along the rows, then the mirrored allpass and a gather back.  Two other
 methods run here with the same backend primitives, for comparison: the former *digital lines*
 (``y = l + round(γ x)``, one pixel per column, no resampling: ``digital_lines``) and the same
 shear with the moment-fitted discrete Green shift by ``|f| <= 1/2`` as the column filter
@@ -26,10 +26,15 @@ What is printed (Markdown):
     angle=0.3)`` and ``motion_blur`` (7, 30) and (40, 17) per backend, sheared beside digital lines,
     and ``cv2.filter2D`` with the motion's taps rasterised along the line (if OpenCV is installed);
 (e) plan cost: gather maps and per-column plans of one oblique geometry (cached) against the
-    passes they feed; the rotation's per-line plans on (SIZE/2)² against its three passes.
+    passes they feed; the rotation's per-line plans on (SIZE/2)² against its three passes;
+(f) the column filter's design: rel. L2 of the box and the Green blur (numpy, float64) against the
+    exact direction by Fourier, band-limited noise (a disc up to CUT cycles/px, 0.25 and 0.1), mode
+    'wrap' on shapes whose lines close, at steep, shallow and near-45° velocities, for the
+    third-order allpass (now) and the former second-order one (delays 2.05 to 3.05), with the
+    phase error spread of each design over its delay range at 1/8 .. 1/4 cycles/px beside.
 
 Usage:  python benchmarks/oblique.py [--size 4096] [--repeat 3] [--backends numpy,warp,opencl]
-        [--skip-speed]
+        [--skip-speed] [--designs-only]
 """
 
 from __future__ import annotations
@@ -347,7 +352,7 @@ def plan_table(size, repeat, backends):
     angle = 0.3001                     # a geometry not yet in the caches
     steep, _, gamma = direction(angle)
     t0 = time.perf_counter()
-    margin = oblique.column_delays(size, gamma)[4]
+    margin = oblique.column_delays(size, gamma, np.dtype(np.float32).str)[2]
     maps = shear_maps(size, size, 1, angle, "reflect", margin, steep)
     t1 = time.perf_counter()
     oblique._column_plans(size, gamma, maps.lines, np.dtype(np.float32).str)
@@ -381,12 +386,89 @@ def plan_table(size, repeat, backends):
     return lines
 
 
+
+# --------------------------------------------------------------------------------------
+# (f) the column filter's design
+# --------------------------------------------------------------------------------------
+def _thiran2_stages(d):
+    """The former column filter: Thiran's second-order allpass (one stage, delays 2.05 to 3.05)."""
+    d = np.asarray(d, np.float64)
+    a1 = -2.0 * (d - 2.0) / (d + 1.0)
+    a2 = (d - 1.0) * (d - 2.0) / ((d + 1.0) * (d + 2.0))
+    h1 = a1 * (1.0 - a2)
+    h2 = 1.0 - a1 * h1 - a2 * a2
+    lam = 0.5 * (-a1 + 1j * np.sqrt(4.0 * a2 - a1 * a1))
+    return [(lam, h1 + 1j * (h1 * lam.real - h2) / lam.imag, a2)]
+
+
+def _use_design(stages, delay_min):
+    from gfgpu._core import lines as core_lines
+    core_lines.DELAY_MIN = delay_min
+    oblique.allpass_delay = stages
+    for f in (core_lines.shear_maps, oblique.column_delays, oblique._column_plans):
+        f.cache_clear()
+
+
+def _phase_spread(order, lo, cycles):
+    """max - min over delays in [lo, lo + 1) of the allpass's phase error (rad) at ``cycles``/px."""
+    w = 2 * np.pi * np.asarray(cycles)
+    d = np.linspace(lo, lo + 1, 400, endpoint=False) + 1e-9
+    a = oblique.thiran_denominator(d, order)
+    z = np.exp(-1j * np.outer(np.arange(order + 1), w))           # (order + 1, freqs)
+    resp = (a[:, ::-1] @ z) / (a @ z)
+    err = np.angle(resp * np.exp(1j * np.outer(d, w)))
+    return err.max(axis=0) - err.min(axis=0)
+
+
+def _box_fourier(img, v):
+    wy = 2 * np.pi * np.fft.fftfreq(img.shape[0])[:, None]
+    wx = 2 * np.pi * np.fft.fftfreq(img.shape[1])[None, :]
+    phi = wy * v[0] + wx * v[1]
+    small = np.abs(phi) < 1e-12
+    resp = np.where(small, 1.0, (1 - np.exp(-1j * phi)) / (1j * np.where(small, 1.0, phi)))
+    return np.real(np.fft.ifft2(np.fft.fft2(img) * resp))
+
+
+DESIGN_CASES = [((23, -9), (230, 90)), ((3, 25), (96, 800)), ((9, 23), (90, 230)), ((25, 24), (100, 96)),
+                ((-7, -30), (70, 300))]
+
+
+def design_table():
+    current = (oblique.allpass_delay, __import__("gfgpu._core.lines", fromlist=["x"]).DELAY_MIN)
+    designs = [("Thiran 3, d in [2.3, 3.3) (now)", current, (3, 2.3)),
+               ("Thiran 2, d in [2.05, 3.05) (before)", (_thiran2_stages, 2.05), (2, 2.05))]
+    cyc = (0.125, 0.1875, 0.25)
+    lines = ["### (f) column filter: rel. L2 (%) against the exact direction (Fourier), numpy float64, mode wrap", "",
+             "| design | phase spread (rad) at " + ", ".join(f"{c:g}" for c in cyc) + " cyc/px | cut | "
+             + " | ".join(f"{v} box / green" for v, _ in DESIGN_CASES) + " |",
+             "|---|---|---|" + "---:|" * len(DESIGN_CASES)]
+    try:
+        for label, (stages, dmin), (order, lo) in designs:
+            _use_design(stages, dmin)
+            spread = ", ".join(f"{x:.1e}" for x in _phase_spread(order, lo, cyc))
+            for cut in (0.25, 0.1):
+                cells = []
+                for v, shape in DESIGN_CASES:
+                    rng = np.random.default_rng(3)
+                    ky, kx = np.fft.fftfreq(shape[0])[:, None], np.fft.fftfreq(shape[1])[None, :]
+                    img = np.real(np.fft.ifft2(np.fft.fft2(rng.standard_normal(shape)) * (np.hypot(ky, kx) < cut)))
+                    box = rel(motion_blur(img, v, psf="box", mode="wrap", backend="numpy"), _box_fourier(img, v))
+                    green = rel(motion_blur(img, v, mode="wrap", backend="numpy"),
+                                transfer_reference(img, uniform_motion_program(2, v)))
+                    cells.append(f"{box * 100:.3f} / {green * 100:.3f}")
+                lines.append(f"| {label} | {spread} | {cut} | " + " | ".join(cells) + " |")
+    finally:
+        _use_design(*current)
+    return lines
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, default=4096)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--backends", default="numpy,warp,opencl")
     ap.add_argument("--skip-speed", action="store_true", help="accuracy tables only")
+    ap.add_argument("--designs-only", action="store_true", help="table (f) only")
     args = ap.parse_args(argv)
     backends = []
     for name in args.backends.split(","):
@@ -394,7 +476,11 @@ def main(argv=None):
             backends.append(get_backend(name))
         except Exception as exc:     # report and go on with the others
             print(f"<!-- backend {name} unavailable: {exc} -->")
+    if args.designs_only:
+        print("\n".join(design_table()), flush=True)
+        return
     print("\n".join(["## Oblique passes", ""] + accuracy_tables(backends)), flush=True)
+    print("\n".join([""] + design_table()), flush=True)
     if not args.skip_speed:
         print("\n".join([""] + speed_table(args.size, args.repeat, backends)), flush=True)
         print("\n".join([""] + plan_table(args.size, args.repeat, backends)), flush=True)

@@ -85,16 +85,17 @@ def direction(angle):
 
 
 #: the sub-pixel remainder of the shear lies in ``[DELAY_MIN, DELAY_MIN + 1)`` (or is 0)
-DELAY_MIN = 2.05
+DELAY_MIN = 2.3
 
 
 def shear_offsets(steps, gamma):
     """``(r, d)`` for ``t < steps``: ``γ t = r[t] + d[t]``, ``r`` an integer and the delay ``d``
     either 0 (``γ t`` an integer: no resampling) or in ``[DELAY_MIN, DELAY_MIN + 1)``.
 
-    The delay is kept near 2.5 samples because the column filter that realises it, a
-    second-order allpass (:mod:`gfgpu._core.oblique`), is accurate for delays between 2 and 3
-    and well conditioned away from 2.
+    The column filter that realises the delay, Thiran's third-order allpass
+    (:mod:`gfgpu._core.oblique`), is stable for delays above 2 and most accurate just above 2,
+    where its poles approach the unit circle; from 2.3 its poles stay within 0.71 (short tails,
+    a margin of 84 lines in float32) and its phase error at 1/4 cycle/px within 0.066 rad.
     """
     exact = gamma * np.arange(steps)
     r = np.floor(exact - (DELAY_MIN - 1)).astype(np.int64) - 1
