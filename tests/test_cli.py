@@ -355,7 +355,7 @@ def test_cmyk_jpeg_exif_orientation_and_multi_frame_inputs(tmp_path, capsys):
     exif = im.getexif()
     exif[0x0112] = 6                                   # stored sideways: shown rotated 90 degrees clockwise
     im.save(tmp_path / "side.png", exif=exif)
-    assert cli(["shift", str(tmp_path / "side.png"), "-o", str(tmp_path / "s.png"), "--backend", "numpy",
+    assert cli(["shift", str(tmp_path / "side.png"), "-o", str(tmp_path / "s.png"), "--dx", 0, "--backend", "numpy",
                  "-q"]) == 0
     np.testing.assert_array_equal(iio.imread(tmp_path / "s.png"), np.rot90(a, -1))
     iio.imwrite(tmp_path / "anim.gif", np.stack([np.full((8, 8, 3), v, np.uint8) for v in (0, 90, 180)]),
@@ -363,3 +363,10 @@ def test_cmyk_jpeg_exif_orientation_and_multi_frame_inputs(tmp_path, capsys):
     code = cli(["blur", str(tmp_path / "anim.gif"), "-o", str(tmp_path / "b.png"), "--dx", 2, "--backend",
                  "numpy", "-q"])
     one_line_error(capsys, code, 2, "blur", r"anim\.gif'?: it holds 3 frames .*extract the frames first")
+
+
+def test_shift_without_an_amount_is_refused(tmp_path, capsys, small_png):
+    # like blur without a motion: an unshifted copy written with exit 0 hid a forgotten option
+    code = cli(["shift", str(small_png), "-o", str(tmp_path / "o.png"), "--backend", "numpy"])
+    one_line_error(capsys, code, 2, "shift", r"give a shift: --dx .*--dy")
+    assert not (tmp_path / "o.png").exists()

@@ -20,6 +20,8 @@ from .. import io
 from ..backends import BackendUnavailable, resolve_backend
 
 MODES = ("reflect", "constant", "nearest", "mirror", "wrap")
+#: help of --mode (scipy.ndimage's names and meanings)
+MODE_HELP = "how the image continues beyond its border (scipy.ndimage's modes; default reflect)"
 
 
 class CommandError(Exception):

@@ -98,6 +98,7 @@ def run(args):
         if args.npy:
             io.save_npy(args.npy, depth)
         bar.update(1)
-    print(f"{args.image}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({args.method}, "
+    written = ", ".join(p for p in (args.output, args.relief, args.npy) if p)
+    print(f"{args.image}: {img.shape[1]}x{img.shape[0]} -> {written} ({args.method}, "
           f"{(time.perf_counter() - t0) * 1e3:.0f} ms)")
     return 0

@@ -16,6 +16,7 @@ from .. import io
 from ..filters import gradient
 from .common import (
     IMAGE_OUTPUT,
+    MODE_HELP,
     MODES,
     NPY_OUTPUT,
     announce_backend,
@@ -34,7 +35,7 @@ def add_parser(subparsers):
     p.add_argument("-o", "--output", required=True, help="output image, 8-bit colour (hue = orientation, value = "
                    "magnitude); .png, .tif, .jpg or .bmp")
     p.add_argument("--npy", help="also save the raw float32 (gy, gx) as .npy")
-    p.add_argument("--mode", default="reflect", choices=MODES)
+    p.add_argument("--mode", default="reflect", choices=MODES, help=MODE_HELP)
     p.add_argument("-u", type=positive_float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
     backend_args(p)
     p.set_defaults(func=run)

@@ -7,7 +7,7 @@ The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` col
 
 from __future__ import annotations
 
-from .common import MODES, CommandError, backend_args, finite_float, image_args, read_input, split_alpha_work
+from .common import MODE_HELP, MODES, CommandError, backend_args, finite_float, image_args, read_input, split_alpha_work
 
 
 def motion_args(p):
@@ -28,7 +28,7 @@ def motion_args(p):
                    help="row of the zoom/rotation centre (default: middle)")
     p.add_argument("--keep-position", action="store_true",
                    help="uniform motion or rotation: blur in place instead of displacing the content")
-    p.add_argument("--mode", default="reflect", choices=MODES)
+    p.add_argument("--mode", default="reflect", choices=MODES, help=MODE_HELP)
     backend_args(p)
 
 

@@ -18,8 +18,10 @@ from .. import io
 from ..filters import shift
 from .common import (
     IMAGE_OUTPUT,
+    MODE_HELP,
     MODES,
     NPY_OUTPUT,
+    CommandError,
     announce_backend,
     backend_args,
     check_outputs,
@@ -37,9 +39,9 @@ def add_parser(subparsers):
     p.add_argument("-o", "--output", required=True,
                    help="output image (.png, .tif, .jpg, .bmp: the format of the extension), at the input's depth")
     p.add_argument("--npy", help="also save the raw float32 result as .npy")
-    p.add_argument("--mode", default="reflect", choices=MODES)
-    p.add_argument("--dx", type=finite_float, default=0.0, help="displacement toward the right (columns), pixels")
-    p.add_argument("--dy", type=finite_float, default=0.0, help="displacement downward (rows), pixels")
+    p.add_argument("--mode", default="reflect", choices=MODES, help=MODE_HELP)
+    p.add_argument("--dx", type=finite_float, default=None, help="displacement toward the right (columns), pixels")
+    p.add_argument("--dy", type=finite_float, default=None, help="displacement downward (rows), pixels")
     p.add_argument("--interpolation", choices=("green", "cubic"), default="green",
                    help="fractional part: the discrete Green shift (default) or a cubic B-spline")
     backend_args(p)
@@ -47,6 +49,9 @@ def add_parser(subparsers):
 
 
 def run(args):
+    if args.dx is None and args.dy is None:
+        raise CommandError("give a shift: --dx (right) and/or --dy (down), pixels")
+    dx, dy = args.dx or 0.0, args.dy or 0.0
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
     be = announce_backend(args)
     image, label = read_input(args)
@@ -54,7 +59,7 @@ def run(args):
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu shift", unit="image", disable=None, leave=False) as bar:
         # the library's array-axis order (rows, cols); colour channels are not shifted
-        raw = shift(work, (args.dy, args.dx), channel_axis=-1 if work.ndim == 3 else None,
+        raw = shift(work, (dy, dx), channel_axis=-1 if work.ndim == 3 else None,
                     mode=args.mode, interpolation=args.interpolation, backend=be)
         bar.update(1)
     raw = join_alpha(raw, image, alpha)
