@@ -249,29 +249,31 @@ def field_blur_reference(coef, field, psf, density, mode, cval):
 # --------------------------------------------------------------------------------------
 # polar resampling
 # --------------------------------------------------------------------------------------
-def to_polar_reference(coef, cy, cx, n_r, n_phi, mode, cval):
-    """The spline image at ``r = i``, ``phi = 2 pi j / n_phi`` about ``(cy, cx)``: ``(B, n_r, n_phi)``.
+def to_polar_reference(coef, cy, cx, n_phi, n_r, mode, cval):
+    """The spline image at ``phi = 2 pi j / n_phi``, ``r = i`` about ``(cy, cx)``: ``(B, n_phi, n_r)``.
 
-    Point ``(i, j)`` is the pixel position ``(row, col) = (cy - r sin phi, cx + r cos phi)``:
-    the angle turns counter-clockwise on screen (rows point down), so a rotation by ``θ``
-    about the centre moves content from ``phi`` to ``phi + θ``.
+    Angle first, radius last (contiguous): the passes along the angle then run along axis 1,
+    one vector lane per ring.  Point ``(j, i)`` is the pixel position
+    ``(row, col) = (cy - r sin phi, cx + r cos phi)``: the angle turns counter-clockwise on
+    screen (rows point down), so a rotation by ``θ`` about the centre moves content from
+    ``phi`` to ``phi + θ``.
     """
-    r = np.arange(n_r, dtype=np.float64)[:, None]
-    phi = 2.0 * np.pi * np.arange(n_phi, dtype=np.float64)[None, :] / n_phi
+    r = np.arange(n_r, dtype=np.float64)[None, :]
+    phi = 2.0 * np.pi * np.arange(n_phi, dtype=np.float64)[:, None] / n_phi
     out = spline_sample(coef, cy - r * np.sin(phi), cx + r * np.cos(phi), mode, cval)
     return out.astype(np.asarray(coef).dtype)
 
 
 def from_polar_reference(pcoef, cy, cx, height, width):
-    """The polar spline ``pcoef`` (B, n_r, n_phi) back on the ``(height, width)`` pixel grid.
+    """The polar spline ``pcoef`` (B, n_phi, n_r) back on the ``(height, width)`` pixel grid.
 
     Pixel ``(y, x)`` reads ``r = hypot(y - cy, x - cx)``, ``phi = atan2(cy - y, x - cx)``; the
     angle wraps and the radius mirrors at both ends (the grid holds rings beyond the farthest
     pixel, so only the centre's mirror matters).
     """
-    n_phi = pcoef.shape[2]
+    n_phi = pcoef.shape[1]
     yy, xx = np.mgrid[:height, :width].astype(np.float64)
     r = np.hypot(yy - cy, xx - cx)
     phi = np.mod(np.arctan2(cy - yy, xx - cx), 2.0 * np.pi) * (n_phi / (2.0 * np.pi))
-    out = spline_sample(pcoef, r, phi, "wrap", 0.0, mode_y="mirror")
+    out = spline_sample(pcoef, phi, r, "mirror", 0.0, mode_y="wrap")
     return out.astype(np.asarray(pcoef).dtype)

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core.job import apply_program
+from .._core.job import apply_program, copy_of_input
 from .._core.recursion import check_mode
 from .._core.validation import finite_cval, flag
 from ..backends.specs_motion import PSF_CODES
@@ -13,7 +13,7 @@ from ..filters import make_job
 from .box import apply_uniform_box
 from .field import apply_field, check_field, is_field
 from .params import KINDS, center_point, move_channels, psf_name, velocity_pair, zoom_factors
-from .polar import apply_radial_zoom, apply_spin
+from .polar import apply_radial_green_zoom, apply_radial_zoom, apply_spin
 from .rotation import rotation_angle
 from .uniform import uniform_motion_program
 from .zoom import apply_zoom
@@ -121,9 +121,11 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     segment from ``x`` to its pre-image ``c + (x - c)/(1 + u1)`` (a camera moving toward the scene
     at constant speed), a running-sum window on every ray; a pair of different rates
     ``(u1_y, u1_x)`` runs as the affine velocity field ``v = (u1/(1 + u1)) (x - c)`` per axis.
-    G_u: the exact affine G_U^(1) (eq. 10-12, :mod:`gfgpu.motion.zoom`), applied separably
-    along the rows then the columns (cell-integrated taps, mean at the pre-image to 0.3 px,
-    zoom-out read through ``mode``; see ``docs/motion.md``).
+    G_u: the exact affine G_U^(1) (eq. 10-12, :mod:`gfgpu.motion.zoom`; cell-integrated taps,
+    moment-corrected, zoom-out read through ``mode``) along every ray of the same polar grid
+    (one rate; pre-image within 0.006 px beyond 5 px of the fixed point, 0.17 px within), or
+    separably along the rows then the columns for two different rates (pre-image exact to
+    rounding); see ``docs/motion.md``.  The fixed point must lie inside the image.
 
     References
     ----------
@@ -191,18 +193,23 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
         return apply_spin(job, degrees, cy, cx, psf, displace, mode, cval)
     u1y, u1x = zoom_factors(velocity)
     job = make_job(image, output, backend, device, min_ndim=2)
-    if psf == "green":
+    if psf == "green" and u1y != u1x:
         return apply_zoom(job, u1y, u1x, center, mode, cval)
-    return _box_zoom(job, u1y, u1x, center, displace, mode, cval)
+    return _polar_zoom(job, u1y, u1x, center, psf, displace, mode, cval)
 
 
-def _box_zoom(job, u1y, u1x, center, displace, mode, cval):
-    """Box zoom: along the rays on the polar grid, or the affine field for unequal rates."""
+def _polar_zoom(job, u1y, u1x, center, psf, displace, mode, cval):
+    """Zoom along the rays on the polar grid (G_U^(1) or box), or the box's affine field for
+    unequal rates."""
     height, width = job.shape[-2], job.shape[-1]
     cy, cx = center_point(center, height, width)
     if not (0.0 <= cy <= height - 1 and 0.0 <= cx <= width - 1):
         raise ValueError(f"center (row, col) = ({cy:g}, {cx:g}) must lie inside the image, "
                          f"0 <= row <= {height - 1} and 0 <= col <= {width - 1}")
+    if u1x == 0.0 and u1y == 0.0:
+        return job.finish(copy_of_input(job))
+    if psf == "green":
+        return apply_radial_green_zoom(job, u1x, cy, cx, mode, cval)
     if u1y == u1x:
         return apply_radial_zoom(job, u1x, cy, cx, displace, mode, cval)
     yy, xx = np.mgrid[:height, :width].astype(np.float64)

@@ -29,7 +29,7 @@ box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers
 field_blur = register("motion.field_blur", specs.field_blur_reference, **_launchers("field_blur"))
 
 #: ``to_polar(be, coef, out, cy, cx, mode, cval)``: ``out = to_polar_reference(coef, cy, cx, *out.shape[1:],
-#: mode, cval)`` (``out`` (B, n_r, n_phi))
+#: mode, cval)`` (``out`` (B, n_phi, n_r): angle on axis 1, radius on axis 2)
 to_polar = register("motion.to_polar", specs.to_polar_reference, **_launchers("to_polar"))
 
 #: ``from_polar(be, pcoef, out, cy, cx)``: ``out = from_polar_reference(pcoef, cy, cx, *out.shape[1:])``

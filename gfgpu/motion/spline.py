@@ -24,16 +24,17 @@ def prefilter_passes():
     return [LinePass((section,), c0, False), LinePass((section,), 0.0, True)]
 
 
-def spline_coefficients(be, data, dtype, shape, modes, cval=0.0):
+def spline_coefficients(be, data, dtype, shape, modes, cval=0.0, tmp=None, out=None):
     """Coefficients of ``data`` (a device array of ``shape``, image plane last) along the rows
     then the columns; ``modes = (mode along the rows' axis -2, mode along axis -1)``, ``cval``
     the value beyond the border in ``"constant"`` mode.
 
-    Returns a new device array (``data`` is kept).
+    ``tmp`` and ``out`` (device arrays of ``shape``, distinct from each other; ``out`` may be
+    ``data``, which is then overwritten) are allocated when not given.  Returns ``out``.
     """
     passes = prefilter_passes()
-    tmp = be.empty(shape, dtype)
-    out = be.empty(shape, dtype)
+    tmp = be.empty(shape, dtype) if tmp is None else tmp
+    out = be.empty(shape, dtype) if out is None else out
     run_axis_passes(be, data, tmp, dtype, passes, modes[1], cval, len(shape) - 1, shape)
     run_axis_passes(be, tmp, out, dtype, passes, modes[0], cval, len(shape) - 2, shape)
     return out

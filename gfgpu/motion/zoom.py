@@ -20,7 +20,7 @@ from .._core.recursion import plan_pass
 from .._core.validation import finite_scalar
 from .params import center_point, zoom_u1
 
-__all__ = ["zoom_cell_weights", "apply_zoom"]
+__all__ = ["zoom_cell_weights", "ray_zoom_pass", "apply_zoom"]
 
 
 def _affine_z(u1):
@@ -257,6 +257,46 @@ class _ZoomLine(greens.GreenKernel):
     def validate_line(self, n, reverse):
         if n != self.length or reverse:
             raise ValueError(f"zoom line layout needs {self.length} causal samples, got {n}")
+
+
+@dataclass(frozen=True)
+class _RayLine(greens.GreenKernel):
+    """One section of the zoom pass along a ray from the fixed point (``s = 0, 1, ..., n - 1``),
+    laid out as duplicated samples: outward for a zoom-in, inward from the far end for a
+    zoom-out (``part`` = ``"full"`` or ``"own"``, as :class:`_ZoomLine`)."""
+
+    u1: float
+    n: int
+    part: str
+
+    x_min = -0.5
+
+    @property
+    def length(self):
+        return 2 * self.n
+
+    def __call__(self, x, x0):  # pragma: no cover - see zoom_cell_weights for the closed form
+        raise NotImplementedError("use zoom_cell_weights for the closed form")
+
+    def coefficients(self, positions):
+        seg = _segment_coefficients(self.u1, 0.0, self.n)
+        i = 0 if self.part == "full" else 2
+        idx = np.asarray(positions, np.int64)
+        return seg[i][idx], seg[i + 1][idx]
+
+    def validate_line(self, n, reverse):
+        if n != self.length or reverse:
+            raise ValueError(f"ray layout needs {self.length} causal samples, got {n}")
+
+
+def ray_zoom_pass(u1, n):
+    """The :class:`~gfgpu._core.passes.LinePass` of G_U^(1) along rays of ``n`` samples at
+    radii ``0, 1, ..., n - 1`` from the fixed point, laid out as duplicated samples (length
+    ``2 n``): sample ``k`` at positions ``2k, 2k + 1`` for a zoom-in (``u1 > 0``), sample
+    ``n - 1 - k`` there for a zoom-out; the output of the sample at position ``2k`` is read at
+    ``2k + 1``.  The same cell-integrated taps and moment correction as the separable zoom."""
+    kernels = [_RayLine(float(u1), int(n), p) for p in ("full", "own")]
+    return greens.LinePass(tuple(greens.Section(kernel=k) for k in kernels), 0.0, False)
 
 
 def _zoom_pass(u1, centre, n, pad):

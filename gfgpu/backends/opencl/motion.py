@@ -16,10 +16,15 @@ def _plain(be, a, name):
     return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
 
 
-def _written(a, name):
-    if a.offset != 0 or not a.flags.c_contiguous:
-        raise ValueError(f"{name} must be a C-contiguous array without offset")
-    return a
+def _written(be, a, name):
+    """``(buffer, offset in elements)`` of an output: C-contiguous, any offset (a caller's
+    ``output=`` is wrapped from an aligned address below it)."""
+    if not be.owns(a) or not a.flags.c_contiguous:
+        raise ValueError(f"{name} must be a C-contiguous array of this backend")
+    item = np.dtype(a.dtype).itemsize
+    if a.offset % item:
+        raise ValueError(f"{name} must start on a whole element")
+    return a.base_data, np.int64(a.offset // item)
 
 
 def _setup(be, a):
@@ -29,9 +34,36 @@ def _setup(be, a):
     return dtype, pos
 
 
-def _kernel(be, name, dtype, pos):
+def _kernel(be, name, dtype, pos, grid=None, **defines):
+    grid = pos if grid is None else grid
     return be._kernel(name, dtype, source="motion.cl", POS="double" if pos == np.float64 else "float",
-                      GREEN_TAIL=repr(float(GREEN_TAIL)), NARROW=repr(float(NARROW)))
+                      GRID="double" if grid == np.float64 else "float", GRID_IS_FLOAT=int(grid == np.float32),
+                      GREEN_TAIL=repr(float(GREEN_TAIL)),
+                      NARROW=repr(float(NARROW)), **defines)
+
+
+def _grid(dtype, pos):
+    """Positions of the polar resampling: the image's own precision (float32: 1e-7 relative,
+    1e-4 px on a ring of radius 1500, far below the spline's own resampling error)."""
+    return np.float32 if dtype == np.float32 else pos
+
+
+def _end_weights(frac):
+    """The four tap weights at one end of a fixed-width window (``box_shift`` in motion.cl): the
+    partial cell's spline integral over ``[0, frac)`` on ``c[j - 1 .. j + 2]`` plus the telescoped
+    whole cells' ``(-1, 12, 1, 0) / 24``."""
+    f = float(frac)
+    f2, f4, g = f * f, f ** 4, 1.0 - f
+    partial = np.array([(1.0 - g ** 4) / 24.0, (0.75 * f4 - 2.0 * f2 * f + 4.0 * f) / 6.0,
+                        (-0.75 * f4 + f2 * f + 1.5 * f2 + f) / 6.0, f4 / 24.0])
+    return partial + np.array([-1.0, 12.0, 1.0, 0.0]) / 24.0
+
+
+def _global(size):
+    """The global size rounded up to whole work-groups of ``_LOCAL`` (the kernels check bounds)."""
+    if _LOCAL is None:
+        return size
+    return tuple(-(-n // g) * g for n, g in zip(size, _LOCAL))
 
 
 def _group(be, count):
@@ -39,54 +71,97 @@ def _group(be, count):
     return -(-count // g) * g, g
 
 
+#: bytes of one vector step of the column kernels (AVX2: 8 floats, 4 doubles; PoCL mis-compiles
+#: 512-bit vloadn, see recurse.cl)
+_VECTOR_BYTES = 32
+
+#: work-group size of the polar resampling kernels (None: the driver's choice)
+_LOCAL = None
+
+#: rings per work-item of to_polar on a CPU
+_CHUNK = 16
+
+
 def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval):
     src = _plain(be, src, "src")
-    _written(dst, "dst")
+    dbuf, doff = _written(be, dst, "dst")
     dtype, pos = _setup(be, src)
     bsz, rows, cols = (int(s) for s in src.shape)
+    lanes = _VECTOR_BYTES // dtype.itemsize
+    by_rows = axis == 2 and (bsz * rows) % lanes == 0
+    if be.kind == "cpu" and (by_rows or (axis == 1 and cols % lanes == 0)):
+        # LANES lines per work-item in vector lanes (the window is the same on every line):
+        # adjacent columns (contiguous loads) or consecutive rows (loads gathered across them)
+        total = bsz * rows // lanes if by_rows else bsz * (cols // lanes)
+        groups = total if by_rows else cols // lanes
+        n = cols if by_rows else rows
+        if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
+            a, b = int(np.floor(a0)), int(np.floor(b0))
+            wa, wb = (_end_weights(x - np.floor(x)) for x in (a0, b0))
+            be._launch(_kernel(be, "box_shift", dtype, pos, LANES=lanes, ROWS=int(by_rows)), (total,), (1,), [src],
+                       [dst], (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
+                               np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
+                               dtype.type(1.0 / (b0 - a0)), np.int32(MODE_CODES[mode]), dtype.type(cval),
+                               np.int32(total)))
+            return dst
+        be._launch(_kernel(be, "box_vec", dtype, pos, LANES=lanes, ROWS=int(by_rows)), (total,), (1,), [src], [dst],
+                   (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
+                    pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval), np.int32(total)))
+        return dst
     n, lines = (cols, rows) if axis == 2 else (rows, cols)
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
     total = bsz * lines
     gsize, lsize = _group(be, total)
     be._launch(_kernel(be, "box_lines", dtype, pos), (gsize,), (lsize,), [src], [dst],
-               (src.data, dst.data, np.int32(n), np.int32(lines), np.int64(rows * cols), np.int64(line_stride),
+               (src.data, dbuf, np.int32(n), np.int32(lines), np.int64(rows * cols), np.int64(line_stride),
                 np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval),
-                np.int32(total)))
+                np.int32(total), doff))
     return dst
 
 
 def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     coef, field = _plain(be, coef, "coef"), _plain(be, field, "field")
-    _written(out, "out")
+    obuf, ooff = _written(be, out, "out")
     dtype, pos = _setup(be, coef)
     bsz, h, w = (int(s) for s in coef.shape)
     be._launch(_kernel(be, "field_blur", dtype, pos), (w, h), None, [coef, field], [out],
-               (coef.data, field.data, out.data, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
-                np.int32(MODE_CODES[mode]), dtype.type(cval)))
+               (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
+                np.int32(MODE_CODES[mode]), dtype.type(cval), ooff))
     return out
 
 
 def launch_to_polar(be, coef, out, cy, cx, mode, cval):
     coef = _plain(be, coef, "coef")
-    _written(out, "out")
+    obuf, ooff = _written(be, out, "out")
     dtype, pos = _setup(be, coef)
+    grid = _grid(dtype, pos)
     bsz, h, w = (int(s) for s in coef.shape)
-    n_r, n_phi = int(out.shape[1]), int(out.shape[2])
+    n_phi, n_r = int(out.shape[1]), int(out.shape[2])
     phi = 2.0 * np.pi * np.arange(n_phi) / n_phi
-    trig = be.asarray(np.stack([np.cos(phi), np.sin(phi)], axis=1).astype(pos).reshape(-1))
-    be._launch(_kernel(be, "to_polar", dtype, pos), (n_phi, n_r), None, [coef, trig], [out],
-               (coef.data, out.data, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
-                np.int32(bsz), pos(cy), pos(cx), np.int32(MODE_CODES[mode]), dtype.type(cval)))
+    trig = be.asarray(np.stack([np.cos(phi), np.sin(phi)], axis=1).astype(grid).reshape(-1))
+    # the modes as build constants where every coefficient read lies within one period of the image
+    reach = n_r + 3
+    near = mode in ("constant", "nearest") or (cy - reach >= -(h - 3) and cy + reach <= 2 * h - 4
+                                               and cx - reach >= -(w - 3) and cx + reach <= 2 * w - 4)
+    fast = {"MODE_Y": MODE_CODES[mode], "MODE_X": MODE_CODES[mode]} if near and h > 3 and w > 3 else {}
+    chunk = _CHUNK if be.kind == "cpu" else 1
+    be._launch(_kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_r // chunk), n_phi)),
+               _LOCAL, [coef, trig], [out],
+               (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
+                np.int32(bsz), grid(cy), grid(cx), np.int32(MODE_CODES[mode]), dtype.type(cval)))
     return out
 
 
 def launch_from_polar(be, pcoef, out, cy, cx):
     pcoef = _plain(be, pcoef, "pcoef")
-    _written(out, "out")
+    obuf, ooff = _written(be, out, "out")
     dtype, pos = _setup(be, pcoef)
-    bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
+    grid = _grid(dtype, pos)
+    bsz, n_phi, n_r = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
-    be._launch(_kernel(be, "from_polar", dtype, pos), (w, h), None, [pcoef], [out],
-               (pcoef.data, out.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi), np.int32(bsz),
-                pos(cy), pos(cx)))
+    # radius within the rings (mirrored at 0), angle within one turn: always near
+    fast = {"MODE_Y": MODE_CODES["wrap"], "MODE_X": MODE_CODES["mirror"]} if n_r > 3 and n_phi > 3 else {}
+    be._launch(_kernel(be, "from_polar", dtype, pos, grid, **fast), _global((w, h)), _LOCAL, [pcoef], [out],
+               (pcoef.data, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi), np.int32(bsz),
+                grid(cy), grid(cx)))
     return out

@@ -260,12 +260,12 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
 @wp.kernel
 def to_polar(coef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int, n_r: int, n_phi: int,
              cy: wp.float64, cx: wp.float64, mode: int, cval: Any):
-    """One thread per polar sample (to_polar_reference)."""
+    """One thread per polar sample (to_polar_reference): layout (B, n_phi, n_r), radius last."""
     t = wp.tid()
     plane = t / (n_r * n_phi)
     rest = t - plane * n_r * n_phi
-    i = rest / n_phi
-    j = rest - i * n_phi
+    j = rest / n_r
+    i = rest - j * n_r
     r = wp.float64(i)
     phi = _TWO_PI * wp.float64(j) / wp.float64(n_phi)
     out[t] = _spline(coef, plane * h * w, h, w, cy - r * wp.sin(phi), cx + r * wp.cos(phi), mode, mode, cval)
@@ -287,7 +287,7 @@ def from_polar(pcoef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: 
     if phi < wp.float64(0.0):
         phi = phi + _TWO_PI
     jf = phi * wp.float64(n_phi) / _TWO_PI
-    out[t] = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, r, jf, 4, 2, pcoef.dtype(0.0))
+    out[t] = _spline(pcoef, plane * n_r * n_phi, n_phi, n_r, jf, r, 2, 4, pcoef.dtype(0.0))
 
 
 for _real in (wp.float32, wp.float64):
@@ -329,7 +329,7 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
 
 def launch_to_polar(be, coef, out, cy, cx, mode, cval):
     bsz, h, w = (int(s) for s in coef.shape)
-    n_r, n_phi = int(out.shape[1]), int(out.shape[2])
+    n_phi, n_r = int(out.shape[1]), int(out.shape[2])
     real = _real(be, coef)
     be._wp.launch(to_polar, dim=bsz * n_r * n_phi, device=be._device,
                   inputs=[_flat(be, coef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx),
@@ -338,7 +338,7 @@ def launch_to_polar(be, coef, out, cy, cx, mode, cval):
 
 
 def launch_from_polar(be, pcoef, out, cy, cx):
-    bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
+    bsz, n_phi, n_r = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
     be._wp.launch(from_polar, dim=bsz * h * w, device=be._device,
                   inputs=[_flat(be, pcoef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx)])
