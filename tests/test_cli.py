@@ -370,3 +370,17 @@ def test_shift_without_an_amount_is_refused(tmp_path, capsys, small_png):
     code = cli(["shift", str(small_png), "-o", str(tmp_path / "o.png"), "--backend", "numpy"])
     one_line_error(capsys, code, 2, "shift", r"give a shift: --dx .*--dy")
     assert not (tmp_path / "o.png").exists()
+
+
+def test_blur_takes_the_box_psf(tmp_path, capsys, small_png):
+    import imageio.v3 as iio
+
+    from gfgpu.motion import motion_blur
+    for psf in ("box", "green"):
+        out = tmp_path / f"{psf}.tif"
+        assert cli(["blur", str(small_png), "-o", str(out), "--dx", 7, "--psf", psf, "--backend", "numpy"]) == 0
+        assert f"psf {psf}" in capsys.readouterr().out
+    ref = motion_blur(iio.imread(small_png).astype(np.float32), (0.0, 7.0), psf="box", backend="numpy")
+    np.testing.assert_allclose(iio.imread(tmp_path / "box.tif").astype(np.float32),
+                               np.clip(np.rint(ref), 0, 255), atol=1)
+    assert not np.array_equal(iio.imread(tmp_path / "box.tif"), iio.imread(tmp_path / "green.tif"))

@@ -28,6 +28,9 @@ def add_parser(subparsers):
     p = subparsers.add_parser("blur", help="motion blur (--dx right, --dy down), zoom blur (--zoom U1) or "
                                            "rotation blur (--rotate DEGREES)")
     motion_args(p)
+    p.add_argument("--psf", choices=("green", "box"), default="green",
+                   help="green: the chapter's G_u, a comet-like smear (default); box: a uniform exposure "
+                        "over the whole path (the open shutter of a camera)")
     p.add_argument("-o", "--output", required=True,
                    help="output image (.png, .tif, .jpg, .bmp: the format of the extension), at the input's depth")
     p.set_defaults(func=run)
@@ -41,10 +44,11 @@ def run(args):
     velocity = kw.pop("velocity")
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu blur", unit="image", disable=None, leave=False) as bar:
-        out = motion_blur(img, velocity, backend=be, **kw)
+        out = motion_blur(img, velocity, psf=args.psf, backend=be, **kw)
         bar.update(1)
     elapsed = time.perf_counter() - t0
     io.save_image(args.output, join_alpha(out, image, alpha), image)
-    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({kw['kind']}, {elapsed * 1e3:.0f} ms "
+    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({kw['kind']}, psf {args.psf}, "
+          f"{elapsed * 1e3:.0f} ms "
           f"including device start-up)")
     return 0
