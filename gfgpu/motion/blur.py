@@ -36,7 +36,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
         array-axis order (rows, cols) as :func:`gfgpu.shift`: ``vy`` down the rows, ``vx``
         right along the columns; at most 1e9 px.  ``(0, 0)`` returns a copy.
         A **velocity field** of shape ``(2, H, W)`` (rows, cols components, the order of
-        scikit-image's optical flow; numpy array, any real dtype, finite, components within
+        scikit-image's optical flow; numpy array of float32/float64 or integers, finite, components within
         ±4096 px; used in the computation's dtype) blurs every pixel along its own velocity:
         pixel ``x`` gathers the image along ``x - t v(x)`` (the standard post-process model).
         ``kind="zoom"``: the affine rate ``u1`` (eq. 10, ``U = u1 (x - x_U)``), one value or a
@@ -101,7 +101,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     ``L = max(|vy|, |vx|)`` steps).  G_u: one recursive pass of the discrete G_u shift
     (:func:`gfgpu.greens.shift_pass`: unit DC gain, first moment exactly ``L``);
     ``displace=False`` runs the anticausal shift by ``L/2`` then the causal one.  Box: the mean
-    of the line's piecewise-linear interpolant over the window ``[x - L, x]`` (centred
+    of the line's cubic B-spline interpolant over the window ``[x - L, x]`` (centred
     ``[x - L/2, x + L/2]``), a difference of running sums (:mod:`gfgpu.motion.box`).  Cost: O(1)
     per pixel whatever ``L``.
 
