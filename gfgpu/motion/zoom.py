@@ -18,6 +18,7 @@ from .._core import strips
 from .._core.job import copy_of_input
 from .._core.recursion import plan_pass
 from .._core.validation import finite_scalar
+from ..backends.specs_motion import extend_index
 from .params import center_point, zoom_u1
 
 __all__ = ["zoom_cell_weights", "ray_zoom_pass", "apply_zoom"]
@@ -314,23 +315,6 @@ def _zoom_pass(u1, centre, n, pad):
     return lp, first_left, first_right, kernels[0].length
 
 
-def _extension_index(p, n, mode):
-    """Image index of the (possibly outside) pixel ``p`` under a scipy.ndimage mode; -1 = cval."""
-    if mode == "constant":
-        return np.where((p >= 0) & (p < n), p, -1)
-    if mode == "nearest":
-        return np.clip(p, 0, n - 1)
-    if mode == "wrap":
-        return np.mod(p, n)
-    if mode == "reflect":                    # d c b a | a b c d | d c b a
-        q = np.mod(p, 2 * n)
-        return np.where(q < n, q, 2 * n - 1 - q)
-    if n == 1:                               # mirror: d c b | a b c d | c b a
-        return np.zeros_like(p)
-    q = np.mod(p, 2 * n - 2)
-    return np.where(q < n, q, 2 * n - 2 - q)
-
-
 @lru_cache(maxsize=16)
 def _zoom_maps(batch, height, width, centre, along_x, pad=0, mode="constant"):
     """Gather maps image -> (lines, L) layout and back, for the zoom pass along x or y.
@@ -350,7 +334,7 @@ def _zoom_maps(batch, height, width, centre, along_x, pad=0, mode="constant"):
         right = np.arange(n - 1 + pad, first_right - 1, -1)
         pos_right = 2 * len(left) + 2 * (n - 1 + pad - np.arange(n)) + 1
         pos_left = 2 * (np.arange(n) + pad) + 1
-    along = np.repeat(_extension_index(np.concatenate([left, right]), n, mode), 2)  # (L,)
+    along = np.repeat(extend_index(np.concatenate([left, right]), n, mode), 2)  # (L,)
     plane = height * width
     b = np.arange(batch)[:, None, None]
     line = np.arange(across)[None, :, None]
