@@ -500,3 +500,14 @@ def test_zoom_about_a_point_outside_the_image_is_refused_by_both_psfs():
     for psf, rates in (("green", 0.1), ("green", (0.1, 0.2)), ("box", 0.1)):
         with pytest.raises(ValueError, match="center"):
             motion_blur(img, rates, kind="zoom", psf=psf, center=(-40.0, 70.0), backend="numpy")
+
+
+def test_box_lengths_beyond_a_million_pixels_are_refused_before_work():
+    # the box integrates its whole window: (0, 1e9) ran for minutes (review of issue 15)
+    from gfgpu.motion import motion_blur
+    img = np.ones((3, 11), np.float32)
+    out = np.full_like(img, 7.0)
+    with pytest.raises(ValueError, match="1e\\+06 px for psf='box'"):
+        motion_blur(img, (0.0, 1e9), psf="box", output=out, backend="numpy")
+    assert (out == 7.0).all()
+    assert motion_blur(img, (0.0, 1e9), backend="numpy").shape == img.shape      # Green: O(1) per pixel

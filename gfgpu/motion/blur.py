@@ -12,7 +12,7 @@ from ..backends.specs_motion import PSF_CODES
 from ..filters import make_job
 from .box import apply_uniform_box
 from .field import apply_field, check_field, is_field
-from .params import KINDS, center_point, move_channels, psf_name, velocity_pair, zoom_factors
+from .params import KINDS, box_velocity, center_point, move_channels, psf_name, velocity_pair, zoom_factors
 from .polar import apply_radial_green_zoom, apply_radial_zoom, apply_spin
 from .rotation import rotation_angle
 from .uniform import uniform_motion_program
@@ -34,7 +34,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     velocity : pair of float, array (2, H, W), or float for ``kind="zoom"`` and ``kind="rotation"``
         ``kind="uniform"``: the displacement ``(vy, vx)`` in pixels during the exposure, in
         array-axis order (rows, cols) as :func:`gfgpu.shift`: ``vy`` down the rows, ``vx``
-        right along the columns; at most 1e9 px.  ``(0, 0)`` returns a copy.
+        right along the columns; at most 1e9 px (1e6 px with ``psf="box"``).  ``(0, 0)`` returns a copy.
         A **velocity field** of shape ``(2, H, W)`` (rows, cols components, the order of
         scikit-image's optical flow; numpy array of float32/float64 or integers, finite, components within
         ±4096 px; used in the computation's dtype) blurs every pixel along its own velocity:
@@ -181,6 +181,8 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
         return apply_field(job, field, PSF_CODES[psf, displace], mode, cval)
     if kind == "uniform":
         vy, vx = velocity_pair(velocity)
+        if psf == "box":
+            box_velocity(vy, vx)
         moving = bool(uniform_motion_program(2, (vy, vx), displace).steps)   # checks the length first
         job = make_job(image, output, backend, device, min_ndim=2)
         if psf == "box" and moving:
