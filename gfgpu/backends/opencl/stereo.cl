@@ -148,31 +148,22 @@ TAIL_LOAD(load_last_short, short, PAD_COST)
 TAIL_LOAD(load_last_short_max, short, SHRT_MAX)
 TAIL_LOAD(load_last_uchar, uchar, 0)
 
-static inline void store_last_short(short16 v, __global short *p)
-{
-    if (TAIL == 16) {
-        VSTORE(short, 16, v, p);
-        return;
-    }
-    __private short *b = (__private short *)&v;
-    if (TAIL & 8) VSTORE(short, 8, *(__private short8 *)b, p);
-    if (TAIL & 4) VSTORE(short, 4, *(__private short4 *)(b + (TAIL & 8)), p + (TAIL & 8));
-    if (TAIL & 2) VSTORE(short, 2, *(__private short2 *)(b + (TAIL & 12)), p + (TAIL & 12));
-    if (TAIL & 1) p[TAIL - 1] = b[TAIL - 1];
+// ... and its store, also in 8/4/2/1-lane parts
+#define TAIL_STORE(NAME, T)                                                                    \
+static inline void NAME(T##16 v, __global T *p)                                               \
+{                                                                                             \
+    if (TAIL == 16) {                                                                         \
+        VSTORE(T, 16, v, p);                                                                  \
+        return;                                                                               \
+    }                                                                                         \
+    __private T *b = (__private T *)&v;                                                       \
+    if (TAIL & 8) VSTORE(T, 8, *(__private T##8 *)b, p);                                      \
+    if (TAIL & 4) VSTORE(T, 4, *(__private T##4 *)(b + (TAIL & 8)), p + (TAIL & 8));          \
+    if (TAIL & 2) VSTORE(T, 2, *(__private T##2 *)(b + (TAIL & 12)), p + (TAIL & 12));        \
+    if (TAIL & 1) p[TAIL - 1] = b[TAIL - 1];                                                  \
 }
-
-static inline void store_last_uchar(uchar16 v, __global uchar *p)
-{
-    if (TAIL == 16) {
-        VSTORE(uchar, 16, v, p);
-        return;
-    }
-    __private uchar *b = (__private uchar *)&v;
-    if (TAIL & 8) VSTORE(uchar, 8, *(__private uchar8 *)b, p);
-    if (TAIL & 4) VSTORE(uchar, 4, *(__private uchar4 *)(b + (TAIL & 8)), p + (TAIL & 8));
-    if (TAIL & 2) VSTORE(uchar, 2, *(__private uchar2 *)(b + (TAIL & 12)), p + (TAIL & 12));
-    if (TAIL & 1) p[TAIL - 1] = b[TAIL - 1];
-}
+TAIL_STORE(store_last_short, short)
+TAIL_STORE(store_last_uchar, uchar)
 
 #define LOAD_S(p, j) ((j) < NV - 1 ? VLOAD(short, 16, (p) + 16 * (j)) : load_last_short((p) + 16 * (j)))
 #define LOAD_SMAX(p, j) ((j) < NV - 1 ? VLOAD(short, 16, (p) + 16 * (j)) : load_last_short_max((p) + 16 * (j)))
