@@ -172,6 +172,7 @@ def grey_image(image, name):
     arr = np.asarray(image)
     if arr.dtype == object or arr.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be a real numeric image, got dtype {arr.dtype}")
+    integer = arr.dtype.kind in "biu"         # always finite, also as float32
     if arr.ndim == 3 and arr.shape[-1] in (1, 3, 4):
         if arr.shape[-1] == 4:
             arr = arr[..., :3]     # alpha is not image content
@@ -187,7 +188,7 @@ def grey_image(image, name):
         raise ValueError(f"{name} must be (H, W) grey or (H, W, C) colour with C in 1, 3, 4; "
                          f"got shape {arr.shape}")
     out = np.ascontiguousarray(arr, dtype=np.float32)
-    if not np.isfinite(out).all():
+    if not integer and not np.isfinite(out).all():
         raise ValueError(f"{name} contains NaN or infinite values")
     return out
 
@@ -205,21 +206,21 @@ def left_right_check(disp, right_steps, steps, tol, return_difference=False):
     ``steps=None``, in px (NaN where none).  With ``return_difference``, also ``|d - d_right|``
     in px (NaN where rejected)."""
     h, w = disp.shape
-    valid = np.isfinite(disp)
-    d = np.where(valid, disp, 0)
-    xr = np.rint(np.arange(w)[None] - d).astype(np.int64)
-    inside = (xr >= 0) & (xr < w)
-    back = np.take_along_axis(np.asarray(right_steps), np.clip(xr, 0, w - 1), axis=1)
+    # x - d in float64 (exact for float32 d), rounded to the right view's pixel; NaN
+    # comparisons are False, so rejected pixels stay out
+    xr = np.rint(np.arange(w, dtype=np.float64) - disp)
+    ok = (xr >= 0) & (xr <= w - 1)
+    idx = np.where(ok, xr, 0).astype(np.intp)
+    idx += np.arange(0, h * w, w, dtype=np.intp)[:, None]
+    back = np.asarray(right_steps).ravel().take(idx)
     if steps is None:
-        matched = np.isfinite(back)
-        back_px = np.where(matched, back, 0)
+        back_px = back.astype(np.float64, copy=False)       # NaN where no match
     else:
-        matched = back != NO_MATCH
-        back_px = back / steps
-    diff = np.abs(back_px - d)
-    ok = valid & inside & matched & (diff <= tol)
-    out = disp.copy()
-    out[~ok] = np.nan
+        ok &= back != NO_MATCH
+        back_px = back * (1.0 / steps)
+    diff = np.abs(back_px - disp)
+    ok &= diff <= tol
+    out = np.where(ok, disp, np.nan).astype(disp.dtype, copy=False)
     if return_difference:
         return out, np.where(ok, diff, np.nan)
     return out

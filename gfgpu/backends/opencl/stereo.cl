@@ -466,40 +466,43 @@ __kernel void sgm_line_pair(__global const short *cost, __global short *total, c
 
 #define CELL (NP + 16)                     // a state cell: NP values, then a gap of PAD_COST
 
-// One pixel of one path: the predecessor's NV vectors at `in` (a state cell, PAD_COST before
-// and after it, so d - 1 and d + 1 are unaligned loads, no shuffles), its minimum `m_in`:
+// Vector j of one pixel of one path: the predecessor's vectors at `in` (a state cell, PAD_COST
+// before and after it, so d - 1 and d + 1 are unaligned loads, no shuffles), its minimum `vm`:
 // L = C + min(L', L'(d-1) + P1, L'(d+1) + P1, m' + P2) - m' = C + min(min(L', ...) - m', P2);
 // a predecessor of zeros (m' = 0) gives L = C, a path's first pixel.  Samples out of view (C < 0)
-// get PAD_COST (never a minimum, no neighbour) and add nothing to sum[]; one entering the view
-// takes m' as its own predecessor (L = C).  The new vectors go to `out` after all reads (in and
-// out may be one cell), are added to sum[]; returns their minimum.
-static ALWAYS_INLINE short
-path_pixel(__global const short *in, const short m_in, __global short *out, const short16 *cv,
-           short16 *sum, const short p1, const short p2)
+// get PAD_COST (never a minimum, no neighbour) and add nothing to `sum`; one entering the view
+// takes m' as its own predecessor (L = C).  Returns the new vector (min'd into `run`, added to
+// `sum`); the caller stores it only after reading vector j + 1 (`in` and the output may be one
+// cell, and vector j + 1 reads lane 16 j + 15 of the predecessor): one vector per path is live,
+// not a pixel's NV (which spilled from registers and made the sweep super-linear in N_DISP).
+static ALWAYS_INLINE short16
+path_vec(__global const short *in, const int j, const short16 vm, const short16 cv, short16 *run,
+         short16 *sum, const short16 vp1, const short16 vp2)
 {
-    const short16 pad = (short16)(PAD_COST), vm = (short16)(m_in);
-    const short16 vp1 = (short16)(p1), vp2 = (short16)(p2);
+    const short16 pad = (short16)(PAD_COST);
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    short16 cur[NV], run = pad;
-    UNROLL_NV
-    for (int j = 0; j < NV; ++j) {
-        const short16 old = VLOAD(short, 16, in + 16 * j);
-        const short16 lower = VLOAD(short, 16, in + 16 * j - 1);
-        const short16 upper = VLOAD(short, 16, in + 16 * j + 1);
-        const short16 stay = VMIN(old >= pad ? vm : old, VMIN(lower, upper) + vp1);
-        const short16 out_of_view = cv[j] < (short16)(0);
-        short16 v = out_of_view ? pad : cv[j] + VMIN(stay - vm, vp2);
-        if (j == NV - 1)
-            v = lane >= (short16)(TAIL) ? pad : v;
-        cur[j] = v;
-        run = VMIN(run, v);
-        sum[j] += out_of_view ? (short16)(0) : v;
-    }
-    UNROLL_NV
-    for (int j = 0; j < NV; ++j)
-        VSTORE(short, 16, cur[j], out + 16 * j);
-    return hmin16(run);
+    const short16 old = VLOAD(short, 16, in + 16 * j);
+    const short16 lower = VLOAD(short, 16, in + 16 * j - 1);
+    const short16 upper = VLOAD(short, 16, in + 16 * j + 1);
+    const short16 stay = VMIN(old >= pad ? vm : old, VMIN(lower, upper) + vp1);
+    const short16 out_of_view = cv < (short16)(0);
+    short16 v = out_of_view ? pad : cv + VMIN(stay - vm, vp2);
+    if (j == NV - 1)
+        v = lane >= (short16)(TAIL) ? pad : v;
+    *run = VMIN(*run, v);
+    *sum += out_of_view ? (short16)(0) : v;
+    return v;
 }
+
+// path_vec for path P (in, vm, out, pending vector, running minimum) and the store of its
+// previous vector after the reads
+#define PATH_STEP(P, j)                                                                        \
+    do {                                                                                      \
+        const short16 v_ = path_vec(in_##P, (j), vm_##P, cv, &run_##P, &sum, vp1, vp2);        \
+        if ((j) > 0)                                                                          \
+            VSTORE(short, 16, pend_##P, out_##P + 16 * ((j) - 1));                            \
+        pend_##P = v_;                                                                        \
+    } while (0)
 
 // Semi-global aggregation of a band of rows in two sweeps (for CPUs, as OpenCV's SGBM); the band's
 // byte costs are in `cost` (image row y0 + i at row cost_row0 + i).  Work-item 0 goes down the band's rows, each left
@@ -512,7 +515,8 @@ path_pixel(__global const short *in, const short m_in, __global short *out, cons
 // with the sweep of the band before it; bit p of `init` zeroes work-item p's state first (its
 // sweep enters the image here), bit p of `active` runs work-item p.  write_up = 0: work-item 1
 // only advances its vertical and diagonal paths (a checkpointing sweep: no horizontal path, no
-// output).  Memory O(band rows x w x N_DISP) whatever the image's height.
+// output; `split` runs it on both work-items).  Memory O(band rows x w x N_DISP) whatever the
+// image's height.
 #ifdef COST_BYTES
 static inline short16 load_cost_bytes(__global const uchar *p, const int j)
 {
@@ -524,30 +528,36 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        __global short *state, __global short *state_min, const int h, const int w,
                        const int y0, const int rows, const short p1, const short p2,
                        const int diagonals, const int init, const int active, const int write_up,
-                       const int cost_row0)
+                       const int cost_row0, const int split)
 {
-    const int pass = get_global_id(0);
-    if (pass > 1 || !((active >> pass) & 1))
+    // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
+    // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2)
+    const int gid = get_global_id(0), pass = split ? 1 : gid;
+    if (gid > 1 || (!split && !((active >> gid) & 1)))
         return;
+    const int xa = split ? gid * (w / 2) : 0, xb = split && gid == 0 ? w / 2 : w;
     const int s = pass == 0 ? 1 : -1, write = pass == 0 || write_up;
     __global short *out = pass == 0 ? sum_down : sum_up;
     const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
     __global short *st = state + (size_t)pass * 5 * row;
     __global short *mins = state_min + (size_t)pass * 4 * cells;
     if ((init >> pass) & 1) {
+        // this work-item's cells: those of its columns (cell = x + 1) and the guards beside them
+        const size_t ca = xa == 0 ? 0 : (size_t)xa + 1, cb = xb == w ? cells : (size_t)xb + 1;
         for (size_t r = 0; r < 5; ++r) {
             __global short *p = st + r * row;
-            for (int i = 0; i < 16; ++i)
+            for (int i = 0; i < 16 && ca == 0; ++i)
                 p[i] = PAD_COST;
-            for (size_t c = 0; c < cells; ++c) {
+            for (size_t c = ca; c < cb; ++c) {
                 for (int i = 0; i < NP; ++i)
                     p[16 + c * CELL + i] = 0;
                 for (int i = NP; i < CELL; ++i)
                     p[16 + c * CELL + i] = PAD_COST;
             }
         }
-        for (size_t i = 0; i < 4 * cells; ++i)
-            mins[i] = 0;
+        for (size_t r = 0; r < 4; ++r)
+            for (size_t c = ca; c < cb; ++c)
+                mins[r * cells + c] = 0;
     }
     __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
     __global short *mv = mins, *me = mv + cells;
@@ -558,29 +568,46 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
         __global short *sd_in = se + in_buf * row, *sd_out = se + out_buf * row;
         __global short *md_in = me + in_buf * cells, *md_out = me + out_buf * cells;
         short mh = 0;
-        for (int xi = 0; xi < w; ++xi) {
-            const int x = pass == 0 ? xi : w - 1 - xi, cell = x + 1;
+        for (int xi = 0; xi < xb - xa; ++xi) {
+            const int x = pass == 0 ? xa + xi : xb - 1 - xi, cell = x + 1;
             __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * N_DISP;
-            short16 cv[NV], sum[NV];
+            const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1), vp2 = (short16)(p2);
+            __global short *o = out + ((size_t)bi * w + x) * N_DISP;
+            // the paths: horizontal from x - s, vertical, diagonals from x + s and x - s
+            __global const short *in_h = sh + (cell - s) * CELL, *in_v = sv + cell * CELL;
+            __global const short *in_e = se + (cell + s) * CELL, *in_d = sd_in + (cell - s) * CELL;
+            __global short *out_h = sh + cell * CELL, *out_v = in_v, *out_e = se + cell * CELL;
+            __global short *out_d = sd_out + cell * CELL;
+            const short16 vm_h = (short16)(mh), vm_v = (short16)(mv[cell]);
+            const short16 vm_e = (short16)(diagonals ? me[cell + s] : 0);
+            const short16 vm_d = (short16)(diagonals ? md_in[cell - s] : 0);
+            short16 pend_h = pad, pend_v = pad, pend_e = pad, pend_d = pad;
+            short16 run_h = pad, run_v = pad, run_e = pad, run_d = pad;
             UNROLL_NV
             for (int j = 0; j < NV; ++j) {
-                cv[j] = LOAD_COST(c, j);
-                sum[j] = (short16)(0);
-            }
-            if (write)
-                mh = path_pixel(sh + (cell - s) * CELL, mh, sh + cell * CELL, cv, sum, p1, p2);
-            mv[cell] = path_pixel(sv + cell * CELL, mv[cell], sv + cell * CELL, cv, sum, p1, p2);
-            if (diagonals) {
-                me[cell] = path_pixel(se + (cell + s) * CELL, me[cell + s], se + cell * CELL, cv, sum,
-                                      p1, p2);
-                md_out[cell] = path_pixel(sd_in + (cell - s) * CELL, md_in[cell - s],
-                                          sd_out + cell * CELL, cv, sum, p1, p2);
+                const short16 cv = LOAD_COST(c, j);
+                short16 sum = (short16)(0);
+                if (write)
+                    PATH_STEP(h, j);
+                PATH_STEP(v, j);
+                if (diagonals) {
+                    PATH_STEP(e, j);
+                    PATH_STEP(d, j);
+                }
+                if (write)
+                    STORE_S(cv < (short16)(0) ? (short16)(-1) : sum, o, j);
             }
             if (write) {
-                __global short *o = out + ((size_t)bi * w + x) * N_DISP;
-                UNROLL_NV
-                for (int j = 0; j < NV; ++j)
-                    STORE_S(cv[j] < (short16)(0) ? (short16)(-1) : sum[j], o, j);
+                VSTORE(short, 16, pend_h, out_h + 16 * (NV - 1));
+                mh = hmin16(run_h);
+            }
+            VSTORE(short, 16, pend_v, out_v + 16 * (NV - 1));
+            mv[cell] = hmin16(run_v);
+            if (diagonals) {
+                VSTORE(short, 16, pend_e, out_e + 16 * (NV - 1));
+                VSTORE(short, 16, pend_d, out_d + 16 * (NV - 1));
+                me[cell] = hmin16(run_e);
+                md_out[cell] = hmin16(run_d);
             }
         }
     }

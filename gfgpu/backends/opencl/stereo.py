@@ -150,11 +150,14 @@ def _sgm_state(be, w, n):
 def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w, p1, p2, paths, init, active,
                  write_up=True):
     n = cost.shape[2]
+    # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
+    # both work-items take half of the columns each
+    split = not write_up and paths == 4 and w >= 2
     be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True), (2,), (1,), [cost],
                [down, up, state, state_min],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
-                np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0)))
+                np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split)))
 
 
 #: rows of a band of the CPU matcher: at least this many (fewer launches) ...
