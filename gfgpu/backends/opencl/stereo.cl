@@ -280,97 +280,88 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
 }
 
 // The block cost straight from the census codes, without a Hamming volume (built with -D BLOCK=b):
-// one work-item per output row y0 + i, a running sum along the row of the window's column
-// sums; a column sum (the block's rows of one column, every sample k) is computed once, when the
-// window reaches it, and kept in a ring of the window's b columns (border columns repeat, as
-// the clamped window repeats them).  Same values as census_hamming + block_sum.
+// work-item g of `splits` takes the columns [g w / splits, (g + 1) w / splits) of every output row
+// y0 .. y0 + rows - 1, going down.  The Hamming distances of the block's b rows (columns widened
+// by the block's margin) live in a ring of b row slots in `scratch`: slot t mod b holds virtual
+// row t = y + v (image row clamp(t), so border rows repeat as the clamped window repeats them);
+// each row's distances are computed once (one popcount per sample, b at a band's first row) and
+// summed b times as byte vectors.  The window sum runs along the row: + the column entering,
+// - the column leaving (the same column at a clamped border: no change).  Same values as
+// census_hamming + block_sum.
 #ifdef BLOCK
-static void column_sum(ushort16 *col, __global const ulong *cl, __global const ulong *ri, const int y,
-                       const int c, const int h, const int w, const int first_step, const int steps)
+static void hamming_row(__global uchar *dst, __global const ulong *cl, __global const ulong *ri, const int y,
+                        const int ca, const int cb, const int w, const int first_step, const int steps)
 {
-    __private ushort *d = (__private ushort *)col;
-    UNROLL_NV
-    for (int j = 0; j < NV; ++j)
-        col[j] = (ushort16)(0);
-    const int ws = w * steps, j0 = c * steps + steps - 1 - first_step;   // sample k: index j0 - k
-    const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
-    ulong lc[BLOCK];
-    __global const ulong *row[BLOCK];
-    UNROLL_NV
-    for (int v = 0; v < BLOCK; ++v) {
-        const int yy = CLAMPI(y + v - BLOCK / 2, 0, h - 1);
-        lc[v] = cl[(size_t)yy * w + c];
-        row[v] = ri + (size_t)yy * ws + j0;
-    }
-    for (int k = k_lo; k < k_hi; ++k) {
-        uint t = 0;
-        UNROLL_NV
-        for (int v = 0; v < BLOCK; ++v)
-            t += POPCOUNT(lc[v] ^ row[v][-k]);
-        d[k] = (ushort)t;
+    const int ws = w * steps;
+    for (int c = ca; c < cb; ++c, dst += NP) {
+        const int j0 = c * steps + steps - 1 - first_step;      // right code of sample k: j0 - k
+        const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
+        const ulong lc = cl[(size_t)y * w + c];
+        __global const ulong *row = ri + (size_t)y * ws;
+        int k = 0;
+        for (; k < k_lo; ++k)
+            dst[k] = 0;
+        for (; k < k_hi; ++k)
+            dst[k] = (uchar)POPCOUNT(lc ^ row[j0 - k]);
+        for (; k < NP; ++k)
+            dst[k] = 0;
     }
 }
 
+// the block's column c (index c - ca of the ring's rows), vector j
+static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size_t slot, const int c, const int j)
+{
+    ushort16 s = (ushort16)(0);
+    #pragma unroll
+    for (int v = 0; v < BLOCK; ++v)
+        s += TO_USHORT16(*(__global const uchar16 *)(ring + v * slot + (size_t)c * NP + 16 * j));
+    return s;
+}
+
 __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
-                         const int h, const int w, const int first_step, const int steps, const int y0,
-                         const int rows, const int out_row0)
+                         __global uchar *scratch, const int h, const int w, const int first_step,
+                         const int steps, const int y0, const int rows, const int out_row0, const int splits,
+                         const int slot_cols)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    const int i = get_global_id(0), y = y0 + i, r = BLOCK / 2;
-    if (i >= rows || y >= h)
+    const int g = get_global_id(0), r = BLOCK / 2;
+    if (g >= splits)
         return;
-    ushort16 ring[BLOCK][NV], sum[NV];
-    // the window at x = 0: columns clamp(u) for u = -r .. r
-    int slot = 0, last = -1;
-    UNROLL_NV
-    for (int j = 0; j < NV; ++j)
-        sum[j] = (ushort16)(0);
-    for (int u = -r; u <= r; ++u, ++slot) {
-        const int c = CLAMPI(u, 0, w - 1);
-        if (c == last) {
-            for (int j = 0; j < NV; ++j)
-                ring[slot][j] = ring[slot - 1][j];
-        } else {
-            column_sum(ring[slot], cl, ri, y, c, h, w, first_step, steps);
+    const int xa = (int)((long)g * w / splits), xb = (int)((long)(g + 1) * w / splits);
+    const int ca = max(xa - r, 0), cb = min(xb + r, w);
+    const size_t slot = (size_t)slot_cols * NP;
+    __global uchar *ring = scratch + (size_t)g * BLOCK * slot;
+    for (int i = 0; i < rows; ++i) {
+        const int y = y0 + i;
+        // the rows entering the window: all b at the first row, then y + r
+        for (int t = i == 0 ? y - r : y + r; t <= y + r; ++t) {
+            const int sl = ((t % BLOCK) + BLOCK) % BLOCK;
+            hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps);
         }
-        last = c;
-        UNROLL_NV
-        for (int j = 0; j < NV; ++j)
-            sum[j] += ring[slot][j];
-    }
-    int newest = BLOCK - 1;                     // ring slot of the window's last column
-    __global cost_t *dst = out + (size_t)(out_row0 + i) * w * N_DISP;
-    for (int x = 0; x < w; ++x, dst += N_DISP) {
-        if (x > 0) {
-            // the window moves on: its first column leaves, column min(x + r, w - 1) enters
-            const int oldest = newest + 1 == BLOCK ? 0 : newest + 1;
-            const int c = min(x + r, w - 1);
-            ushort16 fresh[NV];
-            if (c == last) {
-                UNROLL_NV
-                for (int j = 0; j < NV; ++j)
-                    fresh[j] = ring[newest][j];
-            } else {
-                column_sum(fresh, cl, ri, y, c, h, w, first_step, steps);
-            }
-            last = c;
-            UNROLL_NV
-            for (int j = 0; j < NV; ++j) {
-                sum[j] += fresh[j] - ring[oldest][j];
-                ring[oldest][j] = fresh[j];
-            }
-            newest = oldest;
-        }
-        // in view: r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
-        const long hi = (long)(x - r + 1) * steps - 1 - first_step;
-        const long lo = (long)(x + r - (w - 1)) * steps - first_step;
-        const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
-        const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
+        ushort16 sum[NV];
         UNROLL_NV
         for (int j = 0; j < NV; ++j) {
-            const short16 k = lane + (short16)(16 * j);
-            const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
-            STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
+            sum[j] = (ushort16)(0);
+            for (int u = -r; u <= r; ++u)
+                sum[j] += ring_column(ring, slot, CLAMPI(xa + u, 0, w - 1) - ca, j);
+        }
+        __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * N_DISP;
+        for (int x = xa; x < xb; ++x, dst += N_DISP) {
+            const int add = min(x + r, w - 1) - ca, sub = max(x - 1 - r, 0) - ca;
+            const int moved = x > xa && add != sub;
+            // in view: r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
+            const long hi = (long)(x - r + 1) * steps - 1 - first_step;
+            const long lo = (long)(x + r - (w - 1)) * steps - first_step;
+            const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
+            const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
+            UNROLL_NV
+            for (int j = 0; j < NV; ++j) {
+                if (moved)
+                    sum[j] += ring_column(ring, slot, add, j) - ring_column(ring, slot, sub, j);
+                const short16 k = lane + (short16)(16 * j);
+                const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
+                STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
+            }
         }
     }
 }

@@ -67,10 +67,24 @@ def _interleave(be, cr, h, w, steps, n):
     return ri
 
 
+def _cost_splits(be, w):
+    """Column ranges of the CPU block_cost kernel: two per core (load balance), at least one
+    column each."""
+    return max(1, min(2 * be._device.max_compute_units, w))
+
+
+def _block_scratch(be, w, n, block):
+    """The Hamming ring of the CPU block_cost kernel: per column range, ``block`` rows of its
+    columns plus the block's margins, 16 * ceil(n / 16) bytes per column; and its slot width."""
+    splits = _cost_splits(be, w)
+    cols = -(-w // splits) + 2 * (block // 2)
+    return be.empty((splits * block * cols * (-(-n // 16) * 16),), np.uint8), cols
+
+
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, steps, block):
     """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows], int16 or
-    byte costs as ``out``'s dtype.  CPUs: straight from the census codes, one row per
-    work-item (block_cost); GPUs: Hamming distances of the rows and their block margin into
+    byte costs as ``out``'s dtype.  CPUs: straight from the census codes, each column range's
+    rows in sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
     ``ham`` (one work-item per pixel), then block sums."""
     n = out.shape[2]
     group = be._group()
@@ -78,9 +92,12 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, step
     if ham is None:
         knl = be._kernel("block_cost", np.dtype(np.float32), source="stereo.cl", N_DISP=n, COST_MAX=COST_MAX,
                          BLOCK=int(block), **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}))
-        be._launch(knl, gsize, (group,), [cl_, ri], [out],
-                   (cl_.data, ri.data, out.data, np.int32(h), np.int32(w), np.int32(first_step),
-                    np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0)))
+        splits = _cost_splits(be, w)
+        scratch, cols = _block_scratch(be, w, n, block)
+        be._launch(knl, (splits,), (1,), [cl_, ri], [out, scratch],
+                   (cl_.data, ri.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(first_step),
+                    np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0), np.int32(splits),
+                    np.int32(cols)))
         return
     r = block // 2
     ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
@@ -177,16 +194,17 @@ def band_rows(h, paths, w=1, n=1):
     return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 3.5)), fit)))
 
 
-def match_memory(h, w, n, paths, keep_cost):
+def match_memory(h, w, n, paths, keep_cost, block=15):
     """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
-    the band's Hamming distances and sums, the path states and their checkpoints."""
+    the band's Hamming ring (``block`` rows) and sums, the path states and their checkpoints."""
     k = band_rows(h, paths, w, n)
     cell = -(-n // 16) * 16 + 16
     state_row = 2 * (16 + (w + 2) * cell)
     c = 1 if paths == 4 else 4
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
     cost = h * w * n if keep_cost else k * w * n
-    return cost + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints
+    ring = block * (w + 256 * block) * (-(-n // 16) * 16)    # 2 x cores x (block margins + 1) <= 256 block
+    return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -215,7 +233,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # recomputed from its checkpoint: O(k W D + (H / k) W D) for the sums instead of (H, W, D)
     # volumes.  The byte costs of the whole image are kept between the two sweeps when
     # ``budget`` allows (H W D bytes), else computed again for each band.
-    keep = budget is None or match_memory(h, w, n, paths, True) <= budget
+    keep = budget is None or match_memory(h, w, n, paths, True, block) <= budget
     k = band_rows(h, paths, w, n)
     ri = _interleave(be, cr, h, w, steps, n)
     cost = be.empty((h if keep else k, w, n), np.uint8)
@@ -236,10 +254,14 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
                                   src_offset=src_off, wait_for=(src.events + dst.events) or None)
         dst.add_event(evt)
 
+    if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
+        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, first_step, steps, block)
+
     def band_cost(y0, rows):
-        row0 = y0 if keep else 0
-        _band_cost(be, cl_, ri, cost, None, y0, rows, row0, h, w, first_step, steps, block)
-        return row0
+        if keep:
+            return y0
+        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, first_step, steps, block)
+        return 0
 
     # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep
     # starts from checkpoint b + 1: the state after the first row of band b + 1)
@@ -253,7 +275,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
     for b, (y0, rows) in enumerate(bands):
         last = b == len(bands) - 1
-        row0 = band_cost(y0, rows) if (b == 0 or not keep) else y0
+        row0 = band_cost(y0, rows)
         if not last:
             copy(state, ckpt, st_len, st_off, b * st_len)
             copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
