@@ -492,7 +492,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         uniq = _int_arg(uniqueness, "uniqueness")
         if not 0 <= uniq <= 100:
             raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
-        _check_memory(be, lft.shape, d_max, d_min, method, steps, paths)
+        _check_memory(be, lft.shape, d_max, d_min, method, steps, paths, window)
         disp, conf = _sgm(be, lft, rgt, d_min, d_max, steps, radius, window, p1, p2, paths,
                           uniq, lr_check, report)
         if not subpixel:
@@ -583,14 +583,14 @@ def _sgm_base(shape, steps):
     return shape[0] * shape[1] * (16 * (1 + steps) + 40)
 
 
-def _sgm_memory(be, shape, n, steps, paths, budget, keep=None):
+def _sgm_memory(be, shape, n, steps, paths, budget, keep=None, block=3):
     h, w = shape
     base = _sgm_base(shape, steps)
     if _streams_bands(be):
         from ..backends.opencl.stereo import match_memory
         if keep is None:
-            keep = budget is None or base + match_memory(h, w, n, paths, True) <= budget
-        return base + match_memory(h, w, n, paths, keep)
+            keep = budget is None or base + match_memory(h, w, n, paths, True, block) <= budget
+        return base + match_memory(h, w, n, paths, keep, block)
     return base + h * w * n * _SGM_BYTES.get(be.name, _SGM_BYTES_DEFAULT)
 
 
@@ -615,12 +615,12 @@ def _budget(be):
     return budget
 
 
-def _check_memory(be, shape, d_max, d_min, method, steps, paths=4):
+def _check_memory(be, shape, d_max, d_min, method, steps, paths=4, block=3):
     n = (d_max - d_min) * (steps if method == "sgm" else 1) + 1
     budget = _budget(be)
     if method == "sgm":
         # the least this request can run in (the band matcher recomputes costs when short)
-        need = _sgm_memory(be, shape, n, steps, paths, budget, keep=False)
+        need = _sgm_memory(be, shape, n, steps, paths, budget, keep=False, block=block)
     else:
         need = disparity_memory(shape, d_max, min_disparity=d_min, method=method, backend=be)
     if budget is not None and need > budget:

@@ -6,6 +6,7 @@
 from __future__ import annotations
 
 import math
+import os
 
 import numpy as np
 
@@ -194,7 +195,7 @@ def band_rows(h, paths, w=1, n=1):
     return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 3.5)), fit)))
 
 
-def match_memory(h, w, n, paths, keep_cost, block=15):
+def match_memory(h, w, n, paths, keep_cost, block=3):
     """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
     the band's Hamming ring (``block`` rows) and sums, the path states and their checkpoints."""
     k = band_rows(h, paths, w, n)
@@ -203,7 +204,8 @@ def match_memory(h, w, n, paths, keep_cost, block=15):
     c = 1 if paths == 4 else 4
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
     cost = h * w * n if keep_cost else k * w * n
-    ring = block * (w + 256 * block) * (-(-n // 16) * 16)    # 2 x cores x (block margins + 1) <= 256 block
+    splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
+    ring = splits * block * (-(-w // splits) + block) * (-(-n // 16) * 16)
     return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints
 
 
