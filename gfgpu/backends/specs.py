@@ -321,6 +321,48 @@ def select_disparity_reference(aggregated, d_min, steps, uniqueness):
     return disp, right, margin
 
 
+def left_right_check_reference(disp, right, steps, tol, return_difference=False):
+    """NaN where the right view's winner at ``x - d`` disagrees with ``d`` by more than ``tol`` px.
+
+    ``xr = rint(x - d)`` (float64, ties to even) must lie inside the row; ``right`` is the
+    right view's winner in steps (:data:`NO_MATCH` where none), or, with ``steps=None``, in px
+    (NaN where none), and ``|right[y, xr] / steps - d| <= tol`` (float64).  With
+    ``return_difference``, also ``|d - d_right|`` in px (float64; NaN where rejected).
+    """
+    h, w = disp.shape
+    xr = np.rint(np.arange(w, dtype=np.float64) - disp)      # NaN where disp is
+    ok = (xr >= 0) & (xr <= w - 1)                           # NaN compares False
+    idx = np.where(ok, xr, 0).astype(np.intp)
+    idx += np.arange(0, h * w, w, dtype=np.intp)[:, None]
+    back = np.asarray(right).ravel().take(idx)
+    if steps is None:
+        back_px = back.astype(np.float64, copy=False)        # NaN where no match
+    else:
+        ok &= back != NO_MATCH
+        back_px = back / steps
+    diff = np.abs(back_px - disp)
+    ok &= diff <= tol
+    out = np.where(ok, disp, np.nan).astype(disp.dtype, copy=False)
+    if return_difference:
+        return out, np.where(ok, diff, np.nan)
+    return out
+
+
+def left_right_reference(disp, disp_right, margin, steps, tol):
+    """The matcher's left-right check of its maps (the ``stereo.left_right`` kernel).
+
+    ``disp`` (H, W) float32 (NaN where rejected), ``disp_right`` (H, W) int32 in steps and
+    ``margin`` (H, W) float32 as :func:`select_disparity_reference` returns them.  Returns
+    ``disp`` with NaN where :func:`left_right_check_reference` rejects, and the confidence
+    ``margin * (1 - |d - d_R| / (2 tol))`` (float64 product rounded to float32; 1 where both
+    views agree exactly, 1/2 at the tolerance), 0 where ``disp`` is NaN.
+    """
+    out, diff = left_right_check_reference(np.asarray(disp, np.float32), disp_right, steps, tol,
+                                           return_difference=True)
+    conf = np.asarray(margin, np.float32) * (1 - np.where(np.isnan(diff), 2 * tol, diff) / (2 * tol))
+    return out, np.where(np.isnan(out), 0, conf).astype(np.float32)
+
+
 def semi_global_match_reference(census_left, census_right, first_step, n_disp, steps, block, p1, p2, paths,
                                 uniqueness):
     """The whole semi-global matcher after the census: cost, aggregation and selection,

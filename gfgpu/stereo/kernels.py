@@ -10,7 +10,7 @@ from __future__ import annotations
 from ..backends import specs
 from ..backends.fused import register
 
-__all__ = ["census", "cost", "sgm", "select", "match", "sweep"]
+__all__ = ["census", "cost", "sgm", "select", "match", "left_right", "sweep"]
 
 
 def _launchers(name):
@@ -42,6 +42,12 @@ select = register("stereo.select", specs.select_disparity_reference, **_launcher
 #: streams bands of rows instead of holding (H, W, D) volumes, and keeps the byte costs of the whole
 #: image only if that fits ``budget`` bytes (None: no limit)
 match = register("stereo.match", specs.semi_global_match_reference, **_launchers("match"))
+
+#: ``left_right(be, disp, disp_right, margin, steps, tol)``: ``disp, margin =
+#: left_right_reference(disp, disp_right, margin, steps, tol)`` in place on the maps of ``select`` /
+#: ``match`` (device arrays; float64 arithmetic, so the OpenCL kernel needs ``cl_khr_fp64``, else
+#: the check runs on the host)
+left_right = register("stereo.left_right", specs.left_right_reference, **_launchers("left_right"))
 
 #: ``sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius)``:
 #: ``sweep_update_reference`` in place on device arrays (float32)

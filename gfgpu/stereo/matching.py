@@ -37,8 +37,8 @@ import numpy as np
 from .. import greens
 from .._core.strips import get_working_set
 from .._core.validation import finite_scalar
-from ..backends import resolve_backend
-from ..backends.specs import COST_MAX, NO_MATCH, SWEEP_PLANES
+from ..backends import resolve_backend, specs
+from ..backends.specs import COST_MAX, SWEEP_PLANES
 from ..filters import green_filter, shift
 from . import kernels
 
@@ -199,31 +199,9 @@ def _int_arg(value, name):
     return int(value)
 
 
-def left_right_check(disp, right_steps, steps, tol, return_difference=False):
-    """NaN where the right view's winner at ``x - d`` disagrees with ``d`` by more than ``tol`` px.
-
-    ``right_steps`` is the right view's winner in steps (``NO_MATCH`` where none), or, with
-    ``steps=None``, in px (NaN where none).  With ``return_difference``, also ``|d - d_right|``
-    in px (NaN where rejected)."""
-    h, w = disp.shape
-    # x - d in float64 (exact for float32 d), rounded to the right view's pixel; NaN
-    # comparisons are False, so rejected pixels stay out
-    xr = np.rint(np.arange(w, dtype=np.float64) - disp)
-    ok = (xr >= 0) & (xr <= w - 1)
-    idx = np.where(ok, xr, 0).astype(np.intp)
-    idx += np.arange(0, h * w, w, dtype=np.intp)[:, None]
-    back = np.asarray(right_steps).ravel().take(idx)
-    if steps is None:
-        back_px = back.astype(np.float64, copy=False)       # NaN where no match
-    else:
-        ok &= back != NO_MATCH
-        back_px = back * (1.0 / steps)
-    diff = np.abs(back_px - disp)
-    ok &= diff <= tol
-    out = np.where(ok, disp, np.nan).astype(disp.dtype, copy=False)
-    if return_difference:
-        return out, np.where(ok, diff, np.nan)
-    return out
+#: the left-right check on the host (the sweeps' maps): ``(disp, right, steps, tol,
+#: return_difference=False)``, right in steps (``steps`` an int) or in px (``steps=None``)
+left_right_check = specs.left_right_check_reference
 
 
 # --------------------------------------------------------------------------------------
@@ -256,14 +234,12 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
     kernels.match(be, cen_l, cen_r, disp, right_steps, margin, d_min * steps, n_disp, steps, block, p1, p2,
                   paths, uniqueness, None if budget is None else budget - _sgm_base((h, w), steps))
     progress(1)
-    disp, margin = be.to_host(disp), be.to_host(margin)
     if lr_check:
-        disp, diff = left_right_check(disp, be.to_host(right_steps), steps, LR_TOLERANCE,
-                                      return_difference=True)
-        # the left-right agreement: 1 where both views agree exactly, 1/2 at the tolerance
-        margin = margin * (1 - np.nan_to_num(diff, nan=2 * LR_TOLERANCE) / (2 * LR_TOLERANCE))
+        # NaN where the views disagree; the confidence times the left-right agreement (1 where
+        # both views agree exactly, 1/2 at the tolerance)
+        kernels.left_right(be, disp, right_steps, margin, steps, LR_TOLERANCE)
     progress(1)
-    return disp, np.where(np.isfinite(disp), margin, 0).astype(np.float32)
+    return be.to_host(disp), be.to_host(margin)
 
 
 def _green_shift(be, image, amount, method, sigma):

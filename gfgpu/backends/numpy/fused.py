@@ -43,6 +43,11 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     return disp, disp_right, margin
 
 
+def launch_left_right(be, disp, disp_right, margin, steps, tol):
+    disp[...], margin[...] = specs.left_right_reference(disp, disp_right, margin, steps, tol)
+    return disp, margin
+
+
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
     return specs.sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_right, offset,
                                         d, radius)

@@ -774,3 +774,38 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
         }
     }
 }
+
+// Left-right check of the matcher's maps in place (built with -D LEFT_RIGHT; float64 as the
+// specification, left_right_reference, so that a tie of rint(x - d) or of |d - d_R| = tol
+// falls the same way): NaN where the right view's winner at rint(x - d) is missing or more than
+// tol px from d; the confidence margin times 1 - |d - d_R| / (2 tol), 0 where rejected.
+#ifdef LEFT_RIGHT
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+__kernel void left_right(__global float *disp, __global const int *right, __global float *margin,
+                         const int h, const int w, const int steps, const double tol)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const size_t p = (size_t)y * w + x;
+    const float d = disp[p];
+    int ok = 0;
+    double diff = 0.0;
+    if (!isnan(d)) {
+        const double xr = rint((double)x - (double)d);
+        if (xr >= 0.0 && xr <= (double)(w - 1)) {
+            const int back = right[(size_t)y * w + (int)xr];
+            if (back != NO_MATCH) {
+                diff = fabs((double)back / (double)steps - (double)d);
+                ok = diff <= tol;
+            }
+        }
+    }
+    if (ok) {
+        margin[p] = (float)((double)margin[p] * (1.0 - diff / (2.0 * tol)));
+    } else {
+        disp[p] = NAN;
+        margin[p] = 0.0f;
+    }
+}
+#endif  // LEFT_RIGHT

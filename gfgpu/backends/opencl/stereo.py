@@ -10,6 +10,7 @@ import os
 
 import numpy as np
 
+from .. import specs
 from ..specs import COST_MAX
 
 
@@ -286,6 +287,27 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness)
     return disp, disp_right, margin
 
+
+
+def launch_left_right(be, disp, disp_right, margin, steps, tol):
+    for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
+                        (margin, "margin", np.float32)):
+        _plain(be, a, name, dt)
+        _check_written(a, name)
+    h, w = disp.shape
+    if disp.size == 0:
+        return disp, margin
+    if not be.supports_float64:
+        # no cl_khr_fp64: the float64 check on the host (ties must fall as the specification's)
+        d, m = specs.left_right_reference(disp.get(), disp_right.get(), margin.get(), steps, tol)
+        disp.set(d)
+        margin.set(m)
+        return disp, margin
+    knl = be._kernel("left_right", np.dtype(np.float32), source="stereo.cl", LEFT_RIGHT=1)
+    be._launch(knl, (w, h), None, [disp_right], [disp, margin],
+               (disp.data, disp_right.data, margin.data, np.int32(h), np.int32(w), np.int32(steps),
+                np.float64(tol)))
+    return disp, margin
 
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):

@@ -204,6 +204,33 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
 
 
 @wp.kernel
+def left_right(disp: wp.array2d(dtype=wp.float32), right: wp.array2d(dtype=wp.int32),
+               margin: wp.array2d(dtype=wp.float32), steps: int, tol: wp.float64):
+    """Left-right check in place, float64 as the specification (left_right_reference): NaN
+    where the right view's winner at rint(x - d) is missing or more than tol px from d; the
+    confidence times 1 - |d - d_R| / (2 tol)."""
+    y, x = wp.tid()
+    w = disp.shape[1]
+    d = disp[y, x]
+    ok = False
+    diff = wp.float64(0.0)
+    if not wp.isnan(d):
+        dd = wp.float64(d)
+        xr = wp.rint(wp.float64(x) - dd)
+        if xr >= wp.float64(0.0) and xr <= wp.float64(w - 1):
+            back = right[y, int(xr)]
+            if back != NO_MATCH:
+                diff = wp.abs(wp.float64(back) / wp.float64(steps) - dd)
+                ok = diff <= tol
+    if ok:
+        conf = wp.float64(margin[y, x]) * (wp.float64(1.0) - diff / (wp.float64(2.0) * tol))
+        margin[y, x] = wp.float32(conf)
+    else:
+        disp[y, x] = wp.nan
+        margin[y, x] = wp.float32(0.0)
+
+
+@wp.kernel
 def sweep_update(state: wp.array3d(dtype=wp.float32), ls: wp.array2d(dtype=wp.float32),
                  rs: wp.array2d(dtype=wp.float32), gl: wp.array(dtype=wp.float32),
                  gr: wp.array(dtype=wp.float32), offset: int, d: float, radius: int):
@@ -289,6 +316,11 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     launch_sgm(be, cost, agg, p1, p2, paths)
     del cost
     return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
+
+def launch_left_right(be, disp, disp_right, margin, steps, tol):
+    be._wp.launch(left_right, dim=disp.shape, inputs=[disp, disp_right, margin, int(steps), float(tol)],
+                  device=be._device)
+    return disp, margin
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
     ls = _contiguous(be, left_shifted, "left_shifted")
