@@ -18,7 +18,7 @@ from oracle import relerr
 import gfgpu
 from gfgpu import greens
 from gfgpu._core.recursion import MODES, plan_lines, plan_pass, run_reference, run_reference_lines
-from gfgpu.backends import BACKENDS, fused
+from gfgpu.backends import BACKENDS, fused, specs
 
 
 def _import_every_application():
@@ -146,6 +146,39 @@ def _match(be, kernel, rng):
         kernel(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, 3, 54, 576, paths, 10)
         for got, ref in zip(outs, kernel.spec(left[0], right, first, n, steps, 3, 54, 576, paths, 10)):
             _compare(be.to_host(got), ref, f"match {h}x{w}x{n} steps {steps} first {first} {paths} paths")
+
+
+@builds("stereo.left_right")
+def _left_right(be, kernel, rng):
+    # disparities on the sample grid (ties of rint(x - d) at .5, |d - d_R| = tol exactly) and off
+    # it, NaN, right winners missing or beyond the row, both signs
+    for (h, w), steps, tol in (((5, 23), 1, 1.0), ((6, 31), 2, 1.0), ((4, 17), 3, 0.5), ((3, 9), 4, 2.0)):
+        k = rng.integers(-3 * steps, 12 * steps, (h, w))
+        disp = (k / steps + np.where(rng.random((h, w)) < 0.5, 0, rng.uniform(-0.5, 0.5, (h, w))))
+        disp = disp.astype(np.float32)
+        disp[rng.random((h, w)) < 0.15] = np.nan
+        right = (k + rng.integers(-2 * steps, 2 * steps + 1, (h, w))).astype(np.int32)
+        right[rng.random((h, w)) < 0.15] = specs.NO_MATCH
+        margin = rng.random((h, w)).astype(np.float32)
+        dev = [be.asarray(a.copy()) for a in (disp, right, margin)]
+        kernel(be, dev[0], dev[1], dev[2], steps, tol)
+        ref_disp, ref_margin = kernel.spec(disp, right, margin, steps, tol)
+        what = f"left_right {h}x{w} steps {steps} tol {tol}"
+        np.testing.assert_array_equal(be.to_host(dev[0]), ref_disp, err_msg=what)    # NaN where rejected
+        np.testing.assert_array_equal(be.to_host(dev[2]), ref_margin, err_msg=what)
+        assert 0 < np.isnan(ref_disp).mean() < 1, what
+    # x - d not representable in float32 (x ~ 1000, d just below 10.5): rint of the exact
+    # difference picks x - 10, of the float32 one the even neighbour; the right view matches at
+    # even columns only
+    w = 1100
+    disp = np.full((1, w), np.nextafter(np.float32(10.5), np.float32(0)), np.float32)
+    right = np.where(np.arange(w) % 2 == 0, 21, specs.NO_MATCH).astype(np.int32)[None]
+    margin = np.ones((1, w), np.float32)
+    dev = [be.asarray(a.copy()) for a in (disp, right, margin)]
+    kernel(be, dev[0], dev[1], dev[2], 2, 1.0)
+    ref_disp, ref_margin = kernel.spec(disp, right, margin, 2, 1.0)
+    np.testing.assert_array_equal(be.to_host(dev[0]), ref_disp, err_msg="left_right ties of x - d")
+    np.testing.assert_array_equal(be.to_host(dev[2]), ref_margin, err_msg="left_right ties of x - d")
 
 
 @builds("stereo.sweep")
