@@ -131,8 +131,21 @@ typedef uchar2 uchar2_u __attribute__((aligned(1)));
 
 // The last vector of a pixel: TAIL values, the other lanes PAD; loads and stores of the tail are
 // split into 8/4/2/1-lane parts so that no neighbouring pixel is read or written (the
-// neighbour may belong to another work-item).
-#define TAIL_LOAD(NAME, T, PAD)                                                                \
+// neighbour may belong to another work-item).  Built with -D TAIL_READABLE (the band matcher's
+// own buffers, allocated with 16 elements to spare): the tail is one full load, its lanes past
+// TAIL replaced (a split load assembles the vector in private memory: a store-forwarding stall
+// per pixel on CPUs).
+#ifdef TAIL_READABLE
+#define TAIL_LOAD(NAME, T, PAD, LANE_T)                                                        \
+static inline T##16 NAME(__global const T *p)                                                 \
+{                                                                                             \
+    const T##16 v = VLOAD(T, 16, p);                                                          \
+    if (TAIL == 16) return v;                                                                 \
+    const LANE_T##16 lane = (LANE_T##16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15); \
+    return lane < (LANE_T##16)(TAIL) ? v : (T##16)(PAD);                                      \
+}
+#else
+#define TAIL_LOAD(NAME, T, PAD, LANE_T)                                                        \
 static inline T##16 NAME(__global const T *p)                                                 \
 {                                                                                             \
     if (TAIL == 16) return VLOAD(T, 16, p);                                                   \
@@ -144,9 +157,10 @@ static inline T##16 NAME(__global const T *p)                                   
     if (TAIL & 1) b[TAIL - 1] = p[TAIL - 1];                                                  \
     return v;                                                                                 \
 }
-TAIL_LOAD(load_last_short, short, PAD_COST)
-TAIL_LOAD(load_last_short_max, short, SHRT_MAX)
-TAIL_LOAD(load_last_uchar, uchar, 0)
+#endif
+TAIL_LOAD(load_last_short, short, PAD_COST, short)
+TAIL_LOAD(load_last_short_max, short, SHRT_MAX, short)
+TAIL_LOAD(load_last_uchar, uchar, 0, char)
 
 // ... and its store, also in 8/4/2/1-lane parts
 #define TAIL_STORE(NAME, T)                                                                    \

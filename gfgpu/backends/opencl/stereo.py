@@ -24,13 +24,22 @@ def _plain(be, a, name, dtype):
         raise TypeError(f"{name} must be {np.dtype(dtype)}, got {a.dtype}")
     return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
 
-def _stereo_kernel(be, name, n_disp=None, cost_bytes=False):
+def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False):
     """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
-    with ``cost_bytes`` for byte costs)."""
+    with ``cost_bytes`` for byte costs, with ``padded`` for buffers of :func:`_padded`)."""
     defines = {} if n_disp is None else {"N_DISP": int(n_disp), "COST_MAX": COST_MAX}
     if cost_bytes:
         defines["COST_BYTES"] = 1
+    if padded:
+        defines["TAIL_READABLE"] = 1
     return be._kernel(name, np.dtype(np.float32), source="stereo.cl", **defines)
+
+
+def _padded(be, shape, dtype):
+    """An array of ``shape`` whose allocation has 16 elements to spare after it: a pixel's last
+    disparity vector can be loaded whole (``TAIL_READABLE`` kernels)."""
+    size = math.prod(shape)
+    return be.empty((size + 16,), dtype)[:size].reshape(shape)
 
 def _check_written(a, name):
     if a.offset != 0 or not a.flags.c_contiguous:
@@ -147,12 +156,12 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
     return disp, disp_right, margin
 
 
-def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, uniqueness):
+def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, uniqueness, padded=False):
     """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows])."""
     n = agg.shape[2]
     group = be._group()
     second = agg if agg2 is None else agg2
-    be._launch(_stereo_kernel(be, "select_disparity", n), (-(-rows // group) * group,), (group,),
+    be._launch(_stereo_kernel(be, "select_disparity", n, padded=padded), (-(-rows // group) * group,), (group,),
                [agg, second], [disp, disp_right, margin],
                (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
                 np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
@@ -172,7 +181,7 @@ def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each
     split = not write_up and paths == 4 and w >= 2
-    be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True), (2,), (1,), [cost],
+    be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True), (2,), (1,), [cost],
                [down, up, state, state_min],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
@@ -239,8 +248,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     keep = budget is None or match_memory(h, w, n, paths, True, block) <= budget
     k = band_rows(h, paths, w, n)
     ri = _interleave(be, cr, h, w, steps, n)
-    cost = be.empty((h if keep else k, w, n), np.uint8)
-    down, up = be.empty((k, w, n), np.int16), be.empty((k, w, n), np.int16)
+    cost = _padded(be, (h if keep else k, w, n), np.uint8)
+    down, up = _padded(be, (k, w, n), np.int16), _padded(be, (k, w, n), np.int16)
     state, state_min = _sgm_state(be, w, n)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
@@ -284,7 +293,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
         _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
                      init=(1 if b == 0 else 0) | (2 if last else 0), active=3)
-        _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness)
+        _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness,
+                padded=True)
     return disp, disp_right, margin
 
 
