@@ -536,7 +536,8 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        const int cost_row0, const int split)
 {
     // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
-    // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2)
+    // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2); the state is
+    // then initialised by an earlier launch (init is ignored)
     const int gid = get_global_id(0), pass = split ? 1 : gid;
     if (gid > 1 || (!split && !((active >> gid) & 1)))
         return;
@@ -546,23 +547,22 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
     __global short *st = state + (size_t)pass * 5 * row;
     __global short *mins = state_min + (size_t)pass * 4 * cells;
-    if ((init >> pass) & 1) {
-        // this work-item's cells: those of its columns (cell = x + 1) and the guards beside them
-        const size_t ca = xa == 0 ? 0 : (size_t)xa + 1, cb = xb == w ? cells : (size_t)xb + 1;
+    if (!split && ((init >> pass) & 1)) {
+        // (never with split: the vertical path reads the last guard lane of the cell before
+        // its first, which the other work-item would be writing)
         for (size_t r = 0; r < 5; ++r) {
             __global short *p = st + r * row;
-            for (int i = 0; i < 16 && ca == 0; ++i)
+            for (int i = 0; i < 16; ++i)
                 p[i] = PAD_COST;
-            for (size_t c = ca; c < cb; ++c) {
+            for (size_t c = 0; c < cells; ++c) {
                 for (int i = 0; i < NP; ++i)
                     p[16 + c * CELL + i] = 0;
                 for (int i = NP; i < CELL; ++i)
                     p[16 + c * CELL + i] = PAD_COST;
             }
         }
-        for (size_t r = 0; r < 4; ++r)
-            for (size_t c = ca; c < cb; ++c)
-                mins[r * cells + c] = 0;
+        for (size_t i = 0; i < 4 * cells; ++i)
+            mins[i] = 0;
     }
     __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
     __global short *mv = mins, *me = mv + cells;

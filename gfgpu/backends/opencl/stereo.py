@@ -179,8 +179,9 @@ def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w
                  write_up=True):
     n = cost.shape[2]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
-    # both work-items take half of the columns each
-    split = not write_up and paths == 4 and w >= 2
+    # both work-items take half of the columns each; not the sweep's first band, whose state
+    # one work-item initialises (a cell's guard lanes are read from the neighbouring column)
+    split = not write_up and paths == 4 and w >= 2 and not init
     be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True), (2,), (1,), [cost],
                [down, up, state, state_min],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
