@@ -485,6 +485,18 @@ def test_band_matcher_memory_stays_below_a_volume():
     assert match_memory(h, w, n, 8, False) < 0.55 * h * w * n
 
 
+def test_memory_estimate_counts_the_cost_kernels_ring_of_window_rows(require_backend):
+    # the CPU cost kernel keeps `window` rows of Hamming distances per column range: a 15x15
+    # window needs ~15 W D bytes more than the default 3x3, and the estimate says so
+    be = require_backend("opencl")
+    if be.kind != "cpu":
+        pytest.skip("the band matcher runs on OpenCL CPU devices")
+    small = stereo.disparity_memory((64, 300), 99, backend=be)
+    assert small == stereo.disparity_memory((64, 300), 99, window=3, backend=be)
+    wide = stereo.disparity_memory((64, 300), 99, window=15, backend=be)
+    assert wide - small >= 12 * 300 * (99 * 2 + 1)
+
+
 def test_gpu_code_path_of_the_matcher_runs_on_the_cpu_device(require_backend, monkeypatch):
     # the OpenCL matcher's GPU branch (whole int16 volumes: Hamming distances per pixel, block
     # sums, one work-item per path line, selection) has no GPU here: run it on the CPU device

@@ -507,13 +507,14 @@ def _streams_bands(be):
 
 
 def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", subpixel_steps=2, paths=4,
-                     backend=None, device=None):
+                     window=None, backend=None, device=None):
     """Peak working memory of :func:`disparity` in bytes (an estimate, within ~10 %).
 
     ``"sgm"`` on OpenCL CPU devices streams bands of ``k ≈ sqrt(H/2)`` rows through its two
     sweeps: it keeps the byte costs of the whole image (1 byte per pixel and disparity sample,
     ``D = (max - min) * subpixel_steps + 1``) when the working set allows, else recomputes them
-    per band, plus O(k·W·D) band buffers and O((H/k)·W·D) path-state checkpoints.  On GPUs and
+    per band, plus O(k·W·D) band buffers, the cost kernel's ring of ``window`` rows of Hamming
+    distances (O(window·W·D) bytes) and O((H/k)·W·D) path-state checkpoints.  On GPUs and
     Warp it holds two int16 (H, W, D) volumes (4 bytes per sample), on the numpy specification
     ~40.  Plus O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity`
     refuses (a ``ValueError`` before allocating anything) a request above the working set: the
@@ -524,8 +525,8 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
     ----------
     shape : (H, W) or (H, W, C) tuple of int
         Shape of one view.
-    max_disparity, min_disparity, method, subpixel_steps, paths, backend, device
-        As for :func:`disparity`.
+    max_disparity, min_disparity, method, subpixel_steps, paths, window, backend, device
+        As for :func:`disparity` (``window`` matters to ``"sgm"`` on CPU devices only).
 
     Returns
     -------
@@ -551,7 +552,7 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
         return px * 4 * (SWEEP_PLANES + 12)
     be = resolve_backend(backend, device)
     return _sgm_memory(be, shp[:2], (int(max_disparity) - int(min_disparity)) * int(subpixel_steps) + 1,
-                       int(subpixel_steps), paths, _budget(be))
+                       int(subpixel_steps), paths, _budget(be), block=3 if window is None else int(window))
 
 
 def _sgm_base(shape, steps):
