@@ -502,12 +502,18 @@ def test_zoom_about_a_point_outside_the_image_is_refused_by_both_psfs():
             motion_blur(img, rates, kind="zoom", psf=psf, center=(-40.0, 70.0), backend="numpy")
 
 
-def test_box_lengths_beyond_a_million_pixels_are_refused_before_work():
-    # the box integrates its whole window: (0, 1e9) ran for minutes (review of issue 15)
+def test_box_lengths_up_to_1e9_px_average_the_extension():
+    # the first window's sum is in closed form (whole periods, geometric tails): a (0, 1e9) box ran
+    # for minutes when it summed its window (review of issue 15); beyond 1e9 px both PSFs refuse
     from gfgpu.motion import motion_blur
-    img = np.ones((3, 11), np.float32)
-    out = np.full_like(img, 7.0)
-    with pytest.raises(ValueError, match="1e\\+06 px for psf='box'"):
-        motion_blur(img, (0.0, 1e9), psf="box", output=out, backend="numpy")
-    assert (out == 7.0).all()
-    assert motion_blur(img, (0.0, 1e9), backend="numpy").shape == img.shape      # Green: O(1) per pixel
+    img = np.random.default_rng(2).random((3, 11))
+    expected = {"nearest": img[:, :1], "constant": 0.25, "wrap": img.mean(axis=1, keepdims=True),
+                "reflect": img.mean(axis=1, keepdims=True)}
+    for mode, value in expected.items():
+        out = motion_blur(img, (0.0, 1e9), psf="box", mode=mode, cval=0.25, backend="numpy")
+        np.testing.assert_allclose(out, np.broadcast_to(value, img.shape), atol=1e-7, err_msg=mode)
+    for psf in ("box", "green"):
+        out = np.full_like(img, 7.0)
+        with pytest.raises(ValueError, match="at most 1e\\+09"):
+            motion_blur(img, (0.0, 2e9), psf=psf, output=out, backend="numpy")
+        assert (out == 7.0).all()

@@ -1,16 +1,21 @@
 """Executable numpy specifications of the motion-blur fused kernels.
 
-Four kernels, each written here in plain float64 numpy and on every backend as device code
+Five kernels, each written here in plain float64 numpy and on every backend as device code
 (``backends/warp/motion.py``, ``backends/opencl/motion.cl``):
 
-- :func:`box_lines_reference`: the mean of the piecewise-linear line over a window
+- :func:`box_lines_reference`: the mean of each line's cubic B-spline over a window
   ``[a0 + a1 k, b0 + b1 k]`` at every sample ``k`` (a box exposure; the device kernels slide the
-  window with a running sum, O(1) per sample);
+  window with a running sum, O(1) per sample, and start it in closed form, so the cost does not
+  depend on the window's length);
 - :func:`field_blur_reference`: every pixel gathers the cubic B-spline image along its own
   straight path ``x - t v(x)``, weighted by a point-spread function in ``t``;
 - :func:`to_polar_reference` / :func:`from_polar_reference`: cubic B-spline resampling between
   the image plane and a polar grid about a centre (radius in pixels, angle counter-clockwise
-  on screen).
+  on screen); :func:`add_rows_reference`: a multiple of one array, per row, added to another.
+
+Beyond a line's ends the spline is the one of the line extended by ``mode``: its coefficients
+continue as :func:`coef_taps` says (for ``"constant"`` and ``"nearest"`` a geometric approach
+to the extension's value, not the end coefficient repeated).
 
 Coordinates are array-axis order: a velocity field is ``(2, H, W)`` = (rows, cols) components,
 a centre ``(row, col)``.  Boundary modes are scipy.ndimage's names, as integer codes
@@ -23,9 +28,10 @@ import math
 
 import numpy as np
 
-__all__ = ["MODE_CODES", "PSF_CODES", "GREEN_TAIL", "NARROW", "SPLINE_POLE", "extend_index", "psf_support", "psf_cdf",
-           "psf_samples", "spline_sample", "box_lines_reference", "field_blur_reference",
-           "to_polar_reference", "from_polar_reference"]
+__all__ = ["MODE_CODES", "PSF_CODES", "GREEN_TAIL", "NARROW", "SPLINE_POLE", "NEAREST_EDGE", "GAUSS_NODES",
+           "GAUSS_WEIGHTS", "PSF_MIN_CELLS", "extend_index", "coef_taps", "psf_support", "psf_cdf", "psf_density",
+           "psf_cells", "spline_sample", "box_lines_reference", "field_blur_reference", "to_polar_reference",
+           "from_polar_reference", "add_rows_reference"]
 
 #: boundary modes as the device kernels number them
 MODE_CODES = {"constant": 0, "nearest": 1, "wrap": 2, "reflect": 3, "mirror": 4}
@@ -43,6 +49,21 @@ NARROW = 1.0 / 64.0
 
 #: pole of the cubic B-spline interpolation prefilter
 SPLINE_POLE = math.sqrt(3.0) - 2.0
+
+#: weights of ``c[0]`` and ``c[1]`` in the edge sample ``I[0]`` of a line whose coefficients
+#: continue as ``c[-m] = I[0] + z^m (c[0] - I[0])`` ('nearest', see :func:`coef_taps`): the
+#: interpolation condition ``I[0] = (c[-1] + 4 c[0] + c[1]) / 6`` solved for ``I[0]``
+NEAREST_EDGE = ((4.0 + SPLINE_POLE) / (5.0 + SPLINE_POLE), 1.0 / (5.0 + SPLINE_POLE))
+
+#: 3-point Gauss-Legendre nodes (fractions of a cell) and weights: exact for polynomials of
+#: degree 5, so for the cubic spline along an axis wherever a cell holds no knot
+GAUSS_NODES = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
+GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
+
+#: fewest cells of a moving pixel's path per PSF code: G_u's shape varies on the scale of one
+#: velocity (half of one for the centred one), whatever the path's length in pixels, so its
+#: cells span at most 1/2 (1/4) of it; a box has no shape of its own
+PSF_MIN_CELLS = (1, int(2 * GREEN_TAIL), 1, int(4 * GREEN_TAIL))
 
 
 def extend_index(i, n, mode):
@@ -64,10 +85,81 @@ def extend_index(i, n, mode):
 
 
 # --------------------------------------------------------------------------------------
+# the spline's coefficients beyond a line's ends
+# --------------------------------------------------------------------------------------
+def coef_taps(i, n, mode):
+    """``(j0, w0, j1, w1)``: the coefficient ``i`` of a line of ``n`` extended by ``mode`` is
+    ``w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval`` (``cval`` only in ``"constant"`` mode).
+
+    The coefficients are those of the line extended by ``mode`` (the prefilter's boundary
+    states make them exact).  ``"wrap"``, ``"reflect"`` and ``"mirror"`` extensions are periodic,
+    so the coefficients extend as the samples do: ``j0 = extend_index(i)``, ``w0 = 1``.  Where the
+    extension is one value ``e`` (``cval``, or the edge sample for ``"nearest"``) the
+    coefficients of the line minus ``e``, zero beyond the edge, continue geometrically,
+    ``c[-m] = e + z^m (c[0] - e)`` (``z`` the prefilter's pole; the same at the right end); for
+    ``"nearest"`` the edge sample is ``e = NEAREST_EDGE · (c[0], c[1])``, so coefficient ``-m``
+    weighs ``c[0]`` and ``c[1]`` (one coefficient: ``e = c[0]``).  Copying the end coefficient
+    instead is the spline of another image: it overshoots the edge by ``|c[0] - e|``.
+    """
+    i = np.asarray(i, np.int64)
+    if mode not in ("constant", "nearest"):
+        j = extend_index(i, n, mode)
+        return j, np.ones(i.shape), j, np.zeros(i.shape)
+    j0 = np.clip(i, 0, n - 1)
+    f = SPLINE_POLE ** np.abs(i - j0).astype(np.float64)         # 1 inside the line
+    if mode == "constant":
+        return j0, f, j0, np.zeros(i.shape)
+    a, b = NEAREST_EDGE
+    j1 = np.where(i < 0, min(1, n - 1), np.where(i >= n, max(n - 2, 0), j0))
+    return j0, f + (1.0 - f) * a, j1, (1.0 - f) * b
+
+
+def _line_coef(x, i, mode, cval):
+    """The coefficients ``i`` (integer array) of the lines ``x[..., n]`` extended by ``mode``."""
+    j0, w0, j1, w1 = coef_taps(i, x.shape[-1], mode)
+    base = cval if mode == "constant" else 0.0
+    return base + w0 * (x[..., j0] - base) + w1 * (x[..., j1] - base)
+
+
+def _geometric(m):
+    """``Σ_{k=1}^{m} z^k`` for integers ``m >= 0`` (``z`` the prefilter's pole)."""
+    m = np.asarray(m, np.int64)
+    return SPLINE_POLE * (1.0 - SPLINE_POLE ** m.astype(np.float64)) / (1.0 - SPLINE_POLE)
+
+
+def _coef_prefix(x, j, mode, cval):
+    """``Σ_{0 <= i < j} c[i]`` (``-Σ_{j <= i < 0} c[i]`` for ``j < 0``) of the lines' extended
+    coefficients at the integers ``j``, in closed form: O(n) whatever ``|j|``.
+
+    Periodic modes: whole periods times the period's sum.  ``"constant"``/``"nearest"``: ``j e``
+    plus the geometric sum of ``z^m (c[0] - e)`` beyond the left end (likewise at the right).
+    """
+    n = x.shape[-1]
+    j = np.asarray(j, np.int64)
+    if mode not in ("constant", "nearest"):
+        period = {"wrap": n, "reflect": 2 * n, "mirror": max(2 * n - 2, 1)}[mode]
+        one = x[..., extend_index(np.arange(period), n, mode)]
+        cum = np.concatenate([np.zeros(x.shape[:-1] + (1,)), np.cumsum(one, axis=-1)], axis=-1)
+        q, r = np.divmod(j, period)
+        return q * cum[..., period:] + cum[..., r]
+    cum = np.concatenate([np.zeros(x.shape[:-1] + (1,)), np.cumsum(x, axis=-1)], axis=-1)
+    if mode == "constant":
+        left = right = np.full(x.shape[:-1] + (1,), float(cval))
+    else:
+        a, b = NEAREST_EDGE
+        left = a * x[..., :1] + b * x[..., min(1, n - 1)][..., None]
+        right = a * x[..., -1:] + b * x[..., max(n - 2, 0)][..., None]
+    below, above = np.minimum(j, 0), np.maximum(j - n, 0)
+    return (cum[..., np.clip(j, 0, n)] + below * left - (x[..., :1] - left) * _geometric(-below)
+            + above * right + (x[..., -1:] - right) * _geometric(above))
+
+
+# --------------------------------------------------------------------------------------
 # box windows along lines
 # --------------------------------------------------------------------------------------
-def box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval):
-    """Mean of every line's cubic B-spline over the window ``[a0 + a1 k, b0 + b1 k]`` of sample ``k``.
+def box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval, less=None):
+    """Mean of every line's cubic B-spline over the window ``[a0 + a1 k, b0 + b1 k]`` of sample ``k``
+    (minus ``less``, if given).
 
     Parameters
     ----------
@@ -75,47 +167,47 @@ def box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval):
         Cubic B-spline coefficients of lines along ``axis`` (1 or 2): the lines prefiltered
         along themselves.
     a0, a1, b0, b1 : float
-        The window of sample ``k`` (``a1, b1 >= 0``, ``a0 + a1 k <= b0 + b1 k``), in samples.
+        The window of sample ``k`` (``a1, b1 >= 0``, ``a0 + a1 k <= b0 + b1 k``), in samples;
+        windows may reach any distance beyond the line.
     mode, cval
-        Extension of the line beyond its ends (scipy.ndimage names; ``"constant"`` as in
-        :func:`spline_sample`).
+        Extension of the line beyond its ends (scipy.ndimage names; the coefficients continue
+        as :func:`coef_taps` says).
+    less : ndarray (B, N, M), optional
+        Subtracted from the means (the blur's change from the samples, when ``less`` holds the
+        samples; the device kernels allow ``dst`` to be ``less``).
 
     Returns
     -------
     ndarray
         Same shape and dtype as ``src``: ``(1/(b - a)) ∫_a^b s(x) dx`` with ``s`` the spline;
         where ``b - a < NARROW`` the value ``s((a + b)/2)`` (within ``(b - a)^2 |s''| / 24``: the
-        difference of integrals would lose more than that to rounding in float32).  Whole cells integrate to
-        ``(c[j-1] + 11 c[j] + 11 c[j+1] + c[j+2]) / 24``; partial cells by :func:`_bspline_integrals`.
+        difference of integrals would lose more than that to rounding in float32).  Whole cells
+        integrate to ``(c[j-1] + 11 c[j] + 11 c[j+1] + c[j+2]) / 24``, whose sum over ``[A, B)``
+        telescopes to ``Σ_{A <= j < B} c[j]`` plus three coefficients at each end (the sum in
+        closed form beyond the line, :func:`_coef_prefix`); partial cells by
+        :func:`_bspline_integrals`.  O(n) per line whatever the window's length.
     """
     x = np.moveaxis(np.asarray(src, np.float64), axis, -1)
     n = x.shape[-1]
     k = np.arange(n, dtype=np.float64)
     a, b = a0 + a1 * k, b0 + b1 * k
-    lo = int(math.floor(min(a.min(), b.min()))) - 2
-    hi = int(math.floor(max(a.max(), b.max()))) + 3
-    j = np.arange(lo, hi + 1)
-    idx, factor = _spline_index(j, n, mode)
-    base = cval if mode == "constant" else 0.0
-    ext = base + factor * (x[..., idx] - base)                        # coefficients lo .. hi
-    cells = (ext[..., :-3] + 11.0 * ext[..., 1:-2] + 11.0 * ext[..., 2:-1] + ext[..., 3:]) / 24.0
-    prefix = np.concatenate([np.zeros(x.shape[:-1] + (1,)), np.cumsum(cells, axis=-1)], axis=-1)
 
-    def integral(p):        # ∫_{lo + 1}^p s, and s(p)
+    def integral(p):        # ∫_0^p s up to one constant, and s(p)
         i = np.floor(p).astype(np.int64)
         f = p - i
-        q = i - lo          # coefficient i sits at ext[..., q]
-        near = np.stack([ext[..., q - 1 + m] for m in range(4)])
+        near = np.stack([_line_coef(x, i + m - 1, mode, cval) for m in range(4)])     # c[i-1 .. i+2]
         lift = (slice(None),) + (None,) * (x.ndim - 1)      # weights (4, n) against (4, ..., n)
-        return (prefix[..., q - 1] + (_bspline_integrals(f)[lift] * near).sum(0),
-                (_bspline_weights(f)[lift] * near).sum(0))
+        whole = _coef_prefix(x, i, mode, cval) + (12.0 * near[1] + near[2] - near[0]) / 24.0   # cells < i
+        return whole + (_bspline_integrals(f)[lift] * near).sum(0), (_bspline_weights(f)[lift] * near).sum(0)
 
     sa, _ = integral(a)
     sb, _ = integral(b)
     _, vm = integral(0.5 * (a + b))
     width = b - a
-    out = np.where(width >= NARROW, (sb - sa) / np.where(width >= NARROW, width, 1.0), vm)
-    return np.moveaxis(out, -1, axis).astype(src.dtype)
+    out = np.moveaxis(np.where(width >= NARROW, (sb - sa) / np.where(width >= NARROW, width, 1.0), vm), -1, axis)
+    if less is not None:
+        out = out - np.asarray(less, np.float64)
+    return out.astype(src.dtype)
 
 
 # --------------------------------------------------------------------------------------
@@ -148,10 +240,25 @@ def psf_cdf(code, t):
     return np.where(t >= t1, 1.0, c)
 
 
-def psf_samples(code, length, density):
-    """Samples of a path of ``length`` dominant-axis pixels: ``ceil(length (t1 - t0) density)``, >= 1."""
+def psf_density(code, t):
+    """The PSF ``code`` at ``t`` (the derivative of :func:`psf_cdf` inside the support)."""
+    t = np.asarray(t, np.float64)
     t0, t1 = psf_support(code)
-    return np.maximum(1, np.ceil(np.asarray(length, np.float64) * (t1 - t0) * density - 1e-9)).astype(np.int64)
+    if code in (0, 2):
+        return np.full(t.shape, 1.0 / (t1 - t0))
+    if code == 1:
+        return 2.0 * np.exp(-t) * np.sin(t)
+    s = 2.0 * np.abs(t)
+    return np.exp(-s) * (np.cos(s) + np.sin(s))
+
+
+def psf_cells(code, length, density):
+    """Cells of a path of ``length`` dominant-axis pixels: ``ceil(length (t1 - t0) density)``, at
+    least :data:`PSF_MIN_CELLS` for a moving pixel, 1 for a still one."""
+    t0, t1 = psf_support(code)
+    length = np.asarray(length, np.float64)
+    cells = np.maximum(PSF_MIN_CELLS[code], np.ceil(length * (t1 - t0) * density - 1e-9))
+    return np.where(length > 0, cells, 1).astype(np.int64)
 
 
 def _bspline_weights(f):
@@ -170,39 +277,31 @@ def _bspline_integrals(f):
                      (-0.75 * f4 + f2 * f + 1.5 * f2 + f) / 6.0, f4 / 24.0])
 
 
-def _spline_index(i, n, mode):
-    """``(index, factor)`` of the coefficient ``i`` of a line of ``n`` beyond its ends.
-
-    For ``mode="constant"`` the spline interpolates the line extended by ``cval``; the
-    coefficients of ``I - cval`` (zero beyond the ends) continue geometrically, ``z^m`` times the
-    end coefficient ``m`` samples out (``z`` the prefilter's pole), so the index is clamped and
-    the factor is ``z^m``.  Other modes extend the coefficients as the samples (factor 1).
-    """
-    if mode != "constant":
-        return extend_index(i, n, mode), np.ones(np.shape(i))
-    j = np.clip(i, 0, n - 1)
-    return j, SPLINE_POLE ** np.abs(i - j).astype(np.float64)
-
-
 def spline_sample(coef, py, px, mode, cval, mode_y=None):
     """The cubic B-spline with coefficients ``coef`` (B, H, W) at points ``(py, px)`` (any shape).
 
-    Coefficient indices beyond the image follow ``mode`` (``mode_y`` along the rows, if given;
-    ``"constant"``: the spline of the image extended by ``cval``, see :func:`_spline_index`).
+    Coefficient indices beyond the image follow ``mode`` (``mode_y`` along the rows, if given),
+    as :func:`coef_taps` says, along each axis in turn: the spline of the image extended by
+    ``mode`` (``"constant"``: by ``cval``).
     """
     coef = np.asarray(coef, np.float64)
     _, h, w = coef.shape
+    mode_y = mode if mode_y is None else mode_y
     py, px = np.asarray(py, np.float64), np.asarray(px, np.float64)
     iy, ix = np.floor(py), np.floor(px)
     wy, wx = _bspline_weights(py - iy), _bspline_weights(px - ix)
     iy, ix = iy.astype(np.int64), ix.astype(np.int64)
     base = cval if mode == "constant" else 0.0
     out = np.full((coef.shape[0],) + py.shape, base)
+    taps_x = [coef_taps(ix + q - 1, w, mode) for q in range(4)]
     for p in range(4):
-        ry, fy = _spline_index(iy + p - 1, h, mode if mode_y is None else mode_y)
-        for q in range(4):
-            rx, fx = _spline_index(ix + q - 1, w, mode)
-            out += wy[p] * wx[q] * fy * fx * (coef[:, ry, rx] - base)
+        ry0, gy0, ry1, gy1 = coef_taps(iy + p - 1, h, mode_y)
+        rows = [(ry0, gy0)] + ([(ry1, gy1)] if mode_y == "nearest" else [])
+        for q, (rx0, gx0, rx1, gx1) in enumerate(taps_x):
+            cols = [(rx0, gx0)] + ([(rx1, gx1)] if mode == "nearest" else [])
+            for ry, gy in rows:
+                for rx, gx in cols:
+                    out += wy[p] * wx[q] * gy * gx * (coef[:, ry, rx] - base)
     return out
 
 
@@ -218,21 +317,24 @@ def field_blur_reference(coef, field, psf, density, mode, cval):
     psf : int
         :data:`PSF_CODES` value.
     density : float
-        Samples per pixel of the dominant component ``L = max(|vy|, |vx|)``.
+        Cells per pixel of the dominant component ``L = max(|vy|, |vx|)`` (:func:`psf_cells`).
     mode, cval
         Extension of the image beyond its border.
 
     Returns
     -------
     ndarray (B, H, W), ``coef``'s dtype
-        ``Σ_k w_k S(x - t_k v)``: the support ``[t0, t1]`` cut into ``n = psf_samples`` equal
-        cells, ``t_k`` their midpoints and ``w_k`` their PSF masses (``psf_cdf`` differences:
-        they sum to 1 exactly).
+        ``Σ_k Σ_i w_ki S(x - t_ki v)``: the support ``[t0, t1]`` cut into ``n = psf_cells`` equal
+        cells, each sampled at its three Gauss-Legendre nodes ``t_ki`` (:data:`GAUSS_NODES`).  The
+        weights are the node's Gauss weight times the cell's PSF mass (box), or Gauss-Legendre
+        quadrature of the density, ``q_ki = Δt g_i psf(t_ki)``, with the cell's exact mass
+        restored, ``w_ki = q_ki + g_i (mass_k - Σ_i q_ki)`` (G_u): the weights of a cell sum to
+        its mass (``psf_cdf`` differences), so the gain is exactly 1.
     """
     coef = np.asarray(coef)
     b, h, w = coef.shape
     vy, vx = (np.asarray(field[i], np.float64) for i in (0, 1))
-    n = psf_samples(psf, np.maximum(np.abs(vy), np.abs(vx)), density)
+    n = psf_cells(psf, np.maximum(np.abs(vy), np.abs(vx)), density)
     t0, t1 = psf_support(psf)
     yy, xx = np.mgrid[:h, :w].astype(np.float64)
     out = np.zeros((b, h, w))
@@ -240,40 +342,65 @@ def field_blur_reference(coef, field, psf, density, mode, cval):
         live = k < n
         ta = t0 + (t1 - t0) * k / n
         tb = t0 + (t1 - t0) * (k + 1) / n
-        weight = np.where(live, psf_cdf(psf, tb) - psf_cdf(psf, ta), 0.0)
-        tm = 0.5 * (ta + tb)
-        out += weight * spline_sample(coef, yy - tm * vy, xx - tm * vx, mode, cval)
+        mass = np.where(live, psf_cdf(psf, tb) - psf_cdf(psf, ta), 0.0)
+        nodes = [ta + u * (tb - ta) for u in GAUSS_NODES]
+        if psf in (0, 2):
+            weights = [g * mass for g in GAUSS_WEIGHTS]
+        else:
+            quad = [(tb - ta) * g * psf_density(psf, t) for g, t in zip(GAUSS_WEIGHTS, nodes)]
+            rest = mass - (quad[0] + quad[1] + quad[2])
+            weights = [np.where(live, q + g * rest, 0.0) for q, g in zip(quad, GAUSS_WEIGHTS)]
+        for t, wt in zip(nodes, weights):
+            out += wt * spline_sample(coef, yy - t * vy, xx - t * vx, mode, cval)
     return out.astype(coef.dtype)
 
 
 # --------------------------------------------------------------------------------------
 # polar resampling
 # --------------------------------------------------------------------------------------
-def to_polar_reference(coef, cy, cx, n_phi, n_r, mode, cval):
-    """The spline image at ``phi = 2 pi j / n_phi``, ``r = i`` about ``(cy, cx)``: ``(B, n_phi, n_r)``.
+def to_polar_reference(coef, cy, cx, r0, n_r, n_phi, mode, cval):
+    """The spline image at ``r = r0 + i``, ``phi = 2 pi j / n_phi`` about ``(cy, cx)``: ``(B, n_r, n_phi)``.
 
-    Angle first, radius last (contiguous): the passes along the angle then run along axis 1,
-    one vector lane per ring.  Point ``(j, i)`` is the pixel position
-    ``(row, col) = (cy - r sin phi, cx + r cos phi)``: the angle turns counter-clockwise on
-    screen (rows point down), so a rotation by ``θ`` about the centre moves content from
-    ``phi`` to ``phi + θ``.
+    Radius on axis 1, angle last (contiguous): the passes along the angle run along the rows.
+    Point ``(i, j)`` is the pixel position ``(row, col) = (cy - r sin phi, cx + r cos phi)``: the
+    angle turns counter-clockwise on screen (rows point down), so a rotation by ``θ`` about the
+    centre moves content from ``phi`` to ``phi + θ``.  ``r0`` (an integer >= 0) is the radius of
+    the first ring: a band of rings, whose angles need not be those of another band.
     """
-    r = np.arange(n_r, dtype=np.float64)[None, :]
-    phi = 2.0 * np.pi * np.arange(n_phi, dtype=np.float64)[:, None] / n_phi
+    r = r0 + np.arange(n_r, dtype=np.float64)[:, None]
+    phi = 2.0 * np.pi * np.arange(n_phi, dtype=np.float64)[None, :] / n_phi
     out = spline_sample(coef, cy - r * np.sin(phi), cx + r * np.cos(phi), mode, cval)
     return out.astype(np.asarray(coef).dtype)
 
 
-def from_polar_reference(pcoef, cy, cx, height, width):
-    """The polar spline ``pcoef`` (B, n_phi, n_r) back on the ``(height, width)`` pixel grid.
+def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, keep=0.0):
+    """``base`` (B, H, W), where the pixel's radius ``r`` lies in ``[r_lo, r_hi)`` weighted by
+    ``1/(1 + (keep r)^2)`` and plus the polar spline ``pcoef`` (B, n_r, n_phi) of a band whose first
+    ring has radius ``r0``.
 
-    Pixel ``(y, x)`` reads ``r = hypot(y - cy, x - cx)``, ``phi = atan2(cy - y, x - cx)``; the
-    angle wraps and the radius mirrors at both ends (the grid holds rings beyond the farthest
-    pixel, so only the centre's mirror matters).
+    Pixel ``(y, x)`` reads ``r = hypot(y - cy, x - cx)``, ``phi = atan2(cy - y, x - cx)``, i.e. ring
+    ``r - r0``; the radius mirrors at both ends of the band (the callers keep ``[r_lo, r_hi)`` far
+    enough inside it that only the centre's mirror matters) and the angle wraps.  The callers
+    resample ``blurred - w unblurred`` polar samples (``w`` the same weight at each ring's radius)
+    and add it to ``w`` times the image: where the blur is short (``w`` near 1) what does not move
+    is returned as it was, not through two resamplings; bands that split the radii add theirs in
+    turn (``base`` the previous band's output).
     """
-    n_phi = pcoef.shape[1]
+    base = np.asarray(base)
+    n_phi = pcoef.shape[2]
+    height, width = base.shape[1:]
     yy, xx = np.mgrid[:height, :width].astype(np.float64)
     r = np.hypot(yy - cy, xx - cx)
     phi = np.mod(np.arctan2(cy - yy, xx - cx), 2.0 * np.pi) * (n_phi / (2.0 * np.pi))
-    out = spline_sample(pcoef, phi, r, "mirror", 0.0, mode_y="wrap")
-    return out.astype(np.asarray(pcoef).dtype)
+    inside = (r >= r_lo) & (r < r_hi)
+    out = np.array(base, np.float64)
+    out[:, inside] = (out[:, inside] / (1.0 + (keep * r[inside]) ** 2)
+                      + spline_sample(pcoef, r[inside] - r0, phi[inside], "wrap", 0.0, mode_y="mirror"))
+    return out.astype(base.dtype)
+
+
+def add_rows_reference(src, dst, scale):
+    """``dst + scale[i] src`` at every element ``(b, i, j)`` of the (B, N, M) arrays (``scale`` (N,)):
+    a weight per ring of a polar band."""
+    out = np.asarray(dst, np.float64) + np.asarray(scale, np.float64)[None, :, None] * np.asarray(src, np.float64)
+    return out.astype(np.asarray(dst).dtype)

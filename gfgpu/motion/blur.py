@@ -12,7 +12,7 @@ from ..backends.specs_motion import PSF_CODES
 from ..filters import make_job
 from .box import apply_uniform_box
 from .field import apply_field, check_field, is_field
-from .params import KINDS, box_velocity, center_point, move_channels, psf_name, velocity_pair, zoom_factors
+from .params import KINDS, center_point, move_channels, psf_name, velocity_pair, zoom_factors
 from .polar import apply_radial_green_zoom, apply_radial_zoom, apply_spin
 from .rotation import rotation_angle
 from .uniform import uniform_motion_program
@@ -34,7 +34,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     velocity : pair of float, array (2, H, W), or float for ``kind="zoom"`` and ``kind="rotation"``
         ``kind="uniform"``: the displacement ``(vy, vx)`` in pixels during the exposure, in
         array-axis order (rows, cols) as :func:`gfgpu.shift`: ``vy`` down the rows, ``vx``
-        right along the columns; at most 1e9 px (1e6 px with ``psf="box"``).  ``(0, 0)`` returns a copy.
+        right along the columns; at most 1e9 px.  ``(0, 0)`` returns a copy.
         A **velocity field** of shape ``(2, H, W)`` (rows, cols components, the order of
         scikit-image's optical flow; numpy array of float32/float64 or integers, finite, components within
         ±4096 px; used in the computation's dtype) blurs every pixel along its own velocity:
@@ -101,21 +101,25 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     ``L = max(|vy|, |vx|)`` steps).  G_u: one recursive pass of the discrete G_u shift
     (:func:`gfgpu.greens.shift_pass`: unit DC gain, first moment exactly ``L``);
     ``displace=False`` runs the anticausal shift by ``L/2`` then the causal one.  Box: the mean
-    of the line's cubic B-spline interpolant over the window ``[x - L, x]`` (centred
-    ``[x - L/2, x + L/2]``), a difference of running sums (:mod:`gfgpu.motion.box`).  Cost: O(1)
-    per pixel whatever ``L``.
+    of the line's cubic B-spline interpolant (of the line extended by ``mode``) over the window
+    ``[x - L, x]`` (centred ``[x - L/2, x + L/2]``), a difference of running sums
+    (:mod:`gfgpu.motion.box`).  Cost: O(1) per pixel whatever ``L`` (the part of a window beyond
+    the image is summed in closed form).
 
-    **Velocity fields** (:mod:`gfgpu.motion.field`): each pixel samples the cubic B-spline image
-    at ``n`` points of its own path with the PSF's exact cell masses as weights (box: ``t`` in
-    ``[0, 1]``; G_u with ``u = |v|``).  Cost: ``L + 1`` samples (box) or ``18 L`` samples (G_u, whose
-    tail reaches 18 lengths before its mass is below float32 rounding) of 16 coefficients
-    each, ``L`` the pixel's dominant component: paths that differ from pixel to pixel share no
-    running sum, so the cost grows with the length.
+    **Velocity fields** (:mod:`gfgpu.motion.field`): each pixel integrates the cubic B-spline
+    image along its own path, in cells of at most one pixel with three Gauss-Legendre nodes each
+    and the PSF's exact cell masses (box: ``t`` in ``[0, 1]``; G_u with ``u = |v|``).  Cost:
+    ``3 ceil(L)`` samples (box; 3 at least) or ``3 max(ceil(18 L), 36)`` samples (G_u, whose tail
+    reaches 18 lengths before its mass is below float32 rounding; 72 cells at least centred) of
+    16 coefficients each, ``L`` the pixel's dominant component: paths that differ from pixel to
+    pixel share no running sum, so the cost grows with the length.  A uniform field matches the
+    uniform box to 2e-4 on white noise.
 
     **Spin** (:mod:`gfgpu.motion.polar`): the image is resampled onto a polar grid about the
     centre, blurred along every ring by one periodic pass (box window or G_u recursion; the
-    angle is the same number of samples on every ring) and resampled back: each point is
-    blurred along its arc.  O(1) per pixel.
+    angle is the same number of samples on every ring), and the change is resampled back and
+    added to the image: each point is blurred along its arc, and a spin by ~0 returns the image
+    in every mode.  O(1) per pixel.
 
     **Zoom.**  Box: along the rays (same polar grid): the output at ``x`` is the mean over the
     segment from ``x`` to its pre-image ``c + (x - c)/(1 + u1)`` (a camera moving toward the scene
@@ -123,7 +127,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     ``(u1_y, u1_x)`` runs as the affine velocity field ``v = (u1/(1 + u1)) (x - c)`` per axis.
     G_u: the exact affine G_U^(1) (eq. 10-12, :mod:`gfgpu.motion.zoom`; cell-integrated taps,
     moment-corrected, zoom-out read through ``mode``) along every ray of the same polar grid
-    (one rate; pre-image within 0.006 px beyond 5 px of the fixed point, 0.17 px within), or
+    (one rate; pre-image within 0.006 px beyond 5 px of the fixed point, 0.104 px within), or
     separably along the rows then the columns for two different rates (pre-image exact to
     rounding); see ``docs/motion.md``.  The fixed point must lie inside the image.
 
@@ -181,8 +185,6 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
         return apply_field(job, field, PSF_CODES[psf, displace], mode, cval)
     if kind == "uniform":
         vy, vx = velocity_pair(velocity)
-        if psf == "box":
-            box_velocity(vy, vx)
         moving = bool(uniform_motion_program(2, (vy, vx), displace).steps)   # checks the length first
         job = make_job(image, output, backend, device, min_ndim=2)
         if psf == "box" and moving:

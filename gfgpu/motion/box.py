@@ -7,8 +7,11 @@ lines of the direction (an array axis, or the sheared layout of :mod:`gfgpu._cor
 which follows the continuous direction) the window's mean is a difference of running sums of
 the line's cubic B-spline (its coefficients along the line are two recursions,
 :mod:`gfgpu.motion.spline`): the fused kernel :data:`gfgpu.motion.kernels.box_lines`
-slides the window with one running sum, so fractional lengths are exact and the cost per pixel
-does not depend on the length.
+slides the window with one running sum, so fractional lengths are exact, and starts it in
+closed form (beyond the line whole periods of the extension, or its geometric approach to the
+edge value), so the cost per pixel does not depend on the length.  Beyond the image the spline
+is the one of the image extended by ``mode`` (for ``"nearest"`` the edge pixel's value, not the
+edge coefficient's: :func:`gfgpu.backends.specs_motion.coef_taps`).
 """
 
 from __future__ import annotations

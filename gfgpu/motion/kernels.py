@@ -11,7 +11,7 @@ from __future__ import annotations
 from ..backends import specs_motion as specs
 from ..backends.fused import register
 
-__all__ = ["box_lines", "field_blur", "to_polar", "from_polar"]
+__all__ = ["box_lines", "field_blur", "to_polar", "from_polar", "add_rows"]
 
 
 def _launchers(name):
@@ -20,17 +20,24 @@ def _launchers(name):
             "opencl": f"gfgpu.backends.opencl.motion:launch_{name}"}
 
 
-#: ``box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval)``: ``dst = box_lines_reference(src, axis,
-#: a0, a1, b0, b1, mode, cval)`` (``src``, ``dst`` (B, N, M); lines along ``axis`` 1 or 2)
+#: ``box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None)``: ``dst = box_lines_reference(src,
+#: axis, a0, a1, b0, b1, mode, cval, less)`` (``src``, ``dst``, ``less`` (B, N, M); lines along ``axis`` 1 or
+#: 2; ``dst`` may be ``less``)
 box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers("box_lines"))
 
 #: ``field_blur(be, coef, field, out, psf, density, mode, cval)``: ``out = field_blur_reference(coef,
 #: field, psf, density, mode, cval)`` (``coef``, ``out`` (B, H, W); ``field`` (2, H, W), same dtype)
 field_blur = register("motion.field_blur", specs.field_blur_reference, **_launchers("field_blur"))
 
-#: ``to_polar(be, coef, out, cy, cx, mode, cval)``: ``out = to_polar_reference(coef, cy, cx, *out.shape[1:],
-#: mode, cval)`` (``out`` (B, n_phi, n_r): angle on axis 1, radius on axis 2)
+#: ``to_polar(be, coef, out, cy, cx, r0, mode, cval)``: ``out = to_polar_reference(coef, cy, cx, r0,
+#: *out.shape[1:], mode, cval)`` (``out`` (B, n_r, n_phi): radius ``r0 + i`` on axis 1, angle on axis 2)
 to_polar = register("motion.to_polar", specs.to_polar_reference, **_launchers("to_polar"))
 
-#: ``from_polar(be, pcoef, out, cy, cx)``: ``out = from_polar_reference(pcoef, cy, cx, *out.shape[1:])``
+#: ``from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0)``: ``out = from_polar_reference(pcoef,
+#: base, cy, cx, r0, r_lo, r_hi, keep)`` (``base``, ``out`` (B, H, W); ``out`` may be ``base``, which each
+#: pixel reads before it is written)
 from_polar = register("motion.from_polar", specs.from_polar_reference, **_launchers("from_polar"))
+
+#: ``add_rows(be, src, dst, scale)``: ``dst = add_rows_reference(src, dst, scale)`` (``src``, ``dst`` (B, N, M),
+#: ``dst`` may be ``src``; ``scale`` a host array (N,))
+add_rows = register("motion.add_rows", specs.add_rows_reference, **_launchers("add_rows"))

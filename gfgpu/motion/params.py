@@ -46,19 +46,6 @@ def velocity_pair(velocity):
     return pair(velocity, "velocity")
 
 
-#: longest uniform box blur (px): the box integrates the spline over the whole window, and past
-#: 1e6 px its windows (and the numpy specification's arrays) grow without changing an image
-BOX_MAX_LENGTH = 1e6
-
-
-def box_velocity(vy, vx):
-    """The velocity of a uniform box blur, checked against :data:`BOX_MAX_LENGTH` before work."""
-    if max(abs(vy), abs(vx)) > BOX_MAX_LENGTH:
-        raise ValueError(f"velocity components must be at most {BOX_MAX_LENGTH:g} px for psf='box', got "
-                         f"(vy, vx) = ({vy:g}, {vx:g})")
-    return vy, vx
-
-
 U1_MIN = 2.0 - 2.0 * math.sqrt(2.0)   # below: beta of eq. 12 is imaginary (no oscillating G_U^(1))
 
 

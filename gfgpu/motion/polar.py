@@ -3,9 +3,13 @@
 A rotation about ``c`` moves every point along its circle, a zoom along its ray: in polar
 coordinates ``(r, phi)`` about ``c`` both are motions along one array axis.  The image (its
 cubic B-spline, :mod:`gfgpu.motion.spline`) is resampled onto ``n_r`` rings ``r = 0, 1, ...``
-of ``n_phi`` angles each (:data:`gfgpu.motion.kernels.to_polar`; array ``(planes, n_phi, n_r)``,
-radius contiguous, so the passes along the angle run one vector lane per ring), blurred along the rings or
-the rays, and resampled back (:data:`gfgpu.motion.kernels.from_polar`).
+of ``n_phi`` angles each (:data:`gfgpu.motion.kernels.to_polar`; array ``(planes, n_r, n_phi)``,
+angle contiguous, so the passes along the angle run along rows and those along the rays one
+vector lane per angle), blurred along the rings or the rays, and what the blur changed (blurred
+minus ``w`` times the unblurred samples, ``w`` near 1 where the blur is short, near 0 where it is
+long) is resampled back and added to ``w`` times the image
+(:data:`gfgpu.motion.kernels.from_polar`, :func:`_run_polar`): what the blur leaves alone comes
+back as it was, not through two resamplings.
 
 - **Spin** by ``θ``: content at ``phi`` moves to ``phi + θ``, i.e. ``D = θ n_phi / 2π`` samples
   along every ring, the same on every ring: one shift-invariant pass along the rows of the
@@ -24,8 +28,10 @@ the rays, and resampled back (:data:`gfgpu.motion.kernels.from_polar`).
 Both are O(1) per pixel whatever the angle or the rate: two spline prefilters (recursions),
 two resamplings of 16 coefficients per sample and one running sum or recursion per sample.
 ``n_phi = ceil(2π R)`` angles on the outermost ring ``R`` keep the arc spacing at most one
-pixel everywhere.  The resampling blur (a spin by 0 through the grid) is measured in
-``docs/motion.md``.
+pixel everywhere.  The spin, whose passes run along the rings only, splits the rings into bands
+at ``R/2, R/4, ...`` (:func:`polar_bands`), each with the angles its own outer ring needs: about
+``4/3 π R²`` samples instead of ``2 π R²``.  The zoom runs along whole rays, on one band.  The
+resampling blur of what moves is measured in ``docs/motion.md``.
 """
 
 from __future__ import annotations
@@ -41,25 +47,66 @@ from .._core.job import copy_of_input
 from .._core.program import run_axis_passes
 from .._core.recursion import plan_pass
 from .box import box_window
-from .kernels import box_lines, from_polar, to_polar
+from .kernels import add_rows, box_lines, from_polar, to_polar
 from .spline import line_coefficients, spline_coefficients
 from .zoom import ray_zoom_pass
 
-__all__ = ["polar_grid", "apply_spin", "apply_radial_zoom", "apply_radial_green_zoom"]
+__all__ = ["polar_bands", "polar_grid", "apply_spin", "apply_radial_zoom", "apply_radial_green_zoom"]
 
 #: rings beyond the farthest pixel (the spline's support reaches two samples outward)
 _EXTRA_RINGS = 4
 
+#: rings of a band beyond its radii on each side: the radial prefilter's boundary at a band's
+#: end reaches z^16 < 1e-9 into it, the spline two rings more
+_SEAM = 18
+
+#: the innermost band of a split grid reaches at least this radius (smaller bands would cost more
+#: in seams than they save in angles)
+_MIN_BAND = 64
+
+#: blur length (px) at which the image keeps half its weight in the output (:func:`_run_polar`)
+_KEEP_LENGTH = 1.0
+
+#: largest ``k`` of the weight ``1/(1 + (k r)^2)``: the polar spline resamples ``w P``, whose 4th
+#: radial derivative grows as ``k^4 P`` (the zoom of a coordinate image by u1 = 0.8, k = 0.44, put
+#: the pre-image 0.6 px off within 5 px of the fixed point; at k <= 0.15, 0.10 px at most)
+_KEEP_SLOPE = 0.15
+
+
+def _angles(radius):
+    """Angles of a ring of ``radius``: at most one pixel apart, a multiple of 16 (the passes along
+    the rays run in vector lanes across the angles)."""
+    return max(16, 16 * math.ceil(2.0 * math.pi * max(radius, 1.0) / 16.0))
+
+
+def polar_bands(height, width, cy, cx, reach=1.0, split=False):
+    """The polar grid about ``(cy, cx)`` as bands of rings: ``[(r0, n_r, n_phi, r_lo, r_hi), ...]``.
+
+    One band (``split`` false): rings ``0 .. n_r - 1`` out to ``reach`` times the farthest pixel
+    (windows that read outward) plus :data:`_EXTRA_RINGS`, ``n_r`` a multiple of 8 (the passes
+    along the angle run 8 rings per vector), angles at most one pixel apart on the farthest
+    pixel's ring.  ``split``: the radii are cut at half the farthest pixel's radius, a quarter, ...
+    (down to :data:`_MIN_BAND`), and each band takes the angles its outer radius needs, with
+    :data:`_SEAM` rings beyond its radii ``[r_lo, r_hi)`` on either side: ``2 pi R^2`` samples
+    become about ``4/3 pi R^2``, arcs still at most one pixel apart.  Bands are listed outermost
+    first.
+    """
+    radius = max(math.hypot(y - cy, x - cx) for y in (0, height - 1) for x in (0, width - 1))
+    cuts = []
+    while split and radius / 2 ** (len(cuts) + 1) >= _MIN_BAND:
+        cuts.append(radius / 2 ** (len(cuts) + 1))
+    edges = [math.inf] + cuts + [0.0]
+    bands = []
+    for hi, lo in zip(edges[:-1], edges[1:]):
+        r0 = max(0, math.floor(lo) - _SEAM)
+        end = math.ceil(radius * reach) + _EXTRA_RINGS if hi == math.inf else math.ceil(hi) + _SEAM
+        bands.append((r0, 8 * math.ceil((end - r0) / 8), _angles(min(hi, radius)), lo, hi))
+    return bands
+
 
 def polar_grid(height, width, cy, cx, reach=1.0):
-    """``(n_r, n_phi)`` of the polar grid about ``(cy, cx)``: rings out to ``reach`` times the
-    farthest pixel (windows that read outward), a multiple of 8 (the vector lanes of the passes
-    along the angle, which run across the rings); angles spaced at most one pixel on the
-    outermost image ring."""
-    radius = max(math.hypot(y - cy, x - cx) for y in (0, height - 1) for x in (0, width - 1))
-    n_r = 8 * math.ceil((math.ceil(radius * reach) + _EXTRA_RINGS) / 8)
-    n_phi = max(16, 16 * math.ceil(2.0 * math.pi * max(radius, 1.0) / 16.0))
-    return n_r, n_phi
+    """``(n_r, n_phi)`` of the one-band polar grid (:func:`polar_bands`)."""
+    return polar_bands(height, width, cy, cx, reach)[0][1:3]
 
 
 def _check_center(cy, cx, height, width):
@@ -70,62 +117,93 @@ def _check_center(cy, cx, height, width):
                          f"image centre (twice the diagonal) for a spin or zoom on the polar grid")
 
 
-def _run_polar(job, cy, cx, reach, blur, mode, cval, what):
-    """Resample to the polar grid, ``blur(be, polar, shape, scratch)`` -> blurred polar array
-    (``polar`` or ``scratch``, both of ``shape``), resample back."""
+def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
+    """Resample to the polar grid, blur there, and add what the blur changed to the image.
+
+    Resampled twice (to the polar grid and back), the image itself would lose detail, and much
+    more where ``'constant'`` or ``'wrap'`` makes the extended image jump at the border (a jump that
+    the polar spline, sampled between the pixels, cannot follow: a spin by 1e-6 degree lost 0.24
+    of 2.0 on the border of a constant image).  So the output is ``w I + R(B P - w P)``: ``P`` the
+    polar samples, ``B P`` the blurred ones, ``R`` the resampling back, and ``w = 1/(1 + (k r)^2)``
+    with ``k r`` the blur's length at radius ``r`` (``k = rate``) over :data:`_KEEP_LENGTH`, ``k`` at
+    most :data:`_KEEP_SLOPE`.  Where the blur is short, the image passes through untouched (a spin
+    or zoom by ~0 is the identity in every mode); where it is long, the output is the resampled
+    blur, whose smoothing hides the resampling error that the unblurred image would carry
+    (``docs/motion.md``).
+
+    ``blur(be, polar, pshape, scratch, extra, weights)`` returns ``B P - w P`` (``weights`` (n_r,):
+    ``w`` at each ring) in ``polar``, ``scratch`` or ``extra()`` (one more array of ``pshape``).
+    ``split``: the grid runs as bands of rings (:func:`polar_bands`), each blurred on its own
+    (``pshape[2]`` is its number of angles) and added at its own radii.
+    """
     be, dtype, shape = job.backend, job.dtype, job.shape
     height, width = shape[-2], shape[-1]
     _check_center(cy, cx, height, width)
     strips.require_whole_image(job, what)
     planes = (math.prod(shape[:-2]), height, width)
-    n_r, n_phi = polar_grid(height, width, cy, cx, reach)
-    pshape = (planes[0], n_phi, n_r)        # angle on axis 1, radius on axis 2 (contiguous)
-    coef = spline_coefficients(be, be.reshape(job.data, planes), dtype, planes, (mode, mode), cval)
-    polar = be.empty(pshape, dtype)
-    to_polar(be, coef, polar, cy, cx, mode, cval)
-    del coef
-    scratch = be.empty(pshape, dtype)       # one buffer of the grid's size reused by every step
-    blurred = blur(be, polar, pshape, scratch)
-    spare = scratch if blurred is polar else polar
-    pcoef = spline_coefficients(be, blurred, dtype, pshape, ("wrap", "mirror"), tmp=spare, out=blurred)
+    data = be.reshape(job.data, planes)
+    coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval)
     result = job.result_buffer()
-    from_polar(be, pcoef, be.reshape(result, planes), cy, cx)
+    out, base = be.reshape(result, planes), data
+    keep = min(abs(rate) / _KEEP_LENGTH, _KEEP_SLOPE)
+    for r0, n_r, n_phi, r_lo, r_hi in polar_bands(height, width, cy, cx, reach, split):
+        pshape = (planes[0], n_r, n_phi)        # radius on axis 1, angle on axis 2 (contiguous)
+        polar = be.empty(pshape, dtype)
+        to_polar(be, coef, polar, cy, cx, r0, mode, cval)
+        scratch = be.empty(pshape, dtype)
+        weights = 1.0 / (1.0 + (keep * (r0 + np.arange(n_r))) ** 2)
+        change = blur(be, polar, pshape, scratch, lambda shape=pshape: be.empty(shape, dtype), weights)
+        spare = scratch if change is not scratch else polar
+        pcoef = spline_coefficients(be, change, dtype, pshape, ("mirror", "wrap"), tmp=spare, out=change)
+        del polar, scratch, spare
+        # the outermost band writes every pixel; the inner ones add theirs in place
+        from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep)
+        base = out
     return job.finish(result)
+
+
+def _box_change(be, polar, coef, axis, window, mode, weights):
+    """``B P - w P`` in ``polar`` (``P``) for the box window ``(a0, a1, b0, b1)`` along ``axis`` on the
+    line coefficients ``coef`` of ``P``: ``P`` scaled by ``w`` in place, then subtracted by the box."""
+    add_rows(be, polar, polar, weights - 1.0)
+    return box_lines(be, coef, polar, axis, *window, mode, 0.0, polar)
 
 
 def apply_spin(job, degrees, cy, cx, psf, displace, mode, cval):
     """Spin blur of ``job``'s image planes by ``degrees`` about ``(cy, cx)``, along the arcs."""
-    def blur(be, polar, pshape, scratch):
-        n_phi = pshape[1]
+    def blur(be, polar, pshape, scratch, extra, weights):
+        n_phi = pshape[2]
         d = math.radians(degrees) * n_phi / (2.0 * math.pi)     # samples along every ring
         if psf == "box":
-            coef = line_coefficients(be, polar, scratch, job.dtype, pshape, 1, "wrap")
+            coef = line_coefficients(be, polar, scratch, job.dtype, pshape, 2, "wrap")
             a0, b0 = box_window(abs(d), displace, d < 0)
-            box_lines(be, coef, polar, 1, a0, 1.0, b0, 1.0, "wrap", 0.0)
-            return polar
-        steps = [[greens.shift_pass(d)]] if displace else [[greens.shift_pass(-d / 2)], [greens.shift_pass(d / 2)]]
-        cur, nxt = polar, scratch
-        for passes in steps:
-            run_axis_passes(be, cur, nxt, job.dtype, passes, "wrap", 0.0, 1, pshape)
-            cur, nxt = nxt, cur
-        return cur
+            return _box_change(be, polar, coef, 2, (a0, 1.0, b0, 1.0), "wrap", weights)
+        if displace:
+            out = run_axis_passes(be, polar, scratch, job.dtype, [greens.shift_pass(d)], "wrap", 0.0, 2, pshape)
+        else:
+            half = run_axis_passes(be, polar, scratch, job.dtype, [greens.shift_pass(-d / 2)], "wrap", 0.0, 2, pshape)
+            out = run_axis_passes(be, half, extra(), job.dtype, [greens.shift_pass(d / 2)], "wrap", 0.0, 2, pshape)
+        return add_rows(be, polar, out, -weights)
 
     if degrees == 0.0:
         return job.finish(copy_of_input(job))
-    return _run_polar(job, cy, cx, 1.0, blur, mode, cval, "a spin blur (its polar grid holds the whole image)")
+    return _run_polar(job, cy, cx, 1.0, blur, mode, cval, "a spin blur (its polar grid holds the whole image)",
+                      math.radians(degrees), split=True)
 
 
 @lru_cache(maxsize=4)
-def _ray_maps(planes, n_phi, n_r, inward):
-    """Gather maps polar grid -> duplicated ray layout ``(planes, n_phi, 2 n_r)`` and back
-    (:func:`gfgpu.motion.zoom.ray_zoom_pass`); read-only (backends cache their upload)."""
+def _ray_maps(planes, n_r, n_phi, inward):
+    """Gather maps polar grid ``(planes, n_r, n_phi)`` -> duplicated ray layout ``(planes, n_phi, 2 n_r)``
+    and back (:func:`gfgpu.motion.zoom.ray_zoom_pass`); read-only (backends cache their upload)."""
     k = np.arange(n_r)
-    sample = (n_r - 1 - k) if inward else k                  # the sample at positions 2k, 2k + 1
-    line = np.arange(planes * n_phi)[:, None]
+    sample = (n_r - 1 - k) if inward else k                  # the ring at positions 2k, 2k + 1
+    plane = np.arange(planes)[:, None, None]
     itype = np.int32 if planes * n_phi * 2 * n_r < 2**31 else np.int64
-    spread = (line * n_r + np.repeat(sample, 2)[None, :]).astype(itype).reshape(-1)
-    read = 2 * ((n_r - 1 - k) if inward else k) + 1           # where sample k's output is
-    collect = (line * (2 * n_r) + read[None, :]).astype(itype).reshape(-1)
+    spread = (plane * n_r * n_phi + np.repeat(sample, 2)[None, None, :] * n_phi
+              + np.arange(n_phi)[None, :, None]).astype(itype).reshape(-1)
+    read = 2 * ((n_r - 1 - k) if inward else k) + 1           # where ring k's output is
+    collect = ((plane * n_phi + np.arange(n_phi)[None, None, :]) * (2 * n_r)
+               + read[None, :, None]).astype(itype).reshape(-1)
     for arr in (spread, collect):
         arr.setflags(write=False)
     return spread, collect
@@ -142,17 +220,18 @@ def apply_radial_green_zoom(job, u1, cy, cx, mode, cval):
     """
     reach = 1.0 if u1 > 0 else 2.0
 
-    def blur(be, polar, pshape, scratch):
-        planes, n_phi, n_r = pshape
-        spread, collect = _ray_maps(planes, n_phi, n_r, u1 < 0)
+    def blur(be, polar, pshape, scratch, extra, weights):
+        planes, n_r, n_phi = pshape
+        spread, collect = _ray_maps(planes, n_r, n_phi, u1 < 0)
         rows_in = be.empty((planes, n_phi, 2 * n_r), job.dtype)
         rows_out = be.empty((planes, n_phi, 2 * n_r), job.dtype)
         be.gather(be.reshape(polar, (-1,)), spread, 0.0, be.reshape(rows_in, (-1,)))
         be.recurse(rows_in, rows_out, 2, plan_pass(ray_zoom_pass(u1, n_r), 2 * n_r, "constant", job.dtype), 0.0)
-        be.gather(be.reshape(rows_out, (-1,)), collect, 0.0, be.reshape(polar, (-1,)))
-        return polar
+        be.gather(be.reshape(rows_out, (-1,)), collect, 0.0, be.reshape(scratch, (-1,)))
+        return add_rows(be, polar, scratch, -weights)
 
-    return _run_polar(job, cy, cx, reach, blur, mode, cval, "a zoom blur (its polar grid holds the whole image)")
+    return _run_polar(job, cy, cx, reach, blur, mode, cval, "a zoom blur (its polar grid holds the whole image)",
+                      u1 / (1.0 + u1))
 
 
 def zoom_window(u1, displace):
@@ -168,11 +247,11 @@ def apply_radial_zoom(job, u1, cy, cx, displace, mode, cval):
     """Box zoom blur of ``job``'s image planes at the rate ``u1`` about ``(cy, cx)``, along the rays."""
     a1, b1 = zoom_window(u1, displace)
 
-    def blur(be, polar, pshape, scratch):
-        coef = line_coefficients(be, polar, scratch, job.dtype, pshape, 2, "mirror")
-        box_lines(be, coef, polar, 2, 0.0, a1, 0.0, b1, "mirror", 0.0)
-        return polar
+    def blur(be, polar, pshape, scratch, extra, weights):
+        coef = line_coefficients(be, polar, scratch, job.dtype, pshape, 1, "mirror")
+        return _box_change(be, polar, coef, 1, (0.0, a1, 0.0, b1), "mirror", weights)
 
-    return _run_polar(job, cy, cx, b1, blur, mode, cval, "a zoom blur (its polar grid holds the whole image)")
+    return _run_polar(job, cy, cx, b1, blur, mode, cval, "a zoom blur (its polar grid holds the whole image)",
+                      u1 / (1.0 + u1))
 
 

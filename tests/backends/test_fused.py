@@ -233,6 +233,17 @@ def _box_lines(be, kernel, rng):
             dst = be.empty(src.shape, dtype)
             kernel(be, be.asarray(src), dst, axis, *window, mode, 0.7)
             _close(be, dst, kernel.spec(src, axis, *window, mode, 0.7), dtype, f"box_lines {axis} {window} {mode}")
+        # minus less, also in place (dst is less), on the scalar and the vector kernels (8 | 2 * 8 rows)
+        for shape, axis, window in (((2, 7, 33), 1, (-2.5, 1.0, 2.5, 1.0)), ((2, 8, 33), 2, (-3.25, 1.0, 0.0, 1.0)),
+                                    ((2, 8, 33), 2, (0.0, 0.9, 0.0, 1.2))):
+            src, less = (rng.standard_normal(shape).astype(dtype) for _ in range(2))
+            ref = kernel.spec(src, axis, *window, "nearest", 0.7, less)
+            dst = be.empty(shape, dtype)
+            kernel(be, be.asarray(src), dst, axis, *window, "nearest", 0.7, be.asarray(less))
+            _close(be, dst, ref, dtype, f"box_lines less {shape} {window}")
+            same = be.asarray(less.copy())
+            kernel(be, be.asarray(src), same, axis, *window, "nearest", 0.7, same)
+            _close(be, same, ref, dtype, f"box_lines less in place {shape} {window}")
 
 
 @builds("motion.field_blur")
@@ -250,19 +261,39 @@ def _field_blur(be, kernel, rng):
 def _to_polar(be, kernel, rng):
     for dtype in _motion_dtypes(be):
         coef = rng.standard_normal((2, 20, 24)).astype(dtype)
-        for mode in ("reflect", "constant"):
+        for mode, r0 in (("reflect", 0), ("constant", 0), ("nearest", 3)):
             polar = be.empty((2, 18, 64), dtype)
-            kernel(be, be.asarray(coef), polar, 9.5, 11.2, mode, 0.3)
-            _close(be, polar, kernel.spec(coef, 9.5, 11.2, 18, 64, mode, 0.3), dtype, f"to_polar {mode}")
+            kernel(be, be.asarray(coef), polar, 9.5, 11.2, r0, mode, 0.3)
+            _close(be, polar, kernel.spec(coef, 9.5, 11.2, r0, 18, 64, mode, 0.3), dtype, f"to_polar {mode} {r0}")
 
 
 @builds("motion.from_polar")
 def _from_polar(be, kernel, rng):
     for dtype in _motion_dtypes(be):
         pcoef = rng.standard_normal((2, 18, 64)).astype(dtype)
-        back = be.empty((2, 20, 24), dtype)
-        kernel(be, be.asarray(pcoef), back, 9.5, 11.2)
-        _close(be, back, kernel.spec(pcoef, 9.5, 11.2, 20, 24), dtype, "from_polar")
+        base = rng.standard_normal((2, 20, 24)).astype(dtype)
+        for r0, r_lo, r_hi, keep in ((0, 0.0, math.inf, 0.0), (2, 4.5, 9.0, 0.3)):
+            ref = kernel.spec(pcoef, base, 9.5, 11.2, r0, r_lo, r_hi, keep)
+            back = be.empty((2, 20, 24), dtype)
+            kernel(be, be.asarray(pcoef), be.asarray(base), back, 9.5, 11.2, r0, r_lo, r_hi, keep)
+            _close(be, back, ref, dtype, f"from_polar {r0}")
+            same = be.asarray(base.copy())      # in place: a band adds its change to the previous bands'
+            kernel(be, be.asarray(pcoef), same, same, 9.5, 11.2, r0, r_lo, r_hi, keep)
+            _close(be, same, ref, dtype, f"from_polar in place {r0}")
+
+
+@builds("motion.add_rows")
+def _add_rows(be, kernel, rng):
+    for dtype in _motion_dtypes(be):
+        src, dst = (rng.standard_normal((2, 9, 17)).astype(dtype) for _ in range(2))
+        scale = rng.standard_normal(9)
+        ref, ref_same = kernel.spec(src, dst, scale), kernel.spec(src, src, scale)
+        out = be.asarray(dst.copy())
+        kernel(be, be.asarray(src), out, scale)
+        _close(be, out, ref, dtype, "add_rows")
+        same = be.asarray(src.copy())       # dst is src: a scale per row in place
+        kernel(be, same, same, scale)
+        _close(be, same, ref_same, dtype, "add_rows in place")
 
 
 def test_every_registered_kernel_is_tested():

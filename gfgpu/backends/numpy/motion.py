@@ -7,8 +7,8 @@ from __future__ import annotations
 from .. import specs_motion as specs
 
 
-def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval):
-    dst[...] = specs.box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval)
+def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
+    dst[...] = specs.box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval, less)
     return dst
 
 
@@ -17,11 +17,16 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     return out
 
 
-def launch_to_polar(be, coef, out, cy, cx, mode, cval):
-    out[...] = specs.to_polar_reference(coef, cy, cx, out.shape[1], out.shape[2], mode, cval)
+def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
+    out[...] = specs.to_polar_reference(coef, cy, cx, r0, out.shape[1], out.shape[2], mode, cval)
     return out
 
 
-def launch_from_polar(be, pcoef, out, cy, cx):
-    out[...] = specs.from_polar_reference(pcoef, cy, cx, out.shape[1], out.shape[2])
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
+    out[...] = specs.from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, keep)
     return out
+
+
+def launch_add_rows(be, src, dst, scale):
+    dst[...] = specs.add_rows_reference(src, dst, scale)
+    return dst

@@ -4,13 +4,16 @@
 // more than float's 24 bits to place a sample to 1e-4 px).  Samples accumulate in REAL.
 // Mode codes (specs_motion.MODE_CODES): 0 constant, 1 nearest, 2 wrap, 3 reflect, 4 mirror.
 // PSF codes (PSF_CODES): 0 box, 1 G_u, 2 centred box, 3 centred G_u.
+// The launcher defines NEAR_A, NEAR_B (specs_motion.NEAREST_EDGE), GAUSS_U0, GAUSS_W0, GAUSS_W1
+// (GAUSS_NODES[0], GAUSS_WEIGHTS[0:2]), MIN_CELLS_G, MIN_CELLS_CG (PSF_MIN_CELLS[1], [3]), GREEN_TAIL,
+// NARROW and PAD (the coefficients pad_coef adds beyond each border).
 
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
 #ifndef CHUNK
-#define CHUNK 1      // rings per work-item in to_polar
+#define CHUNK 1      // angles per work-item in to_polar
 #endif
 
 #ifndef GRID
@@ -42,29 +45,120 @@ static inline int extend(int i, const int n, const int mode)
     return q >= n ? 2 * n - 2 - q : q;
 }
 
-// index of spline coefficient i and its factor: constant mode continues geometrically (z^m
-// times the end coefficient minus cval), the other modes extend the coefficients as samples
-static inline int coef_index(const int i, const int n, const int mode, POS *factor)
+// floor(x) as an int by conversion, |x| < 2^31: PoCL's floor() is a library call that stops the
+// vectorisation across work-items (two of them cost more than the rest of the spline)
+static inline int ifloor(const GRID x)
 {
-    *factor = (POS)1;
-    if (mode != 0)
-        return extend(i, n, mode);
-    const int j = i < 0 ? 0 : (i >= n ? n - 1 : i);
-    for (int m = min((int)abs(i - j), 64); m > 0; --m)     // z^64 < 1e-36: zero in float and beside 1e-11 in double
-        *factor *= SPLINE_POLE;
-    return j;
+    const int t = (int)x;
+    return t - (x < (GRID)t);
 }
 
-static inline REAL coef_at(__global const REAL *src, const long start, const long step, const int n,
-                           const int i, const int mode, const REAL cval)
+// z^m for m >= 0, by the bits of m (branch-free: exp and pown are library calls that stop PoCL's
+// vectorisation across work-items); 0 beyond m = 31, where |z|^m < 1e-18 (beside 1e-16 in double)
+#define POLE_2 (SPLINE_POLE * SPLINE_POLE)
+#define POLE_4 (POLE_2 * POLE_2)
+#define POLE_8 (POLE_4 * POLE_4)
+
+static inline POS pole_power(const int m)
 {
-    if ((unsigned)i < (unsigned)n)        // inside the line: no extension (the common case)
-        return src[start + (long)i * step];
-    POS f;
-    const int j = coef_index(i, n, mode, &f);
-    const REAL v = src[start + (long)j * step];
-    return mode == 0 ? cval + (REAL)f * (v - cval) : v;
+    return (m & 1 ? SPLINE_POLE : (POS)1) * (m & 2 ? POLE_2 : (POS)1) * (m & 4 ? POLE_4 : (POS)1)
+           * (m & 8 ? POLE_8 : (POS)1) * (m & 16 ? POLE_8 * POLE_8 : (POS)1) * (m > 31 ? (POS)0 : (POS)1);
 }
+
+// sum_{k=1}^{m} z^k, m >= 0
+static inline POS geometric(const int m)
+{
+    return SPLINE_POLE * ((POS)1 - pole_power(m)) / ((POS)1 - SPLINE_POLE);
+}
+
+// period of the coefficients of a line extended by a periodic mode (2 wrap, 3 reflect, 4 mirror)
+static inline int period_of(const int n, const int mode)
+{
+    return mode == 2 ? n : (mode == 3 ? 2 * n : max(2 * n - 2, 1));
+}
+
+// The spline coefficients of a line (at `start`, stride `step`) beyond its ends
+// (specs_motion.coef_taps), and their sums over index ranges (specs_motion._coef_prefix), for one
+// line (T = REAL, LOAD a plain read) and for LANES lines in vector lanes (T = VT, LOAD = VGET; `ls`
+// the stride between the lanes): one body, two instances.
+//   P##edge(right): the extension's value beyond the left or right end: cval, or for 'nearest' the
+//                   edge sample NEAR_A c[end] + NEAR_B c[end -+ 1]
+//   P##at(i):       coefficient i: inside as stored; periodic modes as the samples; constant and
+//                   nearest e + z^m (c[end] - e), m samples beyond the end
+//   P##run(A, B):   sum over [A, B) by a compensated loop
+//   P##sum(A, B):   the same in O(n) whatever B - A: whole periods, or the geometric tails, in
+//                   closed form
+#define EXTENSION(T, P, LOAD)                                                                             \
+static inline T P##edge(__global const REAL *src, const long start, const long step, const long ls,       \
+                        const int n, const int right, const int mode, const REAL cval)                     \
+{                                                                                                         \
+    if (mode != 1)                                                                                        \
+        return (T)cval;                                                                                   \
+    const int j = right ? n - 1 : 0, j1 = right ? max(n - 2, 0) : min(1, n - 1);                         \
+    return (REAL)NEAR_A * LOAD(src + start + (long)j * step, ls)                                          \
+           + (REAL)NEAR_B * LOAD(src + start + (long)j1 * step, ls);                                      \
+}                                                                                                         \
+                                                                                                          \
+static inline T P##at(__global const REAL *src, const long start, const long step, const long ls,         \
+                      const int n, const int i, const int mode, const REAL cval)                           \
+{                                                                                                         \
+    if ((unsigned)i < (unsigned)n)        /* inside the line: no extension (the common case) */           \
+        return LOAD(src + start + (long)i * step, ls);                                                    \
+    if (mode >= 2)                                                                                        \
+        return LOAD(src + start + (long)extend(i, n, mode) * step, ls);                                   \
+    const int right = i >= n;                                                                             \
+    const T c = LOAD(src + start + (long)(right ? n - 1 : 0) * step, ls);                                 \
+    const T e = P##edge(src, start, step, ls, n, right, mode, cval);                                      \
+    return e + (REAL)pole_power(right ? i - n + 1 : -i) * (c - e);                                        \
+}                                                                                                         \
+                                                                                                          \
+static inline T P##run(__global const REAL *src, const long start, const long step, const long ls,        \
+                       const int n, const int a, const int b, const int mode, const REAL cval)             \
+{                                                                                                         \
+    T sum = 0, comp = 0;                                                                                  \
+    for (int i = a; i < b; ++i) {                                                                         \
+        const T y = P##at(src, start, step, ls, n, i, mode, cval) - comp;                                 \
+        const T s = sum + y;                                                                              \
+        comp = (s - sum) - y;                                                                             \
+        sum = s;                                                                                          \
+    }                                                                                                     \
+    return sum - comp;                                                                                    \
+}                                                                                                         \
+                                                                                                          \
+static inline T P##sum(__global const REAL *src, const long start, const long step, const long ls,        \
+                       const int n, const int a, const int b, const int mode, const REAL cval)             \
+{                                                                                                         \
+    if (b <= a)                                                                                           \
+        return (T)0;                                                                                      \
+    if (mode >= 2) {                                                                                      \
+        const int per = period_of(n, mode);                                                               \
+        if ((long)b - a <= 3L * per)                                                                      \
+            return P##run(src, start, step, ls, n, a, b, mode, cval);                                     \
+        const int a1 = a + ((-a) % per + per) % per, b1 = b - (b % per + per) % per;  /* whole periods */ \
+        return P##run(src, start, step, ls, n, a, a1, mode, cval)                                         \
+               + P##run(src, start, step, ls, n, b1, b, mode, cval)                                       \
+               + (REAL)((b1 - a1) / per) * P##run(src, start, step, ls, n, 0, per, mode, cval);           \
+    }                                                                                                     \
+    T total = 0;                                                                                          \
+    if (a < 0) {          /* c[i] = e + z^-i (c[0] - e) for a <= i < min(b, 0) */                        \
+        const int top = min(b, 0);                                                                        \
+        const T e = P##edge(src, start, step, ls, n, 0, mode, cval);                                      \
+        total += (REAL)(top - a) * e                                                                      \
+                 + (REAL)(geometric(-a) - geometric(-top)) * (LOAD(src + start, ls) - e);                 \
+    }                                                                                                     \
+    if (max(a, 0) < min(b, n))                                                                            \
+        total += P##run(src, start, step, ls, n, max(a, 0), min(b, n), mode, cval);                       \
+    if (b > n) {          /* c[i] = e + z^(i-n+1) (c[n-1] - e) for max(a, n) <= i < b */                 \
+        const int bottom = max(a, n);                                                                     \
+        const T e = P##edge(src, start, step, ls, n, 1, mode, cval);                                      \
+        total += (REAL)(b - bottom) * e + (REAL)(geometric(b - n) - geometric(bottom - n))                 \
+                                          * (LOAD(src + start + (long)(n - 1) * step, ls) - e);           \
+    }                                                                                                     \
+    return total;                                                                                         \
+}
+
+#define SLOAD(p, ls) (*(p))
+EXTENSION(REAL, coef_, SLOAD)
 
 // weights in REAL from the fraction in REAL: positions need POS, a fraction in [0, 1) does not
 static inline REAL bweight(const REAL t, const int p)
@@ -92,17 +186,40 @@ static inline REAL bintegral(const REAL f, const int p)
 static inline REAL cell(__global const REAL *src, const long start, const long step, const int n, const int j,
                         const int mode, const REAL cval)
 {
-    return (coef_at(src, start, step, n, j - 1, mode, cval) + (REAL)11 * coef_at(src, start, step, n, j, mode, cval)
-            + (REAL)11 * coef_at(src, start, step, n, j + 1, mode, cval)
-            + coef_at(src, start, step, n, j + 2, mode, cval)) / (REAL)24;
+    return (coef_at(src, start, step, 0, n, j - 1, mode, cval) + (REAL)11 * coef_at(src, start, step, 0, n, j, mode, cval)
+            + (REAL)11 * coef_at(src, start, step, 0, n, j + 1, mode, cval)
+            + coef_at(src, start, step, 0, n, j + 2, mode, cval)) / (REAL)24;
 }
 
+// the sum of the spline's whole cells j in [a, b): the coefficients' sum plus three at each end
+// (the cells' weights (1, 11, 11, 1)/24 telescope; specs_motion.box_lines_reference)
+static inline REAL cells(__global const REAL *src, const long start, const long step, const int n, const int a,
+                         const int b, const int mode, const REAL cval)
+{
+    return coef_sum(src, start, step, 0, n, a, b, mode, cval)
+           + (coef_at(src, start, step, 0, n, a - 1, mode, cval) - (REAL)12 * coef_at(src, start, step, 0, n, a, mode, cval)
+              - coef_at(src, start, step, 0, n, a + 1, mode, cval) - coef_at(src, start, step, 0, n, b - 1, mode, cval)
+              + (REAL)12 * coef_at(src, start, step, 0, n, b, mode, cval)
+              + coef_at(src, start, step, 0, n, b + 1, mode, cval)) / (REAL)24;
+}
+
+// LESS = 1: the box kernels subtract less[] from their means (dst may be less: each element is read
+// before it is written, by the same work-item)
+#if LESS
+#define LESS_AT(i) less[i]
+#define VLESS_AT(p, ls) VGET(p, ls)
+#else
+#define LESS_AT(i) (REAL)0
+#define VLESS_AT(p, ls) (VT)0
+#endif
+
 // Box windows [a0 + a1 k, b0 + b1 k] along the lines of a (B, N, M) array: one work-item per
-// line, one compensated running sum of whole spline cells plus the two partial cells.
+// line; the first window's sum of whole cells in closed form, then one compensated running sum of
+// whole spline cells plus the two partial cells.
 __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int n, const int lines,
                         const long batch_stride, const long line_stride, const long step, const POS a0,
                         const POS a1, const POS b0, const POS b1, const int mode, const REAL cval, const int total,
-                        const long dst_off)
+                        const long dst_off, __global const REAL *less, const long less_off)
 {
     const int t = get_global_id(0);
     if (t >= total)
@@ -110,13 +227,7 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
     const int b = t / lines;
     const long start = b * batch_stride + (long)(t - b * lines) * line_stride;
     int ia = (int)floor(a0), ib = (int)floor(b0);
-    REAL sum = 0, comp = 0;
-    for (int j = ia; j < ib; ++j) {
-        const REAL y = cell(src, start, step, n, j, mode, cval) - comp;
-        const REAL s = sum + y;
-        comp = (s - sum) - y;
-        sum = s;
-    }
+    REAL sum = cells(src, start, step, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {
         const POS a = a0 + a1 * (POS)k, e = b0 + b1 * (POS)k;
         const int na = (int)floor(a), nb = (int)floor(e);
@@ -137,29 +248,52 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
         if (width < (POS)NARROW) {     // the spline at the middle (specs_motion.NARROW)
             const POS m = (POS)0.5 * (a + e), fm = floor(m);
             const int im = (int)fm;
-            const REAL t = (REAL)(m - fm);
+            const REAL tm = (REAL)(m - fm);
             REAL v = 0;
             for (int p = 0; p < 4; ++p)
-                v += bweight(t, p) * coef_at(src, start, step, n, im + p - 1, mode, cval);
-            dst[dst_off + start + (long)k * step] = v;
+                v += bweight(tm, p) * coef_at(src, start, step, 0, n, im + p - 1, mode, cval);
+            dst[dst_off + start + (long)k * step] = v - LESS_AT(less_off + start + (long)k * step);
             continue;
         }
         REAL pa = 0, pb = 0;
         for (int p = 0; p < 4; ++p) {
-            pa += bintegral(fa, p) * coef_at(src, start, step, n, ia + p - 1, mode, cval);
-            pb += bintegral(fb, p) * coef_at(src, start, step, n, ib + p - 1, mode, cval);
+            pa += bintegral(fa, p) * coef_at(src, start, step, 0, n, ia + p - 1, mode, cval);
+            pb += bintegral(fb, p) * coef_at(src, start, step, 0, n, ib + p - 1, mode, cval);
         }
-        dst[dst_off + start + (long)k * step] = ((sum - comp) + pb - pa) / (REAL)width;
+        dst[dst_off + start + (long)k * step] = ((sum - comp) + pb - pa) / (REAL)width
+                                                - LESS_AT(less_off + start + (long)k * step);
     }
+}
+
+// coefficient i of a line of n as w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval (specs_motion.coef_taps;
+// cval only in constant mode): returns j0
+static inline int coef_taps(const int i, const int n, const int mode, POS *w0, int *j1, POS *w1)
+{
+    *w0 = (POS)1;
+    *w1 = (POS)0;
+    if ((unsigned)i < (unsigned)n || mode >= 2) {
+        *j1 = (unsigned)i < (unsigned)n ? i : extend(i, n, mode);
+        return *j1;
+    }
+    const int left = i < 0, j = left ? 0 : n - 1;
+    const POS f = pole_power(left ? -i : i - n + 1);
+    *j1 = j;
+    if (mode == 0) {
+        *w0 = f;
+        return j;
+    }
+    *j1 = left ? min(1, n - 1) : max(n - 2, 0);
+    *w0 = f + ((POS)1 - f) * (POS)NEAR_A;
+    *w1 = ((POS)1 - f) * (POS)NEAR_B;
+    return j;
 }
 
 // the 2-D cubic B-spline of one plane (h x w, at `plane`) at (py, px)
 static inline REAL spline2(__global const REAL *src, const long plane, const int h, const int w, const GRID py,
                            const GRID px, const int mode_y, const int mode_x, const REAL cval)
 {
-    const GRID fy = floor(py), fx = floor(px);
-    const int iy = (int)fy, ix = (int)fx;
-    const REAL ty = (REAL)(py - fy), tx = (REAL)(px - fx);
+    const int iy = ifloor(py), ix = ifloor(px);
+    const REAL ty = (REAL)(py - (GRID)iy), tx = (REAL)(px - (GRID)ix);
     REAL wx[4], wy[4];
     for (int q = 0; q < 4; ++q) {
         wx[q] = bweight(tx, q);
@@ -172,22 +306,31 @@ static inline REAL spline2(__global const REAL *src, const long plane, const int
             acc += wy[p] * (wx[0] * line[0] + wx[1] * line[1] + wx[2] * line[2] + wx[3] * line[3]);
         return acc;
     }
+    // beyond the border a coefficient may weigh two ('nearest'): two columns and two rows per tap
     const REAL base = mode_x == 0 ? cval : (REAL)0;
-    int rx[4];
+    int rx0[4], rx1[4];
+    REAL vx0[4], vx1[4];
     for (int q = 0; q < 4; ++q) {
-        POS g;
-        rx[q] = coef_index(ix + q - 1, w, mode_x, &g);
-        wx[q] *= (REAL)g;
+        POS g0, g1;
+        rx0[q] = coef_taps(ix + q - 1, w, mode_x, &g0, &rx1[q], &g1);
+        vx0[q] = wx[q] * (REAL)g0;
+        vx1[q] = wx[q] * (REAL)g1;
     }
     REAL acc = 0;
     for (int p = 0; p < 4; ++p) {
-        POS g;
-        const int ry = coef_index(iy + p - 1, h, mode_y, &g);
-        REAL row = 0;
-        __global const REAL *line = src + plane + (long)ry * w;
-        for (int q = 0; q < 4; ++q)
-            row += wx[q] * (((ry >= 0 && rx[q] >= 0) ? line[rx[q]] : base) - base);
-        acc += wy[p] * (REAL)g * row;
+        POS h0, h1;
+        int ry1;
+        const int ry0 = coef_taps(iy + p - 1, h, mode_y, &h0, &ry1, &h1);
+        for (int r = 0; r < 2; ++r) {
+            const POS g = r ? h1 : h0;
+            if (g == (POS)0)
+                continue;
+            __global const REAL *line = src + plane + (long)(r ? ry1 : ry0) * w;
+            REAL row = 0;
+            for (int q = 0; q < 4; ++q)
+                row += vx0[q] * (line[rx0[q]] - base) + vx1[q] * (line[rx1[q]] - base);
+            acc += wy[p] * (REAL)g * row;
+        }
     }
     return acc + base;
 }
@@ -214,9 +357,18 @@ static inline POS cdf(const int psf, const POS t, const POS t0, const POS t1)
     return t < 0 ? (POS)0.5 - c : (POS)0.5 + c;
 }
 
-// One work-item per output pixel: the samples of its own path x - t v(x).
+// G_u's density at t (specs_motion.psf_density; psf 1 or 3)
+static inline POS density(const int psf, const POS t)
+{
+    if (psf == 1)
+        return (POS)2 * exp(-t) * sin(t);
+    const POS s = (POS)2 * fabs(t);
+    return exp(-s) * (cos(s) + sin(s));
+}
+
+// One work-item per output pixel: its own path x - t v(x), in cells of three Gauss-Legendre nodes.
 __kernel void field_blur(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
-                         const int w, const int planes, const int psf, const POS density, const int mode,
+                         const int w, const int planes, const int psf, const POS density_px, const int mode,
                          const REAL cval, const long out_off)
 {
     const int x = get_global_id(0), y = get_global_id(1);
@@ -226,16 +378,33 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
     const POS vy = (POS)field[pix], vx = (POS)field[hw + pix];
     POS t0, t1;
     support(psf, &t0, &t1);
-    const POS span = t1 - t0;
-    const int n = max(1, (int)ceil(fmax(fabs(vy), fabs(vx)) * span * density - (POS)1e-9));
+    const POS span = t1 - t0, length = fmax(fabs(vy), fabs(vx));
+    const int fewest = psf == 1 ? MIN_CELLS_G : (psf == 3 ? MIN_CELLS_CG : 1);
+    const int n = length > 0 ? max(fewest, (int)ceil(length * span * density_px - (POS)1e-9)) : 1;
+    const POS u[3] = {(POS)GAUSS_U0, (POS)0.5, (POS)1 - (POS)GAUSS_U0};
+    const POS g[3] = {(POS)GAUSS_W0, (POS)GAUSS_W1, (POS)GAUSS_W0};
     for (int b = 0; b < planes; ++b) {
         REAL acc = 0;
         POS prev = 0;
         for (int k = 0; k < n; ++k) {
             const POS ta = t0 + span * (POS)k / (POS)n, tb = t0 + span * (POS)(k + 1) / (POS)n;
-            const POS c = cdf(psf, tb, t0, t1), tm = (POS)0.5 * (ta + tb);
-            acc += (REAL)(c - prev) * spline2(coef, b * hw, h, w, (POS)y - tm * vy, (POS)x - tm * vx, mode, mode, cval);
+            const POS c = cdf(psf, tb, t0, t1), mass = c - prev;
             prev = c;
+            POS t[3], wt[3];
+            for (int i = 0; i < 3; ++i)
+                t[i] = ta + u[i] * (tb - ta);
+            if (psf == 0 || psf == 2) {
+                for (int i = 0; i < 3; ++i)
+                    wt[i] = g[i] * mass;
+            } else {          // Gauss-Legendre on the density, the cell's exact mass restored
+                for (int i = 0; i < 3; ++i)
+                    wt[i] = (tb - ta) * g[i] * density(psf, t[i]);
+                const POS rest = mass - (wt[0] + wt[1] + wt[2]);
+                for (int i = 0; i < 3; ++i)
+                    wt[i] += g[i] * rest;
+            }
+            for (int i = 0; i < 3; ++i)
+                acc += (REAL)wt[i] * spline2(coef, b * hw, h, w, (POS)y - t[i] * vy, (POS)x - t[i] * vx, mode, mode, cval);
         }
         out[out_off + b * hw + pix] = acc;
     }
@@ -243,27 +412,21 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
 
 #ifdef MODE_X
 // spline2 for the polar kernels, with the modes as build constants (MODE_Y along the rows, MODE_X
-// along the columns) and every coefficient index within one period or reflection of the line
-// (the launcher checks): branch-free index arithmetic, so PoCL vectorises across work-items.
+// along the columns: 1 nearest, on coefficients that pad_coef extended by PAD beyond every border;
+// 2, 3, 4 periodic) and every coefficient index within one period or reflection of the line (the
+// launcher checks): branch-free index arithmetic, so PoCL vectorises across work-items.
+#if MODE_X < 1 || MODE_Y < 1
+#error "spline2_near: constant mode runs on coefficients extended by pad_coef, as nearest"
+#endif
 static inline int near_index(const int i, const int n, const int mode)
 {
-    if (mode == 0 || mode == 1)
-        return clamp(i, 0, n - 1);
+    if (mode == 1)
+        return i < 0 ? 0 : (i >= n ? n - 1 : i);      // clamp(): a library call in PoCL
     if (mode == 2)
         return i < 0 ? i + n : (i >= n ? i - n : i);
     if (mode == 3)
         return i < 0 ? -1 - i : (i >= n ? 2 * n - 1 - i : i);
     return n == 1 ? 0 : (i < 0 ? -i : (i >= n ? 2 * n - 2 - i : i));
-}
-
-static inline REAL near_factor(const int i, const int n, const int mode)
-{
-    if (mode != 0)
-        return (REAL)1;
-    const int m = i < 0 ? -i : (i >= n ? i - n + 1 : 0);
-    // z^m, z = sqrt(3) - 2 < 0: |z|^m = exp(m ln|z|) (vectorises, unlike pown), sign (-1)^m
-    const REAL mag = m == 0 ? (REAL)1 : exp((REAL)min(m, 64) * (REAL)-1.3169578969248166);
-    return (m & 1) ? -mag : mag;
 }
 
 // the four cubic B-spline weights at fraction t, multiplications only (bweight's values)
@@ -278,62 +441,72 @@ static inline void bweights4(const REAL t, REAL *wt)
 }
 
 static inline REAL spline2_near(__global const REAL *src, const long plane, const int h, const int w, const GRID py,
-                                const GRID px, const REAL cval)
+                                const GRID px)
 {
-    const GRID fy = floor(py), fx = floor(px);
-    const int iy = (int)fy, ix = (int)fx;
-    const REAL base = MODE_X == 0 ? cval : (REAL)0;
+    const int iy = ifloor(py), ix = ifloor(px);
     REAL wx[4], wy[4];
-    bweights4((REAL)(px - fx), wx);
-    bweights4((REAL)(py - fy), wy);
+    bweights4((REAL)(px - (GRID)ix), wx);
+    bweights4((REAL)(py - (GRID)iy), wy);
     REAL acc = 0;
     if (ix >= 1 && ix + 2 < w) {      // the four columns inside: contiguous loads
         for (int p = 0; p < 4; ++p) {
-            const int ry = near_index(iy + p - 1, h, MODE_Y);
-            __global const REAL *line = src + plane + (long)ry * w + (ix - 1);
-            const REAL row = wx[0] * (line[0] - base) + wx[1] * (line[1] - base) + wx[2] * (line[2] - base)
-                             + wx[3] * (line[3] - base);
-            acc += wy[p] * near_factor(iy + p - 1, h, MODE_Y) * row;
+            __global const REAL *line = src + plane + (long)near_index(iy + p - 1, h, MODE_Y) * w + (ix - 1);
+            acc += wy[p] * (wx[0] * line[0] + wx[1] * line[1] + wx[2] * line[2] + wx[3] * line[3]);
         }
-        return acc + base;
+        return acc;
     }
     int rx[4];
-    for (int q = 0; q < 4; ++q) {
-        wx[q] *= near_factor(ix + q - 1, w, MODE_X);
+    for (int q = 0; q < 4; ++q)
         rx[q] = near_index(ix + q - 1, w, MODE_X);
-    }
     for (int p = 0; p < 4; ++p) {
-        const int ry = near_index(iy + p - 1, h, MODE_Y);
-        __global const REAL *line = src + plane + (long)ry * w;
-        const REAL row = wx[0] * (line[rx[0]] - base) + wx[1] * (line[rx[1]] - base) + wx[2] * (line[rx[2]] - base)
-                         + wx[3] * (line[rx[3]] - base);
-        acc += wy[p] * near_factor(iy + p - 1, h, MODE_Y) * row;
+        __global const REAL *line = src + plane + (long)near_index(iy + p - 1, h, MODE_Y) * w;
+        acc += wy[p] * (wx[0] * line[rx[0]] + wx[1] * line[rx[1]] + wx[2] * line[rx[2]] + wx[3] * line[rx[3]]);
     }
-    return acc + base;
+    return acc;
 }
-#define SPLINE_POLAR(src, plane, h, w, py, px, my, mx, cval) spline2_near(src, plane, h, w, py, px, cval)
+#define SPLINE_POLAR(src, plane, h, w, py, px, my, mx, cval) spline2_near(src, plane, h, w, py, px)
 #else
 #define SPLINE_POLAR(src, plane, h, w, py, px, my, mx, cval) spline2(src, plane, h, w, py, px, my, mx, cval)
 #endif
 
-// One work-item per polar sample (angle j, ring i) of every plane, layout (B, n_phi, n_r): adjacent
-// work-items are adjacent rings.  trig[2j], trig[2j+1] = cos, sin of angle j (computed once on the
+// The coefficients of (h, w) planes extended by mode 0 or 1 (specs_motion.coef_taps, along the rows
+// and the columns) on (h + 2 PAD, w + 2 PAD), one work-item per element: to_polar then reads them
+// clamped (mode 1), which is the extension to z^PAD (below 1e-18).
+__kernel void pad_coef(__global const REAL *src, __global REAL *dst, const int h, const int w, const int planes,
+                       const int mode, const REAL cval)
+{
+    const int x = get_global_id(0), y = get_global_id(1), wp = w + 2 * PAD, hp = h + 2 * PAD;
+    if (x >= wp || y >= hp)
+        return;
+    POS gy0, gy1, gx0, gx1;
+    int ry1, rx1;
+    const int ry0 = coef_taps(y - PAD, h, mode, &gy0, &ry1, &gy1), rx0 = coef_taps(x - PAD, w, mode, &gx0, &rx1, &gx1);
+    const REAL base = mode == 0 ? cval : (REAL)0;
+    for (int b = 0; b < planes; ++b) {
+        __global const REAL *c = src + (long)b * h * w;
+        const REAL r0 = (REAL)gx0 * (c[(long)ry0 * w + rx0] - base) + (REAL)gx1 * (c[(long)ry0 * w + rx1] - base);
+        const REAL r1 = (REAL)gx0 * (c[(long)ry1 * w + rx0] - base) + (REAL)gx1 * (c[(long)ry1 * w + rx1] - base);
+        dst[((long)b * hp + y) * wp + x] = base + (REAL)gy0 * r0 + (REAL)gy1 * r1;
+    }
+}
+
+// One work-item per CHUNK angles of one ring (radius r0 + i) of every plane, layout (B, n_r, n_phi):
+// adjacent work-items are adjacent angles.  trig[2j], trig[2j+1] = cos, sin of angle j (computed once on the
 // host: a sine per sample would dominate the kernel).  Positions in GRID (float for float32 images:
 // r cos phi to 1e-7 relative, 1e-4 px on a ring of radius 1500; double for float64 ones).
 __kernel void to_polar(__global const REAL *coef, __global REAL *out, const long out_off, __global const GRID *trig,
                        const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
-                       const GRID cx, const int mode, const REAL cval)
+                       const GRID cx, const int r0, const int mode, const REAL cval)
 {
-    const int j = get_global_id(1);
-    if (j >= n_phi)
+    const int i = get_global_id(1);
+    if (i >= n_r)
         return;
-    const GRID sn = trig[2 * j + 1], cs = trig[2 * j];
-    const int i0 = get_global_id(0) * CHUNK, i1 = min(i0 + CHUNK, n_r);
-    for (int i = i0; i < i1; ++i) {        // CHUNK rings along the ray per work-item
-        const GRID r = (GRID)i;
-        const GRID py = cy - r * sn, px = cx + r * cs;
+    const GRID r = (GRID)(r0 + i);
+    const int j0 = get_global_id(0) * CHUNK, j1 = min(j0 + CHUNK, n_phi);
+    for (int j = j0; j < j1; ++j) {
+        const GRID py = cy - r * trig[2 * j + 1], px = cx + r * trig[2 * j];
         for (int b = 0; b < planes; ++b)
-            out[out_off + ((long)b * n_phi + j) * n_r + i] = SPLINE_POLAR(coef, (long)b * h * w, h, w, py, px, mode,
+            out[out_off + ((long)b * n_r + i) * n_phi + j] = SPLINE_POLAR(coef, (long)b * h * w, h, w, py, px, mode,
                                                                         mode, cval);
     }
 }
@@ -362,20 +535,44 @@ static inline GRID angle_of(const GRID dy, const GRID dx)
 #endif
 }
 
-// One work-item per pixel: angle (wraps, axis 1) and radius (mirrors, axis 2) on the polar grid.
-__kernel void from_polar(__global const REAL *pcoef, __global REAL *out, const long out_off, const int h, const int w,
-                         const int n_r, const int n_phi, const int planes, const GRID cy, const GRID cx)
+// One work-item per pixel of the box (x0, y0) + (bw, bh): base, where the pixel's radius r lies in
+// [r_lo, r_hi) weighted by 1/(1 + (keep r)^2) and plus the polar spline of a band of rings from r0,
+// at the pixel's ring (rows, mirrored at the band's ends) and angle (columns, wrapped).  out may be
+// base (each pixel is read, then written): the launcher then limits the box to the band's radii.
+__kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, __global REAL *out, const long out_off,
+                         const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
+                         const GRID cx, const int r0, const GRID r_lo, const GRID r_hi, const int x0, const int y0,
+                         const int bw, const int bh, const long base_off, const GRID keep)
 {
-    const int x = get_global_id(0), y = get_global_id(1);
-    if (x >= w || y >= h)
+    const int gx = get_global_id(0), gy = get_global_id(1);
+    if (gx >= bw || gy >= bh)
         return;
+    const int x = x0 + gx, y = y0 + gy;
     const GRID dy = cy - (GRID)y, dx = (GRID)x - cx;
     const GRID r = sqrt(dx * dx + dy * dy);
+    const int inside = r >= r_lo && r < r_hi;
     GRID jf = angle_of(dy, dx) * ((GRID)n_phi / (GRID)6.283185307179586);
     jf = jf >= (GRID)n_phi ? jf - (GRID)n_phi : jf;     // rounding at 2 pi
-    for (int b = 0; b < planes; ++b)
-        out[out_off + ((long)b * h + y) * w + x] = SPLINE_POLAR(pcoef, (long)b * n_r * n_phi, n_phi, n_r, jf, r, 2, 4,
-                                                                (REAL)0);
+    const GRID kr = keep * r;
+    const REAL weight = inside ? (REAL)((GRID)1 / ((GRID)1 + kr * kr)) : (REAL)1;
+    const GRID ring = inside ? r - (GRID)r0 : (GRID)0;     // outside the band: a valid read, not added
+    for (int b = 0; b < planes; ++b) {
+        const long pix = ((long)b * h + y) * w + x;
+        const REAL change = SPLINE_POLAR(pcoef, (long)b * n_r * n_phi, n_r, n_phi, ring, jf, 4, 2, (REAL)0);
+        out[out_off + pix] = weight * base[base_off + pix] + (inside ? change : (REAL)0);
+    }
+}
+
+// dst += scale[i] src on (B, N, M) arrays, one work-item per element (dst may be src): columns on
+// axis 0, the B N rows on axis 1 (no 64-bit division per element)
+__kernel void add_rows(__global const REAL *src, __global REAL *dst, const long dst_off, __global const REAL *scale,
+                       const int n, const int m, const int rows, const long src_off)
+{
+    const int j = get_global_id(0), row = get_global_id(1);
+    if (j >= m || row >= rows)
+        return;
+    const long t = (long)row * m + j;
+    dst[dst_off + t] += scale[row % n] * src[src_off + t];
 }
 
 #ifdef LANES
@@ -403,30 +600,33 @@ typedef CAT(REAL, LANES) VT;
 #define VPUT(v, p, ls) CAT(vstore, LANES)((v), 0, (p))
 #endif
 
-static inline VT vcoef(__global const REAL *src, const long start, const long step, const long ls, const int n,
-                       const int i, const int mode, const REAL cval)
-{
-    if ((unsigned)i < (unsigned)n)
-        return VGET(src + start + (long)i * step, ls);
-    POS f;
-    const int j = coef_index(i, n, mode, &f);
-    const VT v = VGET(src + start + (long)j * step, ls);
-    return mode == 0 ? (VT)cval + (VT)((REAL)f) * (v - (VT)cval) : v;
-}
+EXTENSION(VT, vcoef_, VGET)
 
 static inline VT vcell(__global const REAL *src, const long start, const long step, const long ls, const int n,
                        const int j, const int mode, const REAL cval)
 {
-    return (vcoef(src, start, step, ls, n, j - 1, mode, cval) + (REAL)11 * vcoef(src, start, step, ls, n, j, mode, cval)
-            + (REAL)11 * vcoef(src, start, step, ls, n, j + 1, mode, cval)
-            + vcoef(src, start, step, ls, n, j + 2, mode, cval)) / (REAL)24;
+    return (vcoef_at(src, start, step, ls, n, j - 1, mode, cval)
+            + (REAL)11 * vcoef_at(src, start, step, ls, n, j, mode, cval)
+            + (REAL)11 * vcoef_at(src, start, step, ls, n, j + 1, mode, cval)
+            + vcoef_at(src, start, step, ls, n, j + 2, mode, cval)) / (REAL)24;
+}
+
+static inline VT vcells(__global const REAL *src, const long start, const long step, const long ls, const int n,
+                        const int a, const int b, const int mode, const REAL cval)
+{
+    return vcoef_sum(src, start, step, ls, n, a, b, mode, cval)
+           + (vcoef_at(src, start, step, ls, n, a - 1, mode, cval)
+              - (REAL)12 * vcoef_at(src, start, step, ls, n, a, mode, cval)
+              - vcoef_at(src, start, step, ls, n, a + 1, mode, cval) - vcoef_at(src, start, step, ls, n, b - 1, mode, cval)
+              + (REAL)12 * vcoef_at(src, start, step, ls, n, b, mode, cval)
+              + vcoef_at(src, start, step, ls, n, b + 1, mode, cval)) / (REAL)24;
 }
 
 // n samples per line, lines `step` apart along them; cols: m = M (groups = M / LANES per plane),
 // rows: m = M too (groups = B N / LANES, one plane)
 __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long dst_off, const int n, const int m,
                       const int groups, const POS a0, const POS a1, const POS b0, const POS b1, const int mode,
-                      const REAL cval, const int total)
+                      const REAL cval, const int total, __global const REAL *less, const long less_off)
 {
     const int t = get_global_id(0);
     if (t >= total)
@@ -438,13 +638,7 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
     const long start = (long)b * n * m + (long)(t - b * groups) * LANES, step = m, ls = 1;
 #endif
     int ia = (int)floor(a0), ib = (int)floor(b0);
-    VT sum = 0, comp = 0;
-    for (int j = ia; j < ib; ++j) {
-        const VT y = vcell(src, start, step, ls, n, j, mode, cval) - comp;
-        const VT s = sum + y;
-        comp = (s - sum) - y;
-        sum = s;
-    }
+    VT sum = vcells(src, start, step, ls, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {
         const POS a = a0 + a1 * (POS)k, e = b0 + b1 * (POS)k;
         const int na = (int)floor(a), nb = (int)floor(e);
@@ -468,16 +662,16 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
             const REAL tt = (REAL)(mid - fm);
             VT v = 0;
             for (int p = 0; p < 4; ++p)
-                v += bweight(tt, p) * vcoef(src, start, step, ls, n, im + p - 1, mode, cval);
-            VPUT(v, o, ls);
+                v += bweight(tt, p) * vcoef_at(src, start, step, ls, n, im + p - 1, mode, cval);
+            VPUT(v - VLESS_AT(less + less_off + start + (long)k * step, ls), o, ls);
             continue;
         }
         const REAL fa = (REAL)(a - (POS)ia), fb = (REAL)(e - (POS)ib);
         VT part = 0;
         for (int p = 0; p < 4; ++p)
-            part += bintegral(fb, p) * vcoef(src, start, step, ls, n, ib + p - 1, mode, cval)
-                    - bintegral(fa, p) * vcoef(src, start, step, ls, n, ia + p - 1, mode, cval);
-        VPUT(((sum - comp) + part) / (VT)((REAL)width), o, ls);
+            part += bintegral(fb, p) * vcoef_at(src, start, step, ls, n, ib + p - 1, mode, cval)
+                    - bintegral(fa, p) * vcoef_at(src, start, step, ls, n, ia + p - 1, mode, cval);
+        VPUT(((sum - comp) + part) / (VT)((REAL)width) - VLESS_AT(less + less_off + start + (long)k * step, ls), o, ls);
     }
 }
 
@@ -489,7 +683,8 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
 __kernel void box_shift(__global const REAL *src, __global REAL *dst, const long dst_off, const int n, const int m,
                         const int groups, const int a, const int b, const REAL wa0, const REAL wa1, const REAL wa2,
                         const REAL wa3, const REAL wb0, const REAL wb1, const REAL wb2, const REAL wb3,
-                        const REAL inv_width, const int mode, const REAL cval, const int total)
+                        const REAL inv_width, const int mode, const REAL cval, const int total,
+                        __global const REAL *less, const long less_off)
 {
     const int t = get_global_id(0);
     if (t >= total)
@@ -500,27 +695,22 @@ __kernel void box_shift(__global const REAL *src, __global REAL *dst, const long
     const int pl = t / groups;
     const long start = (long)pl * n * m + (long)(t - pl * groups) * LANES, step = m, ls = 1;
 #endif
-    VT sum = 0, comp = 0;
-    for (int j = a; j < b; ++j) {
-        const VT y = vcoef(src, start, step, ls, n, j, mode, cval) - comp;
-        const VT s = sum + y;
-        comp = (s - sum) - y;
-        sum = s;
-    }
+    VT sum = vcoef_sum(src, start, step, ls, n, a, b, mode, cval), comp = 0;
     // the four coefficients at each end, slid along in registers: two loads per step
-    VT am = vcoef(src, start, step, ls, n, a - 1, mode, cval), a0 = vcoef(src, start, step, ls, n, a, mode, cval);
-    VT ap = vcoef(src, start, step, ls, n, a + 1, mode, cval), aq = vcoef(src, start, step, ls, n, a + 2, mode, cval);
-    VT bm = vcoef(src, start, step, ls, n, b - 1, mode, cval), b0 = vcoef(src, start, step, ls, n, b, mode, cval);
-    VT bp = vcoef(src, start, step, ls, n, b + 1, mode, cval), bq = vcoef(src, start, step, ls, n, b + 2, mode, cval);
+    VT am = vcoef_at(src, start, step, ls, n, a - 1, mode, cval), a0 = vcoef_at(src, start, step, ls, n, a, mode, cval);
+    VT ap = vcoef_at(src, start, step, ls, n, a + 1, mode, cval), aq = vcoef_at(src, start, step, ls, n, a + 2, mode, cval);
+    VT bm = vcoef_at(src, start, step, ls, n, b - 1, mode, cval), b0 = vcoef_at(src, start, step, ls, n, b, mode, cval);
+    VT bp = vcoef_at(src, start, step, ls, n, b + 1, mode, cval), bq = vcoef_at(src, start, step, ls, n, b + 2, mode, cval);
     for (int k = 0; k < n; ++k) {
         const VT ends = (wb0 * bm + wb1 * b0 + wb2 * bp + wb3 * bq) - (wa0 * am + wa1 * a0 + wa2 * ap + wa3 * aq);
-        VPUT(((sum - comp) + ends) * inv_width, dst + dst_off + start + (long)k * step, ls);
+        VPUT(((sum - comp) + ends) * inv_width - VLESS_AT(less + less_off + start + (long)k * step, ls),
+             dst + dst_off + start + (long)k * step, ls);
         const VT y = (b0 - a0) - comp;      // slide: c[B] enters, c[A] leaves
         const VT s = sum + y;
         comp = (s - sum) - y;
         sum = s;
-        am = a0; a0 = ap; ap = aq; aq = vcoef(src, start, step, ls, n, a + k + 3, mode, cval);
-        bm = b0; b0 = bp; bp = bq; bq = vcoef(src, start, step, ls, n, b + k + 3, mode, cval);
+        am = a0; a0 = ap; ap = aq; aq = vcoef_at(src, start, step, ls, n, a + k + 3, mode, cval);
+        bm = b0; b0 = bp; bp = bq; bq = vcoef_at(src, start, step, ls, n, b + k + 3, mode, cval);
     }
 }
 #endif

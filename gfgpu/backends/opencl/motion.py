@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..specs_motion import GREEN_TAIL, MODE_CODES, NARROW
+from ..specs_motion import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, MODE_CODES, NARROW, NEAREST_EDGE, PSF_MIN_CELLS
 
 
 def _plain(be, a, name):
@@ -38,8 +38,10 @@ def _kernel(be, name, dtype, pos, grid=None, **defines):
     grid = pos if grid is None else grid
     return be._kernel(name, dtype, source="motion.cl", POS="double" if pos == np.float64 else "float",
                       GRID="double" if grid == np.float64 else "float", GRID_IS_FLOAT=int(grid == np.float32),
-                      GREEN_TAIL=repr(float(GREEN_TAIL)),
-                      NARROW=repr(float(NARROW)), **defines)
+                      GREEN_TAIL=repr(float(GREEN_TAIL)), NARROW=repr(float(NARROW)),
+                      NEAR_A=repr(NEAREST_EDGE[0]), NEAR_B=repr(NEAREST_EDGE[1]), GAUSS_U0=repr(GAUSS_NODES[0]),
+                      GAUSS_W0=repr(GAUSS_WEIGHTS[0]), GAUSS_W1=repr(GAUSS_WEIGHTS[1]),
+                      MIN_CELLS_G=PSF_MIN_CELLS[1], MIN_CELLS_CG=PSF_MIN_CELLS[3], PAD=_PAD, **defines)
 
 
 def _grid(dtype, pos):
@@ -78,44 +80,52 @@ _VECTOR_BYTES = 32
 #: work-group size of the polar resampling kernels (None: the driver's choice)
 _LOCAL = None
 
-#: rings per work-item of to_polar on a CPU
+#: angles per work-item of to_polar on a CPU
 _CHUNK = 16
 
+#: coefficients that to_polar materialises beyond every border in 'constant' and 'nearest' mode
+#: (read clamped beyond them: the extension to z^32, below 1e-18)
+_PAD = 32
 
-def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval):
+
+def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     src = _plain(be, src, "src")
     dbuf, doff = _written(be, dst, "dst")
+    # less: read where it lies (it may be dst itself); without it the kernels read nothing
+    lbuf, loff = (dbuf, doff) if less is None else _written(be, less, "less")
     dtype, pos = _setup(be, src)
     bsz, rows, cols = (int(s) for s in src.shape)
     lanes = _VECTOR_BYTES // dtype.itemsize
     by_rows = axis == 2 and (bsz * rows) % lanes == 0
+    inputs = [src] if less is None else [src, less]
     if be.kind == "cpu" and (by_rows or (axis == 1 and cols % lanes == 0)):
         # LANES lines per work-item in vector lanes (the window is the same on every line):
         # adjacent columns (contiguous loads) or consecutive rows (loads gathered across them)
         total = bsz * rows // lanes if by_rows else bsz * (cols // lanes)
         groups = total if by_rows else cols // lanes
         n = cols if by_rows else rows
+        defines = dict(LANES=lanes, ROWS=int(by_rows), LESS=int(less is not None))
         if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
             a, b = int(np.floor(a0)), int(np.floor(b0))
             wa, wb = (_end_weights(x - np.floor(x)) for x in (a0, b0))
-            be._launch(_kernel(be, "box_shift", dtype, pos, LANES=lanes, ROWS=int(by_rows)), (total,), (1,), [src],
-                       [dst], (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
-                               np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
-                               dtype.type(1.0 / (b0 - a0)), np.int32(MODE_CODES[mode]), dtype.type(cval),
-                               np.int32(total)))
+            be._launch(_kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
+                       (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
+                        np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
+                        dtype.type(1.0 / (b0 - a0)), np.int32(MODE_CODES[mode]), dtype.type(cval),
+                        np.int32(total), lbuf, loff))
             return dst
-        be._launch(_kernel(be, "box_vec", dtype, pos, LANES=lanes, ROWS=int(by_rows)), (total,), (1,), [src], [dst],
+        be._launch(_kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
                    (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
-                    pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval), np.int32(total)))
+                    pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval), np.int32(total), lbuf, loff))
         return dst
     n, lines = (cols, rows) if axis == 2 else (rows, cols)
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
     total = bsz * lines
     gsize, lsize = _group(be, total)
-    be._launch(_kernel(be, "box_lines", dtype, pos), (gsize,), (lsize,), [src], [dst],
+    be._launch(_kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs, [dst],
                (src.data, dbuf, np.int32(n), np.int32(lines), np.int64(rows * cols), np.int64(line_stride),
                 np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval),
-                np.int32(total), doff))
+                np.int32(total), doff, lbuf, loff))
     return dst
 
 
@@ -130,38 +140,69 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     return out
 
 
-def launch_to_polar(be, coef, out, cy, cx, mode, cval):
+def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     coef = _plain(be, coef, "coef")
     obuf, ooff = _written(be, out, "out")
     dtype, pos = _setup(be, coef)
     grid = _grid(dtype, pos)
     bsz, h, w = (int(s) for s in coef.shape)
-    n_phi, n_r = int(out.shape[1]), int(out.shape[2])
+    n_r, n_phi = int(out.shape[1]), int(out.shape[2])
     phi = 2.0 * np.pi * np.arange(n_phi) / n_phi
     trig = be.asarray(np.stack([np.cos(phi), np.sin(phi)], axis=1).astype(grid).reshape(-1))
-    # the modes as build constants where every coefficient read lies within one period of the image
-    reach = n_r + 3
-    near = mode in ("constant", "nearest") or (cy - reach >= -(h - 3) and cy + reach <= 2 * h - 4
-                                               and cx - reach >= -(w - 3) and cx + reach <= 2 * w - 4)
-    fast = {"MODE_Y": MODE_CODES[mode], "MODE_X": MODE_CODES[mode]} if near and h > 3 and w > 3 else {}
+    fast = {}
+    if mode in ("constant", "nearest"):
+        # the extension materialised _PAD coefficients beyond every border, then read clamped
+        h, w, cy, cx = h + 2 * _PAD, w + 2 * _PAD, cy + _PAD, cx + _PAD
+        padded = be.empty((bsz, h, w), dtype)
+        be._launch(_kernel(be, "pad_coef", dtype, pos), _global((w, h)), _LOCAL, [coef], [padded],
+                   (coef.data, padded.data, np.int32(h - 2 * _PAD), np.int32(w - 2 * _PAD), np.int32(bsz),
+                    np.int32(MODE_CODES[mode]), dtype.type(cval)))
+        coef, mode, fast = padded, "nearest", {"MODE_Y": MODE_CODES["nearest"], "MODE_X": MODE_CODES["nearest"]}
+    else:
+        # the modes as build constants where every coefficient read lies within one period of the image
+        reach = r0 + n_r + 3
+        if (h > 3 and w > 3 and cy - reach >= -(h - 3) and cy + reach <= 2 * h - 4 and cx - reach >= -(w - 3)
+                and cx + reach <= 2 * w - 4):
+            fast = {"MODE_Y": MODE_CODES[mode], "MODE_X": MODE_CODES[mode]}
     chunk = _CHUNK if be.kind == "cpu" else 1
-    be._launch(_kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_r // chunk), n_phi)),
+    be._launch(_kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_phi // chunk), n_r)),
                _LOCAL, [coef, trig], [out],
                (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
-                np.int32(bsz), grid(cy), grid(cx), np.int32(MODE_CODES[mode]), dtype.type(cval)))
+                np.int32(bsz), grid(cy), grid(cx), np.int32(r0), np.int32(MODE_CODES[mode]), dtype.type(cval)))
     return out
 
 
-def launch_from_polar(be, pcoef, out, cy, cx):
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
     pcoef = _plain(be, pcoef, "pcoef")
     obuf, ooff = _written(be, out, "out")
+    bbuf, boff = _written(be, base, "base")      # base may be out
     dtype, pos = _setup(be, pcoef)
     grid = _grid(dtype, pos)
-    bsz, n_phi, n_r = (int(s) for s in pcoef.shape)
+    bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
-    # radius within the rings (mirrored at 0), angle within one turn: always near
-    fast = {"MODE_Y": MODE_CODES["wrap"], "MODE_X": MODE_CODES["mirror"]} if n_r > 3 and n_phi > 3 else {}
-    be._launch(_kernel(be, "from_polar", dtype, pos, grid, **fast), _global((w, h)), _LOCAL, [pcoef], [out],
-               (pcoef.data, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi), np.int32(bsz),
-                grid(cy), grid(cx)))
+    x0, y0, x1, y1 = 0, 0, w, h
+    reach = min(float(r_hi), 4.0 * (h + w))     # beyond every pixel: the centre lies within 2 diagonals
+    if bbuf == obuf and boff == ooff:       # in place: only the pixels within r_hi of the centre change
+        x0, y0 = max(0, int(np.floor(cx - reach))), max(0, int(np.floor(cy - reach)))
+        x1, y1 = min(w, int(np.ceil(cx + reach)) + 1), min(h, int(np.ceil(cy + reach)) + 1)
+        if x1 <= x0 or y1 <= y0:
+            return out
+    # radius within the band's rings (mirrored at their ends), angle within one turn: always near
+    fast = {"MODE_Y": MODE_CODES["mirror"], "MODE_X": MODE_CODES["wrap"]} if n_r > 3 and n_phi > 3 else {}
+    be._launch(_kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
+               [pcoef, base], [out],
+               (pcoef.data, bbuf, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
+                np.int32(bsz), grid(cy), grid(cx), np.int32(r0), grid(r_lo), grid(reach),
+                np.int32(x0), np.int32(y0), np.int32(x1 - x0), np.int32(y1 - y0), boff, grid(keep)))
     return out
+
+
+def launch_add_rows(be, src, dst, scale):
+    sbuf, soff = _written(be, src, "src")        # src may be dst
+    dbuf, doff = _written(be, dst, "dst")
+    dtype, pos = _setup(be, dst)
+    bsz, n, m = (int(s) for s in dst.shape)
+    weights = be.asarray(np.ascontiguousarray(scale, dtype))
+    be._launch(_kernel(be, "add_rows", dtype, pos), _global((m, bsz * n)), _LOCAL, [src, weights], [dst],
+               (sbuf, dbuf, doff, weights.data, np.int32(n), np.int32(m), np.int32(bsz * n), soff))
+    return dst

@@ -15,7 +15,16 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from ..specs_motion import GREEN_TAIL, MODE_CODES, NARROW, SPLINE_POLE
+from ..specs_motion import (
+    GAUSS_NODES,
+    GAUSS_WEIGHTS,
+    GREEN_TAIL,
+    MODE_CODES,
+    NARROW,
+    NEAREST_EDGE,
+    PSF_MIN_CELLS,
+    SPLINE_POLE,
+)
 
 wp.set_module_options({"enable_backward": False})
 
@@ -23,6 +32,13 @@ _Z = wp.constant(wp.float64(SPLINE_POLE))
 _TAIL = wp.constant(wp.float64(GREEN_TAIL))
 _NARROW = wp.constant(wp.float64(NARROW))
 _TWO_PI = wp.constant(wp.float64(2.0 * np.pi))
+_NEAR_A = wp.constant(wp.float64(NEAREST_EDGE[0]))
+_NEAR_B = wp.constant(wp.float64(NEAREST_EDGE[1]))
+_GU0 = wp.constant(wp.float64(GAUSS_NODES[0]))
+_GW0 = wp.constant(wp.float64(GAUSS_WEIGHTS[0]))
+_GW1 = wp.constant(wp.float64(GAUSS_WEIGHTS[1]))
+_MIN_G = wp.constant(PSF_MIN_CELLS[1])
+_MIN_CG = wp.constant(PSF_MIN_CELLS[3])
 
 
 @wp.func
@@ -57,25 +73,131 @@ def _extend(i: int, n: int, mode: int):
 
 
 @wp.func
-def _coef_index(i: int, n: int, mode: int):
-    """``(index, factor)`` of spline coefficient ``i`` (specs_motion._spline_index)."""
+def _pole_power(m: int):
+    """``z^m`` for ``m >= 0``; 0 beyond ``m = 64`` (below 1e-36)."""
+    f = wp.float64(1.0)
+    for _k in range(wp.min(m, 65)):
+        f = f * _Z
+    if m > 64:
+        f = wp.float64(0.0)
+    return f
+
+
+@wp.func
+def _geometric(m: int):
+    """``Σ_{k=1}^{m} z^k``, ``m >= 0``."""
+    return _Z * (wp.float64(1.0) - _pole_power(m)) / (wp.float64(1.0) - _Z)
+
+
+@wp.func
+def _coef_taps(i: int, n: int, mode: int):
+    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (specs_motion.coef_taps)."""
+    if i >= 0 and i < n:
+        return i, wp.float64(1.0), i, wp.float64(0.0)
+    if mode >= 2:
+        j = _extend(i, n, mode)
+        return j, wp.float64(1.0), j, wp.float64(0.0)
+    j0 = 0
+    j1 = wp.min(1, n - 1)
+    m = -i
+    if i >= n:
+        j0 = n - 1
+        j1 = wp.max(n - 2, 0)
+        m = i - n + 1
+    f = _pole_power(m)
     if mode == 0:
-        j = wp.clamp(i, 0, n - 1)
-        m = wp.abs(i - j)
-        f = wp.float64(1.0)
-        for _k in range(m):
-            f = f * _Z
-        return j, f
-    return _extend(i, n, mode), wp.float64(1.0)
+        return j0, f, j0, wp.float64(0.0)
+    return j0, f + (wp.float64(1.0) - f) * _NEAR_A, j1, (wp.float64(1.0) - f) * _NEAR_B
+
+
+@wp.func
+def _edge(src: wp.array(dtype=Any), start: int, step: int, n: int, right: int, mode: int, cval: Any):
+    """The extension's value beyond the left (right) end: ``cval``, or the edge sample for 'nearest'."""
+    if mode != 1:
+        return cval
+    j = 0
+    j1 = wp.min(1, n - 1)
+    if right != 0:
+        j = n - 1
+        j1 = wp.max(n - 2, 0)
+    return src.dtype(_NEAR_A) * src[start + j * step] + src.dtype(_NEAR_B) * src[start + j1 * step]
 
 
 @wp.func
 def _coef(src: wp.array(dtype=Any), start: int, step: int, n: int, i: int, mode: int, cval: Any):
     """Coefficient ``i`` of the line at ``start`` (stride ``step``), extended by ``mode``."""
-    j, f = _coef_index(i, n, mode)
-    if mode == 0:
-        return cval + src.dtype(f) * (src[start + j * step] - cval)
-    return src[start + j * step]
+    if i >= 0 and i < n:
+        return src[start + i * step]
+    if mode >= 2:
+        return src[start + _extend(i, n, mode) * step]
+    right = 0
+    j = 0
+    m = -i
+    if i >= n:
+        right = 1
+        j = n - 1
+        m = i - n + 1
+    c = src[start + j * step]
+    e = _edge(src, start, step, n, right, mode, cval)
+    return e + src.dtype(_pole_power(m)) * (c - e)
+
+
+@wp.func
+def _coef_run(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b: int, mode: int, cval: Any):
+    """``Σ_{a <= i < b}`` of the extended coefficients, by a compensated loop."""
+    total = src.dtype(0.0)
+    comp = src.dtype(0.0)
+    for i in range(a, b):
+        y = _coef(src, start, step, n, i, mode, cval) - comp
+        s = total + y
+        comp = (s - total) - y
+        total = s
+    return total - comp
+
+
+@wp.func
+def _coef_sum(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b: int, mode: int, cval: Any):
+    """``Σ_{a <= i < b}`` of the extended coefficients in O(n) whatever ``b - a``
+    (specs_motion._coef_prefix): whole periods, or the geometric tails, in closed form."""
+    total = src.dtype(0.0)
+    if b > a:
+        if mode >= 2:
+            per = n
+            if mode == 3:
+                per = 2 * n
+            if mode == 4:
+                per = wp.max(2 * n - 2, 1)
+            if b - a <= 3 * per:
+                total = _coef_run(src, start, step, n, a, b, mode, cval)
+            else:
+                a1 = a + ((-a) % per + per) % per      # whole periods [a1, b1)
+                b1 = b - (b % per + per) % per
+                total = (_coef_run(src, start, step, n, a, a1, mode, cval)
+                         + _coef_run(src, start, step, n, b1, b, mode, cval)
+                         + src.dtype((b1 - a1) / per) * _coef_run(src, start, step, n, 0, per, mode, cval))
+        else:
+            if a < 0:
+                top = wp.min(b, 0)
+                e = _edge(src, start, step, n, 0, mode, cval)
+                total = total + src.dtype(top - a) * e + src.dtype(_geometric(-a) - _geometric(-top)) * (src[start] - e)
+            if wp.max(a, 0) < wp.min(b, n):
+                total = total + _coef_run(src, start, step, n, wp.max(a, 0), wp.min(b, n), mode, cval)
+            if b > n:
+                bottom = wp.max(a, n)
+                e = _edge(src, start, step, n, 1, mode, cval)
+                total = total + src.dtype(b - bottom) * e + src.dtype(_geometric(b - n) - _geometric(bottom - n)) * (
+                    src[start + (n - 1) * step] - e)
+    return total
+
+
+@wp.func
+def _cells(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b: int, mode: int, cval: Any):
+    """The spline's whole cells ``j`` in ``[a, b)``: the coefficients' sum plus three at each end."""
+    ends = (_coef(src, start, step, n, a - 1, mode, cval) - src.dtype(12.0) * _coef(src, start, step, n, a, mode, cval)
+            - _coef(src, start, step, n, a + 1, mode, cval) - _coef(src, start, step, n, b - 1, mode, cval)
+            + src.dtype(12.0) * _coef(src, start, step, n, b, mode, cval)
+            + _coef(src, start, step, n, b + 1, mode, cval))
+    return _coef_sum(src, start, step, n, a, b, mode, cval) + ends / src.dtype(24.0)
 
 
 @wp.func
@@ -129,21 +251,17 @@ def _partial(src: wp.array(dtype=Any), start: int, step: int, n: int, j: int, f:
 @wp.kernel
 def box_lines(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), n: int, lines: int, batch_stride: int,
               line_stride: int, step: int, a0: wp.float64, a1: wp.float64, b0: wp.float64, b1: wp.float64,
-              mode: int, cval: Any):
+              mode: int, cval: Any, less: wp.array(dtype=Any), has_less: int):
     """One line per thread: the window means of box_lines_reference, by one running sum of whole
-    cells (compensated) plus the two partial cells at the window's ends."""
+    cells (compensated; the first window's in closed form) plus the two partial cells at the
+    window's ends."""
     t = wp.tid()
     b = t / lines
     start = b * batch_stride + (t - b * lines) * line_stride
     ia = int(wp.floor(a0))
     ib = int(wp.floor(b0))
-    total = src.dtype(0.0)
+    total = _cells(src, start, step, n, ia, ib, mode, cval)
     comp = src.dtype(0.0)
-    for j in range(ia, ib):
-        y = _cell(src, start, step, n, j, mode, cval) - comp
-        s = total + y
-        comp = (s - total) - y
-        total = s
     for k in range(n):
         a = a0 + a1 * wp.float64(k)
         e = b0 + b1 * wp.float64(k)
@@ -162,21 +280,26 @@ def box_lines(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), n: int, lines:
             total = s
             ia = ia + 1
         width = e - a
+        value = src.dtype(0.0)
         if width < _NARROW:     # the spline at the middle (specs_motion.NARROW)
             m = wp.float64(0.5) * (a + e)
             im = int(wp.floor(m))
             pm, vm = _partial(src, start, step, n, im, m - wp.float64(im), mode, cval)
-            dst[start + k * step] = vm
+            value = vm
         else:
             pa, va = _partial(src, start, step, n, ia, a - wp.float64(ia), mode, cval)
             pb, vb = _partial(src, start, step, n, ib, e - wp.float64(ib), mode, cval)
-            dst[start + k * step] = ((total - comp) + pb - pa) / src.dtype(width)
+            value = ((total - comp) + pb - pa) / src.dtype(width)
+        if has_less != 0:      # dst may be less: the element is read before it is written
+            value = value - less[start + k * step]
+        dst[start + k * step] = value
 
 
 @wp.func
 def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64, px: wp.float64,
             mode_y: int, mode_x: int, cval: Any):
-    """The 2-D cubic B-spline of one plane at ``(py, px)`` (specs_motion.spline_sample)."""
+    """The 2-D cubic B-spline of one plane at ``(py, px)`` (specs_motion.spline_sample); beyond the
+    border a coefficient may weigh two ('nearest')."""
     fy = wp.floor(py)
     fx = wp.floor(px)
     iy = int(fy)
@@ -188,16 +311,18 @@ def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64
         base = cval
     acc = src.dtype(0.0)
     for p in range(4):
-        ry, gy = _coef_index(iy + p - 1, h, mode_y)
-        wy = _weight(ty, p) * gy
-        row = src.dtype(0.0)
+        ry0, gy0, ry1, gy1 = _coef_taps(iy + p - 1, h, mode_y)
+        row0 = src.dtype(0.0)
+        row1 = src.dtype(0.0)
         for q in range(4):
-            rx, gx = _coef_index(ix + q - 1, w, mode_x)
-            v = base
-            if ry >= 0 and rx >= 0:
-                v = src[plane + ry * w + rx]
-            row = row + src.dtype(_weight(tx, q) * gx) * (v - base)
-        acc = acc + src.dtype(wy) * row
+            rx0, gx0, rx1, gx1 = _coef_taps(ix + q - 1, w, mode_x)
+            wx0 = src.dtype(_weight(tx, q) * gx0)
+            wx1 = src.dtype(_weight(tx, q) * gx1)
+            row0 = row0 + wx0 * (src[plane + ry0 * w + rx0] - base) + wx1 * (src[plane + ry0 * w + rx1] - base)
+            if gy1 != wp.float64(0.0):
+                row1 = row1 + wx0 * (src[plane + ry1 * w + rx0] - base) + wx1 * (src[plane + ry1 * w + rx1] - base)
+        wy = _weight(ty, p)
+        acc = acc + src.dtype(wy * gy0) * row0 + src.dtype(wy * gy1) * row1
     return acc + base
 
 
@@ -230,10 +355,29 @@ def _cdf(psf: int, t: wp.float64, t0: wp.float64, t1: wp.float64):
     return wp.float64(0.5) + c
 
 
+@wp.func
+def _density(psf: int, t: wp.float64):
+    """G_u's density at ``t`` (specs_motion.psf_density; psf 1 or 3)."""
+    if psf == 1:
+        return wp.float64(2.0) * wp.exp(-t) * wp.sin(t)
+    s = wp.float64(2.0) * wp.abs(t)
+    return wp.exp(-s) * (wp.cos(s) + wp.sin(s))
+
+
+@wp.func
+def _node_weight(psf: int, g: wp.float64, q: wp.float64, mass: wp.float64, rest: wp.float64):
+    """Weight of one Gauss-Legendre node: its share of the cell's mass (box), or the quadrature
+    weight ``q`` plus its share of what the quadrature missed (G_u)."""
+    if psf == 0 or psf == 2:
+        return g * mass
+    return q + g * rest
+
+
 @wp.kernel
 def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
                psf: int, density: wp.float64, mode: int, cval: Any):
-    """One thread per output pixel: its own path's samples (field_blur_reference)."""
+    """One thread per output pixel: its own path in cells of three Gauss-Legendre nodes
+    (field_blur_reference)."""
     t = wp.tid()
     plane = t / (h * w)
     pix = t - plane * h * w
@@ -243,38 +387,66 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
     vx = wp.float64(field[h * w + pix])
     t0, t1 = _support(psf)
     span = t1 - t0
-    n = wp.max(1, int(wp.ceil(wp.max(wp.abs(vy), wp.abs(vx)) * span * density - wp.float64(1e-9))))
+    length = wp.max(wp.abs(vy), wp.abs(vx))
+    fewest = 1
+    if psf == 1:
+        fewest = _MIN_G
+    if psf == 3:
+        fewest = _MIN_CG
+    n = 1
+    if length > wp.float64(0.0):
+        n = wp.max(fewest, int(wp.ceil(length * span * density - wp.float64(1e-9))))
     acc = coef.dtype(0.0)
     prev = wp.float64(0.0)
     for k in range(n):
         ta = t0 + span * wp.float64(k) / wp.float64(n)
         tb = t0 + span * wp.float64(k + 1) / wp.float64(n)
         c = _cdf(psf, tb, t0, t1)
-        tm = wp.float64(0.5) * (ta + tb)
-        s = _spline(coef, plane * h * w, h, w, wp.float64(y) - tm * vy, wp.float64(x) - tm * vx, mode, mode, cval)
-        acc = acc + coef.dtype(c - prev) * s
+        mass = c - prev
         prev = c
+        s0 = ta + _GU0 * (tb - ta)
+        s1 = ta + wp.float64(0.5) * (tb - ta)
+        s2 = ta + (wp.float64(1.0) - _GU0) * (tb - ta)
+        q0 = wp.float64(0.0)
+        q1 = wp.float64(0.0)
+        q2 = wp.float64(0.0)
+        if psf == 1 or psf == 3:
+            q0 = (tb - ta) * _GW0 * _density(psf, s0)
+            q1 = (tb - ta) * _GW1 * _density(psf, s1)
+            q2 = (tb - ta) * _GW0 * _density(psf, s2)
+        rest = mass - (q0 + q1 + q2)
+        base = plane * h * w
+        acc = acc + coef.dtype(_node_weight(psf, _GW0, q0, mass, rest)) * _spline(
+            coef, base, h, w, wp.float64(y) - s0 * vy, wp.float64(x) - s0 * vx, mode, mode, cval)
+        acc = acc + coef.dtype(_node_weight(psf, _GW1, q1, mass, rest)) * _spline(
+            coef, base, h, w, wp.float64(y) - s1 * vy, wp.float64(x) - s1 * vx, mode, mode, cval)
+        acc = acc + coef.dtype(_node_weight(psf, _GW0, q2, mass, rest)) * _spline(
+            coef, base, h, w, wp.float64(y) - s2 * vy, wp.float64(x) - s2 * vx, mode, mode, cval)
     out[t] = acc
 
 
 @wp.kernel
 def to_polar(coef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int, n_r: int, n_phi: int,
-             cy: wp.float64, cx: wp.float64, mode: int, cval: Any):
-    """One thread per polar sample (to_polar_reference): layout (B, n_phi, n_r), radius last."""
+             cy: wp.float64, cx: wp.float64, r0: int, mode: int, cval: Any):
+    """One thread per polar sample (to_polar_reference): layout (B, n_r, n_phi), angle last, ring i
+    at radius r0 + i."""
     t = wp.tid()
     plane = t / (n_r * n_phi)
     rest = t - plane * n_r * n_phi
-    j = rest / n_r
-    i = rest - j * n_r
-    r = wp.float64(i)
+    i = rest / n_phi
+    j = rest - i * n_phi
+    r = wp.float64(r0 + i)
     phi = _TWO_PI * wp.float64(j) / wp.float64(n_phi)
     out[t] = _spline(coef, plane * h * w, h, w, cy - r * wp.sin(phi), cx + r * wp.cos(phi), mode, mode, cval)
 
 
 @wp.kernel
-def from_polar(pcoef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int, n_r: int, n_phi: int,
-               cy: wp.float64, cx: wp.float64):
-    """One thread per pixel (from_polar_reference): angle wraps, radius mirrors."""
+def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
+               n_r: int, n_phi: int, cy: wp.float64, cx: wp.float64, r0: int, r_lo: wp.float64, r_hi: wp.float64,
+               keep: wp.float64):
+    """One thread per pixel (from_polar_reference): ``base``, at the radii ``[r_lo, r_hi)`` weighted
+    by ``1/(1 + (keep r)^2)`` plus the polar spline of a band from ring ``r0``, whose radius mirrors
+    and angle wraps (``out`` may be ``base``)."""
     t = wp.tid()
     plane = t / (h * w)
     pix = t - plane * h * w
@@ -287,15 +459,29 @@ def from_polar(pcoef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: 
     if phi < wp.float64(0.0):
         phi = phi + _TWO_PI
     jf = phi * wp.float64(n_phi) / _TWO_PI
-    out[t] = _spline(pcoef, plane * n_r * n_phi, n_phi, n_r, jf, r, 2, 4, pcoef.dtype(0.0))
+    value = base[t]
+    if r >= r_lo and r < r_hi:
+        kr = keep * r
+        change = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, r - wp.float64(r0), jf, 4, 2, pcoef.dtype(0.0))
+        value = pcoef.dtype(wp.float64(1.0) / (wp.float64(1.0) + kr * kr)) * value + change
+    out[t] = value
+
+
+@wp.kernel
+def add_rows(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), scale: wp.array(dtype=Any), n: int, m: int):
+    """One thread per element: ``dst += scale[i] src`` (add_rows_reference)."""
+    t = wp.tid()
+    i = (t / m) % n
+    dst[t] = dst[t] + scale[i] * src[t]
 
 
 for _real in (wp.float32, wp.float64):
     _a = wp.array(dtype=_real)
-    wp.overload(box_lines, {"src": _a, "dst": _a, "cval": _real})
+    wp.overload(box_lines, {"src": _a, "dst": _a, "cval": _real, "less": _a})
     wp.overload(field_blur, {"coef": _a, "field": _a, "out": _a, "cval": _real})
     wp.overload(to_polar, {"coef": _a, "out": _a, "cval": _real})
-    wp.overload(from_polar, {"pcoef": _a, "out": _a})
+    wp.overload(from_polar, {"pcoef": _a, "base": _a, "out": _a})
+    wp.overload(add_rows, {"src": _a, "dst": _a, "scale": _a})
 del _real, _a
 
 
@@ -307,14 +493,15 @@ def _real(be, a):
     return be._wp.float64 if be.dtype_of(a) == np.float64 else be._wp.float32
 
 
-def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval):
+def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     bsz, rows, cols = (int(s) for s in src.shape)
     n, lines = (cols, rows) if axis == 2 else (rows, cols)
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
     real = _real(be, src)
     be._wp.launch(box_lines, dim=bsz * lines, device=be._device,
                   inputs=[_flat(be, src), _flat(be, dst), n, lines, rows * cols, line_stride, step, wp.float64(a0),
-                          wp.float64(a1), wp.float64(b0), wp.float64(b1), MODE_CODES[mode], real(cval)])
+                          wp.float64(a1), wp.float64(b0), wp.float64(b1), MODE_CODES[mode], real(cval),
+                          _flat(be, dst if less is None else less), int(less is not None)])
     return dst
 
 
@@ -327,20 +514,29 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     return out
 
 
-def launch_to_polar(be, coef, out, cy, cx, mode, cval):
+def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     bsz, h, w = (int(s) for s in coef.shape)
-    n_phi, n_r = int(out.shape[1]), int(out.shape[2])
+    n_r, n_phi = int(out.shape[1]), int(out.shape[2])
     real = _real(be, coef)
     be._wp.launch(to_polar, dim=bsz * n_r * n_phi, device=be._device,
-                  inputs=[_flat(be, coef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx),
+                  inputs=[_flat(be, coef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx), int(r0),
                           MODE_CODES[mode], real(cval)])
     return out
 
 
-def launch_from_polar(be, pcoef, out, cy, cx):
-    bsz, n_phi, n_r = (int(s) for s in pcoef.shape)
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
+    bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
     be._wp.launch(from_polar, dim=bsz * h * w, device=be._device,
-                  inputs=[_flat(be, pcoef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx)])
+                  inputs=[_flat(be, pcoef), _flat(be, base), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy),
+                          wp.float64(cx), int(r0), wp.float64(r_lo), wp.float64(min(float(r_hi), 1e300)),
+                          wp.float64(keep)])
     return out
 
+
+def launch_add_rows(be, src, dst, scale):
+    bsz, n, m = (int(s) for s in dst.shape)
+    weights = be.asarray(np.ascontiguousarray(scale, np.float64 if be.dtype_of(dst) == np.float64 else np.float32))
+    be._wp.launch(add_rows, dim=bsz * n * m, device=be._device,
+                  inputs=[_flat(be, src), _flat(be, dst), weights, n, m])
+    return dst
