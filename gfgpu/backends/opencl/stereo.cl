@@ -256,11 +256,28 @@ static inline ushort16 window_column(__global const uchar *ham, const int y, con
     return s;
 }
 
+// Output pixel x's block sums, saturated at COST_MAX, -1 where the sample is out of view:
+// r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
+static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t *dst, const int x, const int r,
+                                            const int w, const int first_step, const int steps)
+{
+    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const long hi = (long)(x - r + 1) * steps - 1 - first_step;
+    const long lo = (long)(x + r - (w - 1)) * steps - first_step;
+    const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
+    const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
+    UNROLL_NV
+    for (int j = 0; j < NV; ++j) {
+        const short16 k = lane + (short16)(16 * j);
+        const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
+        STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
+    }
+}
+
 __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const int h, const int w,
                         const int block, const int first_step, const int steps, const int y0,
                         const int rows, const int ham_row0, const int out_row0)
 {
-    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const int i = get_global_id(0), y = y0 + i;
     if (i >= rows || y >= h)
         return;
@@ -276,20 +293,12 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
     for (int x = 0; x < w; ++x, dst += N_DISP) {
         const int add = min(x + r, w - 1), sub = max(x - 1 - r, 0);
         const int moved = x > 0 && add != sub;     // the window moved to columns [x-r, x+r] (clamped)
-        // in view: r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
-        const long hi = (long)(x - r + 1) * steps - 1 - first_step;
-        const long lo = (long)(x + r - (w - 1)) * steps - first_step;
-        const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
-        const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
         UNROLL_NV
-        for (int j = 0; j < NV; ++j) {
+        for (int j = 0; j < NV; ++j)
             if (moved)
                 sum[j] += window_column(ham, y, add, h, w, r, j, ham_row0) -
                           window_column(ham, y, sub, h, w, r, j, ham_row0);
-            const short16 k = lane + (short16)(16 * j);
-            const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
-            STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
-        }
+        store_block_costs(sum, dst, x, r, w, first_step, steps);
     }
 }
 
@@ -337,7 +346,6 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
                          const int steps, const int y0, const int rows, const int out_row0, const int splits,
                          const int slot_cols)
 {
-    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const int g = get_global_id(0), r = BLOCK / 2;
     if (g >= splits)
         return;
@@ -363,19 +371,11 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
         for (int x = xa; x < xb; ++x, dst += N_DISP) {
             const int add = min(x + r, w - 1) - ca, sub = max(x - 1 - r, 0) - ca;
             const int moved = x > xa && add != sub;
-            // in view: r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
-            const long hi = (long)(x - r + 1) * steps - 1 - first_step;
-            const long lo = (long)(x + r - (w - 1)) * steps - first_step;
-            const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
-            const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
             UNROLL_NV
-            for (int j = 0; j < NV; ++j) {
+            for (int j = 0; j < NV; ++j)
                 if (moved)
                     sum[j] += ring_column(ring, slot, add, j) - ring_column(ring, slot, sub, j);
-                const short16 k = lane + (short16)(16 * j);
-                const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
-                STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
-            }
+            store_block_costs(sum, dst, x, r, w, first_step, steps);
         }
     }
 }
