@@ -600,6 +600,15 @@ typedef CAT(REAL, LANES) VT;
 #define VPUT(v, p, ls) CAT(vstore, LANES)((v), 0, (p))
 #endif
 
+// Work-item t's LANES lines: their first element `start`, the step along a line and between lanes
+#if ROWS
+#define LANE_GROUP(t, n, m, groups) const long start = (long)(t) * LANES * (m), step = 1, ls = (m)
+#else
+#define LANE_GROUP(t, n, m, groups)                                                                      \
+    const int plane_ = (t) / (groups);                                                                   \
+    const long start = (long)plane_ * (n) * (m) + (long)((t) - plane_ * (groups)) * LANES, step = (m), ls = 1
+#endif
+
 EXTENSION(VT, vcoef_, VGET)
 
 static inline VT vcell(__global const REAL *src, const long start, const long step, const long ls, const int n,
@@ -631,12 +640,7 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
     const int t = get_global_id(0);
     if (t >= total)
         return;
-#if ROWS
-    const long start = (long)t * LANES * m, step = 1, ls = m;
-#else
-    const int b = t / groups;
-    const long start = (long)b * n * m + (long)(t - b * groups) * LANES, step = m, ls = 1;
-#endif
+    LANE_GROUP(t, n, m, groups);
     int ia = (int)floor(a0), ib = (int)floor(b0);
     VT sum = vcells(src, start, step, ls, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {
@@ -689,12 +693,7 @@ __kernel void box_shift(__global const REAL *src, __global REAL *dst, const long
     const int t = get_global_id(0);
     if (t >= total)
         return;
-#if ROWS
-    const long start = (long)t * LANES * m, step = 1, ls = m;
-#else
-    const int pl = t / groups;
-    const long start = (long)pl * n * m + (long)(t - pl * groups) * LANES, step = m, ls = 1;
-#endif
+    LANE_GROUP(t, n, m, groups);
     VT sum = vcoef_sum(src, start, step, ls, n, a, b, mode, cval), comp = 0;
     // the four coefficients at each end, slid along in registers: two loads per step
     VT am = vcoef_at(src, start, step, ls, n, a - 1, mode, cval), a0 = vcoef_at(src, start, step, ls, n, a, mode, cval);
