@@ -495,6 +495,8 @@ def test_memory_estimate_counts_the_cost_kernels_ring_of_window_rows(require_bac
     assert small == stereo.disparity_memory((64, 300), 99, window=3, backend=be)
     wide = stereo.disparity_memory((64, 300), 99, window=15, backend=be)
     assert wide - small >= 12 * 300 * (99 * 2 + 1)
+    with pytest.raises(ValueError, match="window"):
+        stereo.disparity_memory((64, 300), 99, window=4, backend=be)
 
 
 def test_gpu_code_path_of_the_matcher_runs_on_the_cpu_device(require_backend, monkeypatch):

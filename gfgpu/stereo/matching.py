@@ -535,7 +535,10 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
     Raises
     ------
     ValueError
-        ``shape`` not 2 or 3 positive integers, or an empty disparity range.
+        ``shape`` not 2 or 3 positive integers, an empty disparity range, or ``window`` not odd
+        in 1..15 (``"sgm"``).
+    TypeError
+        ``window`` not an integer.
 
     Examples
     --------
@@ -550,9 +553,12 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
     px = shp[0] * shp[1]
     if method != "sgm":
         return px * 4 * (SWEEP_PLANES + 12)
+    block = 3 if window is None else _int_arg(window, "window")
+    if block < 1 or block % 2 == 0 or block > 15:
+        raise ValueError(f"window must be odd, 1..15, for method 'sgm'; got {window}")
     be = resolve_backend(backend, device)
     return _sgm_memory(be, shp[:2], (int(max_disparity) - int(min_disparity)) * int(subpixel_steps) + 1,
-                       int(subpixel_steps), paths, _budget(be), block=3 if window is None else int(window))
+                       int(subpixel_steps), paths, _budget(be), block=block)
 
 
 def _sgm_base(shape, steps):
