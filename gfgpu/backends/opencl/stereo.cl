@@ -620,20 +620,112 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
 
 #endif  // COST_BYTES
 
-// Lane k of the result takes lane k + 1 of the vectors a[] (fill after the last).
-#define SHIFT_DOWN(a, j, fill) ((short16)(a[j].s1234, a[j].s5678, a[j].s9abc, a[j].sdef,          \
-                                          (j) + 1 < NV ? a[((j) + 1) % NV].s0 : (fill)))
+// Lane k of the result takes lane k + STEPS of the vectors a[] (fill after the last): the next
+// sample of the same sub-pixel phase (STEPS = subpixel steps, 1..4, a build option)
+#if STEPS == 1
+#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s1234, a[j].s5678, a[j].s9abc, a[j].sdef,         \
+                                           (j) + 1 < NV ? a[((j) + 1) % NV].s0 : (short)(fill)))
+#elif STEPS == 2
+#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s2345, a[j].s6789, a[j].sabcd, a[j].sef,          \
+                                           (j) + 1 < NV ? a[((j) + 1) % NV].s01 : (short2)(fill)))
+#elif STEPS == 3
+#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s3456, a[j].s789a, a[j].sbcde, a[j].sf,           \
+                                           (j) + 1 < NV ? a[((j) + 1) % NV].s012 : (short3)(fill)))
+#elif STEPS == 4
+#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s4567, a[j].s89ab, a[j].scdef,                    \
+                                           (j) + 1 < NV ? a[((j) + 1) % NV].s0123 : (short4)(fill)))
+#endif
 
 // Winner-take-all for both views, one work-item per row: the left disparity (NaN when nothing is
 // in view, when the minimum is cut by the image or not unique; parabola vertex), its margin
 // (S2 - S1) / S2 (0 where rejected) and the right view's winner in steps (NO_MATCH if no left
 // pixel can match).  Samples out of view (S < 0) are no candidates: they read as SHRT_MAX (the
-// host keeps aggregated costs below it).  The right view's costs of pixel xr lie on a staircase through the
-// left pixels' entries: sample k at left pixel xr + n(k), n(k) = floor((d_min*steps + k) /
-// steps), `steps` consecutive k per pixel.  Walking the row right to left, E_x[k] = the best
-// (cost, k) of the staircase from entry k of pixel x on: E_x[k] = min(S_x[k], E_x[k + 1]) within
-// a pixel's group of k, min(S_x[k], E_(x+1)[k + 1]) at a group's last k; the winner of right
-// pixel xr is E_(xr + n(0))[0] (ties go to the smaller k, the specification's first minimum).
+// host keeps aggregated costs below it).  The right view's costs of pixel xr are the samples k
+// of the left pixels xr + n0 + floor(k / STEPS) (first_step = n0 STEPS, a multiple of STEPS):
+// for each sub-pixel phase k mod STEPS a diagonal through the pixels' entries.  Walking the row
+// right to left, F_x[k] = min(S_x[k], F_(x+1)[k + STEPS]) (ties to S_x[k], the smaller k) is the
+// best (cost, k) of the diagonal from entry k of pixel x on: one vector shift per pixel; the
+// winner of right pixel xr is the best of F_(xr + n0)[0 .. STEPS - 1], ties to the smaller k
+// (the specification's first minimum).
+#if defined(STEPS)
+// The right winner (in steps, NO_MATCH if none) from F's first STEPS lanes: the least cost,
+// ties to the smaller k
+static inline int right_winner(const short16 ev, const short16 ei, const int t0)
+{
+    int best = ev.s0, k = ei.s0;
+#if STEPS > 1
+    if (ev.s1 < best || (ev.s1 == best && ei.s1 < k)) { best = ev.s1; k = ei.s1; }
+#endif
+#if STEPS > 2
+    if (ev.s2 < best || (ev.s2 == best && ei.s2 < k)) { best = ev.s2; k = ei.s2; }
+#endif
+#if STEPS > 3
+    if (ev.s3 < best || (ev.s3 == best && ei.s3 < k)) { best = ev.s3; k = ei.s3; }
+#endif
+    return best < SHRT_MAX ? t0 + k : NO_MATCH;
+}
+
+// One pass over pixel x's vectors (two = 1: S = agg + agg2, the band sweeps' sums, both -1 where
+// out of view): per lane the least cost m1 (its first k, i1) and the second least m2, and the
+// right view's F_x from F_(x+1) in ev, ei (one shift by STEPS lanes).
+static ALWAYS_INLINE void select_pass(__global const short *agg, __global const short *agg2, const int y,
+                                      const int w, const int x, const int two, short16 *ev, short16 *ei,
+                                      short16 *m1_, short16 *m2_, short16 *i1_)
+{
+    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
+    const short16 none = (short16)(SHRT_MAX);
+    __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
+    __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
+    short16 m1 = none, m2 = none, i1 = (short16)(0);
+    UNROLL_NV
+    for (int j = 0; j < NV; ++j) {
+        const short16 k = lane + (short16)(16 * j);
+        const short16 v = LOAD_SMAX(s, j);
+        // (padding lanes read SHRT_MAX in both: kept at none, not summed past it)
+        const short16 sv = v < (short16)(0) || v == none ? none : two ? v + LOAD_SMAX(s2, j) : v;
+        i1 = sv < m1 ? k : i1;
+        m2 = VMIN(m2, sv < m1 ? m1 : sv);
+        m1 = VMIN(m1, sv);
+        const short16 cv = SHIFT_STEPS(ev, j, SHRT_MAX), ci = SHIFT_STEPS(ei, j, 0);
+        const short16 take = sv <= cv;
+        ev[j] = take ? sv : cv;
+        ei[j] = take ? k : ci;
+    }
+    *m1_ = m1;
+    *m2_ = m2;
+    *i1_ = i1;
+}
+
+// Pixel x's left view from its lanes' m1, i1, m2: the first minimum kb; the best cost more than
+// one step from it is a lane's m1, or its m2 where m1 is within one step of kb (a lane's samples
+// are 16 apart); uniqueness, cut and parabola as the specification.
+static ALWAYS_INLINE void select_left(__global const short *agg, __global const short *agg2, const int y,
+                                      const int w, const int x, const int two, const short16 m1,
+                                      const short16 m2, const short16 i1, const int t0, const int steps,
+                                      const int uniqueness, __global float *drow, __global float *mrow)
+{
+    __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
+    __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
+    const int best = hmin16(m1);
+    const int kb = hmin16(m1 == (short16)(best) ? i1 : (short16)(SHRT_MAX));
+    const short16 near = (i1 >= (short16)(kb - 1)) & (i1 <= (short16)(kb + 1));
+    // SHRT_MAX: nothing in view, or no sample in view more than one step from kb
+    const int second = hmin16(near ? m2 : m1);
+    const int unique = best < SHRT_MAX && second < SHRT_MAX &&
+                       (long)second * 100 > (long)best * (100 + uniqueness);
+    const int km = kb > 0 ? kb - 1 : 0, kp = kb < N_DISP - 1 ? kb + 1 : N_DISP - 1;
+    const int sm = s[km] < 0 || !two ? s[km] : s[km] + s2[km];
+    const int sp = s[kp] < 0 || !two ? s[kp] : s[kp] + s2[kp];
+    const int cut = (kb > 0 && sm < 0) || (kb < N_DISP - 1 && sp < 0);
+    const float den = (float)(sm - 2 * best + sp);
+    float delta = 0.0f;
+    if (kb > 0 && kb < N_DISP - 1 && den > 0.0f)
+        delta = (float)(sm - sp) / (2.0f * den);
+    const int keep = unique && !cut;
+    drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
+    mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
+}
+
 __kernel void select_disparity(__global const short *agg, __global const short *agg2, __global float *disp,
                                __global int *right, __global float *margin, const int h, const int w,
                                const int d_min, const int steps, const int uniqueness, const int two,
@@ -642,88 +734,38 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     const int y = get_global_id(0);
     if (y >= h)
         return;
-    const int t0 = d_min * steps, n0 = floor_div(t0, steps), f0 = t0 - n0 * steps;
+    const int t0 = d_min * STEPS, n0 = d_min;
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
-    short16 group_end[NV], ev[NV], ei[NV];      // lanes whose k + 1 is on the next pixel; E_x
+    short16 ev[NV], ei[NV];                     // F_x: costs and their k
     UNROLL_NV
     for (int j = 0; j < NV; ++j) {
-        const short16 k = lane + (short16)(16 * j);
-        group_end[j] = (k + (short16)(f0)) % (short16)(steps) == (short16)(steps - 1);
-        ev[j] = none;                           // E beyond the right edge: no pixel
-        ei[j] = k;
+        ev[j] = none;                           // F beyond the right edge: no pixel
+        ei[j] = lane + (short16)(16 * j);
     }
     __global int *rrow = right + (size_t)(y_out0 + y) * w;
     __global float *drow = disp + (size_t)(y_out0 + y) * w;
     __global float *mrow = margin + (size_t)(y_out0 + y) * w;
     for (int x = 0; x < w; ++x)
         rrow[x] = NO_MATCH;
-    for (int x = w - 1; x >= 0; --x) {
-        // two = 1: S = agg + agg2 (the band sweeps' sums; both -1 where out of view)
-        __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
-        __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
-        short16 sv[NV], vmin = none;
-        UNROLL_NV
-        for (int j = 0; j < NV; ++j) {
-            const short16 v = LOAD_SMAX(s, j);
-            // (padding lanes read SHRT_MAX in both: kept at none, not summed past it)
-            sv[j] = v < (short16)(0) || v == none ? none : two ? v + LOAD_SMAX(s2, j) : v;
-            vmin = VMIN(vmin, sv[j]);
+    // two pixels per iteration: their left-view reductions (three dependent horizontal minima
+    // and a division each) are independent, so the CPU overlaps them
+    for (int x = w - 1; x >= 0; x -= 2) {
+        short16 m1a, m2a, i1a, m1b = none, m2b = none, i1b = (short16)(0);
+        select_pass(agg, agg2, y, w, x, two, ev, ei, &m1a, &m2a, &i1a);
+        if (x - n0 >= 0 && x - n0 < w)
+            rrow[x - n0] = right_winner(ev[0], ei[0], t0);
+        if (x > 0) {
+            select_pass(agg, agg2, y, w, x - 1, two, ev, ei, &m1b, &m2b, &i1b);
+            if (x - 1 - n0 >= 0 && x - 1 - n0 < w)
+                rrow[x - 1 - n0] = right_winner(ev[0], ei[0], t0);
         }
-        // ---- left view: the first minimum, the best cost more than one step from it
-        const int best = hmin16(vmin);
-        const short16 vbest = (short16)(best);
-        short16 first = none;
-        UNROLL_NV
-        for (int j = 0; j < NV; ++j)
-            first = VMIN(first, sv[j] == vbest ? lane + (short16)(16 * j) : none);
-        const int kb = hmin16(first);
-        const short16 below = (short16)(kb - 1), above = (short16)(kb + 1);
-        short16 far = none;
-        UNROLL_NV
-        for (int j = 0; j < NV; ++j) {
-            const short16 k = lane + (short16)(16 * j);
-            far = VMIN(far, (k < below) | (k > above) ? sv[j] : none);
-        }
-        // SHRT_MAX: nothing in view, or no sample in view more than one step from kb
-        const int second = hmin16(far);
-        const int unique = best < SHRT_MAX && second < SHRT_MAX &&
-                           (long)second * 100 > (long)best * (100 + uniqueness);
-        const int km = kb > 0 ? kb - 1 : 0, kp = kb < N_DISP - 1 ? kb + 1 : N_DISP - 1;
-        const int sm = s[km] < 0 || !two ? s[km] : s[km] + s2[km];
-        const int sp = s[kp] < 0 || !two ? s[kp] : s[kp] + s2[kp];
-        const int cut = (kb > 0 && sm < 0) || (kb < N_DISP - 1 && sp < 0);
-        const float den = (float)(sm - 2 * best + sp);
-        float delta = 0.0f;
-        if (kb > 0 && kb < N_DISP - 1 && den > 0.0f)
-            delta = (float)(sm - sp) / (2.0f * den);
-        const int keep = unique && !cut;
-        drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
-        mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
-        // ---- right view: E_x from E_(x+1) (at group ends), then within the groups
-        UNROLL_NV
-        for (int j = 0; j < NV; ++j) {
-            const short16 k = lane + (short16)(16 * j);
-            const short16 cv = SHIFT_DOWN(ev, j, SHRT_MAX), ci = SHIFT_DOWN(ei, j, 0);
-            const short16 take = (sv[j] <= cv) | ~group_end[j];
-            ev[j] = take ? sv[j] : cv;
-            ei[j] = take ? k : ci;
-        }
-        for (int round = 1; round < steps; ++round) {
-            UNROLL_NV
-            for (int j = 0; j < NV; ++j) {
-                const short16 cv = SHIFT_DOWN(ev, j, SHRT_MAX), ci = SHIFT_DOWN(ei, j, 0);
-                const short16 take = (ev[j] <= cv) | group_end[j];
-                ev[j] = take ? ev[j] : cv;
-                ei[j] = take ? ei[j] : ci;
-            }
-        }
-        const int xr = x - n0;                  // the right pixel whose staircase starts here
-        if (xr >= 0 && xr < w)
-            rrow[xr] = ev[0].s0 < SHRT_MAX ? t0 + ei[0].s0 : NO_MATCH;
+        select_left(agg, agg2, y, w, x, two, m1a, m2a, i1a, t0, steps, uniqueness, drow, mrow);
+        if (x > 0)
+            select_left(agg, agg2, y, w, x - 1, two, m1b, m2b, i1b, t0, steps, uniqueness, drow, mrow);
     }
-    // right pixels whose staircase starts left of the image enter it at pixel 0, entry
-    // k = (-xr - n0) * steps - f0 (the first k with n(k) = -xr)
+    // right pixels whose diagonals start left of the image enter it at pixel 0, entries
+    // g STEPS .. g STEPS + STEPS - 1 with g = -xr - n0
     const int xr_end = min(w, -n0);
     if (xr_end > 0) {
         short idx[NP], val[NP];
@@ -733,12 +775,18 @@ __kernel void select_disparity(__global const short *agg, __global const short *
             *(__private short16 *)(val + 16 * j) = ev[j];
         }
         for (int xr = 0; xr < xr_end; ++xr) {
-            const int k = (-xr - n0) * steps - f0;
-            if (k < N_DISP && val[k] < SHRT_MAX)
-                rrow[xr] = t0 + idx[k];
+            const int k0 = (-xr - n0) * STEPS;
+            int best = SHRT_MAX, kb = 0;
+            for (int k = k0; k < min(k0 + STEPS, N_DISP); ++k)
+                if (val[k] < best || (val[k] == best && idx[k] < kb)) {
+                    best = val[k];
+                    kb = idx[k];
+                }
+            rrow[xr] = best < SHRT_MAX ? t0 + kb : NO_MATCH;
         }
     }
 }
+#endif  // STEPS
 #endif  // N_DISP
 
 // One step of the running-best sweep: windowed squared difference around (y, x) of the gained,

@@ -24,10 +24,13 @@ def _plain(be, a, name, dtype):
         raise TypeError(f"{name} must be {np.dtype(dtype)}, got {a.dtype}")
     return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
 
-def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False):
+def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=None):
     """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
-    with ``cost_bytes`` for byte costs, with ``padded`` for buffers of :func:`_padded`)."""
+    with ``cost_bytes`` for byte costs, with ``padded`` for buffers of :func:`_padded`, the
+    selection for its sub-pixel ``steps``)."""
     defines = {} if n_disp is None else {"N_DISP": int(n_disp), "COST_MAX": COST_MAX}
+    if steps is not None:
+        defines["STEPS"] = int(steps)
     if cost_bytes:
         defines["COST_BYTES"] = 1
     if padded:
@@ -159,9 +162,11 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
 def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, uniqueness, padded=False):
     """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows])."""
     n = agg.shape[2]
+    if not 1 <= steps <= 4:
+        raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     group = be._group()
     second = agg if agg2 is None else agg2
-    be._launch(_stereo_kernel(be, "select_disparity", n, padded=padded), (-(-rows // group) * group,), (group,),
+    be._launch(_stereo_kernel(be, "select_disparity", n, padded=padded, steps=steps), (-(-rows // group) * group,), (group,),
                [agg, second], [disp, disp_right, margin],
                (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
                 np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
