@@ -256,14 +256,31 @@ static inline ushort16 window_column(__global const uchar *ham, const int y, con
     return s;
 }
 
+// The samples k of column x whose right pixel is in view: lo <= k <= hi (r <= x - n <= w - 1 - r,
+// n = floor((first_step + k) / steps))
+static inline void view_range(const int x, const int r, const int w, const int first_step, const int steps,
+                              long *lo, long *hi)
+{
+    *hi = (long)(x - r + 1) * steps - 1 - first_step;
+    *lo = (long)(x + r - (w - 1)) * steps - first_step;
+}
+
+// Whether every sample of column x is in view
+static inline int all_in_view(const int x, const int r, const int w, const int first_step, const int steps)
+{
+    long lo, hi;
+    view_range(x, r, w, first_step, steps, &lo, &hi);
+    return x >= 0 && x < w && lo <= 0 && hi >= N_DISP - 1;
+}
+
 // Output pixel x's block sums, saturated at COST_MAX, -1 where the sample is out of view:
 // r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
 static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t *dst, const int x, const int r,
                                             const int w, const int first_step, const int steps)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    const long hi = (long)(x - r + 1) * steps - 1 - first_step;
-    const long lo = (long)(x + r - (w - 1)) * steps - first_step;
+    long lo, hi;
+    view_range(x, r, w, first_step, steps, &lo, &hi);
     const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
     const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
     UNROLL_NV
@@ -482,28 +499,31 @@ __kernel void sgm_line_pair(__global const short *cost, __global short *total, c
 // not a pixel's NV (which spilled from registers and made the sweep super-linear in N_DISP).
 static ALWAYS_INLINE short16
 path_vec(__global const short *in, const int j, const short16 vm, const short16 cv, short16 *run,
-         short16 *sum, const short16 vp1, const short16 vp2)
+         short16 *sum, const short16 vp1, const short16 vp2, const int enter, const int masked)
 {
     const short16 pad = (short16)(PAD_COST);
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 old = VLOAD(short, 16, in + 16 * j);
     const short16 lower = VLOAD(short, 16, in + 16 * j - 1);
     const short16 upper = VLOAD(short, 16, in + 16 * j + 1);
-    const short16 stay = VMIN(old >= pad ? vm : old, VMIN(lower, upper) + vp1);
+    const short16 stay = VMIN(enter ? (old >= pad ? vm : old) : old, VMIN(lower, upper) + vp1);
     const short16 out_of_view = cv < (short16)(0);
-    short16 v = out_of_view ? pad : cv + VMIN(stay - vm, vp2);
+    short16 v = cv + VMIN(stay - vm, vp2);
+    if (masked)
+        v = out_of_view ? pad : v;
     if (j == NV - 1)
         v = lane >= (short16)(TAIL) ? pad : v;
     *run = VMIN(*run, v);
-    *sum += out_of_view ? (short16)(0) : v;
+    *sum += masked ? (out_of_view ? (short16)(0) : v) : v;
     return v;
 }
 
 // path_vec for path P (in, vm, out, pending vector, running minimum) and the store of its
 // previous vector after the reads
-#define PATH_STEP(P, j)                                                                        \
+#define PATH_STEP(P, j, ENTER, MASKED)                                                         \
     do {                                                                                      \
-        const short16 v_ = path_vec(in_##P, (j), vm_##P, cv, &run_##P, &sum, vp1, vp2);        \
+        const short16 v_ = path_vec(in_##P, (j), vm_##P, cv, &run_##P, &sum, vp1, vp2, (ENTER),  \
+                                    (MASKED));                                                \
         if ((j) > 0)                                                                          \
             VSTORE(short, 16, pend_##P, out_##P + 16 * ((j) - 1));                            \
         pend_##P = v_;                                                                        \
@@ -522,6 +542,26 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
 // only advances its vertical and diagonal paths (a checkpointing sweep: no horizontal path, no
 // output; `split` runs it on both work-items).  Memory O(band rows x w x N_DISP) whatever the
 // image's height.
+// One pixel of sgm_band: the paths' vectors j = 0 .. NV - 1 (MASKED: samples out of view or
+// entering it may occur; COST(c, j): the cost vector)
+#define BAND_PIXEL(MASKED, COST)                                                               \
+    do {                                                                                      \
+        UNROLL_NV                                                                             \
+        for (int j = 0; j < NV; ++j) {                                                        \
+            const short16 cv = COST;                                                          \
+            short16 sum = (short16)(0);                                                       \
+            if (write)                                                                        \
+                PATH_STEP(h, j, MASKED, MASKED);                                              \
+            PATH_STEP(v, j, 0, MASKED);                                                       \
+            if (diagonals) {                                                                  \
+                PATH_STEP(e, j, MASKED, MASKED);                                              \
+                PATH_STEP(d, j, MASKED, MASKED);                                              \
+            }                                                                                 \
+            if (write)                                                                        \
+                STORE_S((MASKED) ? (cv < (short16)(0) ? (short16)(-1) : sum) : sum, o, j);      \
+        }                                                                                     \
+    } while (0)
+
 #ifdef COST_BYTES
 static inline short16 load_cost_bytes(__global const uchar *p, const int j)
 {
@@ -533,7 +573,8 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        __global short *state, __global short *state_min, const int h, const int w,
                        const int y0, const int rows, const short p1, const short p2,
                        const int diagonals, const int init, const int active, const int write_up,
-                       const int cost_row0, const int split)
+                       const int cost_row0, const int split, const int r, const int first_step,
+                       const int steps)
 {
     // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
     // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2); the state is
@@ -588,20 +629,14 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             const short16 vm_d = (short16)(diagonals ? md_in[cell - s] : 0);
             short16 pend_h = pad, pend_v = pad, pend_e = pad, pend_d = pad;
             short16 run_h = pad, run_v = pad, run_e = pad, run_d = pad;
-            UNROLL_NV
-            for (int j = 0; j < NV; ++j) {
-                const short16 cv = LOAD_COST(c, j);
-                short16 sum = (short16)(0);
-                if (write)
-                    PATH_STEP(h, j);
-                PATH_STEP(v, j);
-                if (diagonals) {
-                    PATH_STEP(e, j);
-                    PATH_STEP(d, j);
-                }
-                if (write)
-                    STORE_S(cv < (short16)(0) ? (short16)(-1) : sum, o, j);
-            }
+            // columns x - 1 .. x + 1 with every sample in view (most of the image): no sample is
+            // out of view or entering it, the masks drop out.  The vertical path never needs
+            // the entering rule: its predecessor is the same column, whose samples in view are
+            // the same.
+            if (all_in_view(x - 1, r, w, first_step, steps) && all_in_view(x + 1, r, w, first_step, steps))
+                BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)));
+            else
+                BAND_PIXEL(1, LOAD_COST(c, j));
             if (write) {
                 VSTORE(short, 16, pend_h, out_h + 16 * (NV - 1));
                 mh = hmin16(run_h);

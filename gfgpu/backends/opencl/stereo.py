@@ -181,7 +181,8 @@ def _sgm_state(be, w, n):
 
 
 def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w, p1, p2, paths, init, active,
-                 write_up=True):
+                 view, write_up=True):
+    """One launch of sgm_band; ``view`` = (block, first_step, steps): which samples are in view."""
     n = cost.shape[2]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
@@ -191,7 +192,8 @@ def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w
                [down, up, state, state_min],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
-                np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split)))
+                np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
+                np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2])))
 
 
 #: rows of a band of the CPU matcher: at least this many (fewer launches) ...
@@ -258,6 +260,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     down, up = _padded(be, (k, w, n), np.int16), _padded(be, (k, w, n), np.int16)
     state, state_min = _sgm_state(be, w, n)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
+    view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
     # and the matching rows of the minima
     srow = state.shape[2] * 2
@@ -287,7 +290,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         y0, rows = bands[b]
         row0 = band_cost(y0, rows)
         _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
-                     init=2 if b == len(bands) - 1 else 0, active=2, write_up=False)
+                     init=2 if b == len(bands) - 1 else 0, active=2, view=view, write_up=False)
         copy(ckpt, state, st_len, (b - 1) * st_len, st_off)
         copy(ckpt_min, state_min, mn_len, (b - 1) * mn_len, mn_off)
     # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
@@ -298,7 +301,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             copy(state, ckpt, st_len, st_off, b * st_len)
             copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
         _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
-                     init=(1 if b == 0 else 0) | (2 if last else 0), active=3)
+                     init=(1 if b == 0 else 0) | (2 if last else 0), active=3, view=view)
         _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness,
                 padded=True)
     return disp, disp_right, margin
