@@ -329,6 +329,45 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
 // - the column leaving (the same column at a clamped border: no change).  Same values as
 // census_hamming + block_sum.
 #ifdef BLOCK
+#if defined(__clang__) && defined(__AVX2__)
+// x86 with AVX2 (PoCL on the host CPU): 16 Hamming distances at once with a nibble lookup
+// table (vpshufb) and byte sums (vpsadbw), 2.8 instructions per distance instead of 7 (the
+// CPU has no vector popcount below AVX-512)
+typedef char v32c __attribute__((__vector_size__(32)));
+typedef char v16c __attribute__((__vector_size__(16)));
+typedef char v8c __attribute__((__vector_size__(8)));
+typedef ulong v4ul __attribute__((__vector_size__(32)));
+typedef ulong v4ul_u __attribute__((__vector_size__(32), __aligned__(8)));
+typedef char v16c_u __attribute__((__vector_size__(16), __aligned__(1)));
+
+static ALWAYS_INLINE v4ul popcount4(const v4ul x)
+{
+    const v32c lut = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4,
+                      0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+    const ulong m = 0x0f0f0f0f0f0f0f0fUL;
+    const v4ul low = {m, m, m, m}, zero = {0, 0, 0, 0};
+    const v32c c = __builtin_ia32_pshufb256(lut, (v32c)(x & low)) +
+                   __builtin_ia32_pshufb256(lut, (v32c)((x >> 4) & low));
+    return (v4ul)__builtin_ia32_psadbw256(c, (v32c)zero);
+}
+
+// dst[i] = popcount(lc ^ p[15 - i]), i = 0 .. 15
+static ALWAYS_INLINE void hamming16_reversed(__global uchar *dst, const ulong lc, __global const ulong *p)
+{
+    const v4ul key = {lc, lc, lc, lc};
+    const v4ul s0 = popcount4(*(__global const v4ul_u *)p ^ key);
+    const v4ul s1 = popcount4(*(__global const v4ul_u *)(p + 4) ^ key);
+    const v4ul s2 = popcount4(*(__global const v4ul_u *)(p + 8) ^ key);
+    const v4ul s3 = popcount4(*(__global const v4ul_u *)(p + 12) ^ key);
+    // byte 8 q of s_t: the distance of p[4 t + q]
+    const v8c hi = __builtin_shufflevector((v32c)s3, (v32c)s2, 24, 16, 8, 0, 56, 48, 40, 32);
+    const v8c lo = __builtin_shufflevector((v32c)s1, (v32c)s0, 24, 16, 8, 0, 56, 48, 40, 32);
+    *(__global v16c_u *)dst = __builtin_shufflevector(hi, lo, 0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13,
+                                                      14, 15);
+}
+#define HAMMING16 1
+#endif
+
 static void hamming_row(__global uchar *dst, __global const ulong *cl, __global const ulong *ri, const int y,
                         const int ca, const int cb, const int w, const int first_step, const int steps)
 {
@@ -341,6 +380,10 @@ static void hamming_row(__global uchar *dst, __global const ulong *cl, __global 
         int k = 0;
         for (; k < k_lo; ++k)
             dst[k] = 0;
+#ifdef HAMMING16
+        for (; k + 16 <= k_hi; k += 16)
+            hamming16_reversed(dst + k, lc, row + j0 - k - 15);
+#endif
         for (; k < k_hi; ++k)
             dst[k] = (uchar)POPCOUNT(lc ^ row[j0 - k]);
         for (; k < NP; ++k)
