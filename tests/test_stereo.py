@@ -462,6 +462,7 @@ def test_band_matcher_keeps_or_recomputes_costs_with_the_same_result(require_bac
         pytest.skip("the band matcher runs on OpenCL CPU devices")
     left, right, _ = random_dot_pair(slanted, shape=(90, 72), seed=5)
     monkeypatch.setattr("gfgpu.backends.opencl.stereo.BAND_BYTES", 1)   # bands of the fewest rows
+    monkeypatch.setattr("gfgpu.backends.opencl.stereo.WHOLE_BYTES", 0)  # (not one band)
     assert band_rows(90, 4, 72, 16) < 90                # several bands, checkpoints
     keep = stereo.disparity(left, right, 12, min_disparity=-3, backend=be)
     full = stereo.disparity_memory(left.shape, 12, min_disparity=-3, backend=be)

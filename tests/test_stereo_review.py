@@ -54,6 +54,7 @@ def test_opencl_match_many_bands_keep_and_recompute(monkeypatch, require_backend
         pytest.skip("the band matcher runs on CPU devices only")
     from gfgpu.backends.opencl import stereo as ocl
     monkeypatch.setattr(ocl, "BAND_BYTES", 1)
+    monkeypatch.setattr(ocl, "WHOLE_BYTES", 0)
     rng = np.random.default_rng(1)
     for rows, (h, w, n, steps, paths, block, p1, p2, uniq, first) in zip(
             (2, 3, 2, 3), ((11, 9, 17, 1, 4, 3, 5, 40, 10, -3), (13, 13, 33, 2, 8, 5, 0, 0, 0, -10),

@@ -570,9 +570,9 @@ def _sgm_memory(be, shape, n, steps, paths, budget, keep=None, block=3):
     h, w = shape
     base = _sgm_base(shape, steps)
     if _streams_bands(be):
-        from ..backends.opencl.stereo import match_memory
-        if keep is None:
-            keep = budget is None or base + match_memory(h, w, n, paths, True, block) <= budget
+        from ..backends.opencl.stereo import match_memory, match_plan
+        if keep is None:     # as the matcher plans it
+            return base + match_plan(h, w, n, paths, block, None if budget is None else budget - base)[2]
         return base + match_memory(h, w, n, paths, keep, block)
     return base + h * w * n * _SGM_BYTES.get(be.name, _SGM_BYTES_DEFAULT)
 
