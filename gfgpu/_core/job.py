@@ -24,9 +24,11 @@ class Job:
 
     ``backend`` is a resolved :class:`gfgpu.backends.Backend` (the caller applies the
     resolution rule with the input array, so that device arrays stay where they are).
+    ``finite=True``: the caller has already checked that the input holds no NaN or infinity
+    (an application passing on its own validated image), so the check is not repeated.
     """
 
-    def __init__(self, input, output, backend, min_ndim=1):
+    def __init__(self, input, output, backend, min_ndim=1, finite=False):
         be = backend
         self.backend = be
         self.host_input = be.name == "numpy" or not be.owns(input)
@@ -68,7 +70,8 @@ class Job:
             # or fused into the first pass (apply_program), one read of the image instead of two
             self._source = arr          # converted and placed on the device when first used
             self._data = None
-            self.check_pending = arr.dtype.kind not in "biu"   # integers hold no NaN or infinity
+            # integers hold no NaN or infinity; ``finite``: the caller checked the image
+            self.check_pending = not finite and arr.dtype.kind not in "biu"
         else:
             dev_dtype = np.dtype(be.dtype_of(arr))
             if dev_dtype not in (np.float32, np.float64):
@@ -78,7 +81,7 @@ class Job:
                 arr = be.contiguous(arr)
             if work_dtype(be.dtype_of(arr)) != self.dtype:
                 raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
-            if not be.all_finite(arr):
+            if not finite and not be.all_finite(arr):      # (a read-back: waits for the device)
                 raise ValueError(NONFINITE)
             self._source = self._data = arr
             self.check_pending = False

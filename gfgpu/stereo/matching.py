@@ -35,11 +35,12 @@ import os
 import numpy as np
 
 from .. import greens
+from .._core.job import Job, apply_program
 from .._core.strips import get_working_set
 from .._core.validation import finite_scalar
 from ..backends import resolve_backend, specs
 from ..backends.specs import COST_MAX, SWEEP_PLANES
-from ..filters import green_filter, shift
+from ..filters import green_filter, shift, shift_program
 from . import kernels
 
 __all__ = ["disparity", "disparity_work", "disparity_memory", "estimate_max_disparity", "METHODS", "fill_holes",
@@ -222,7 +223,9 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
     for f in range(steps):
         # the right view moved by +f/steps px with the exact discrete G_u shift: the sub-pixel
         # disparity samples of the cost volume
-        moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
+        # (grey_image checked the view: no second finite check, which would wait for the device)
+        moved = rgt if f == 0 else apply_program(Job(rgt, None, be, finite=True),
+                                                 shift_program(2, (0.0, f / steps)), "nearest", 0.0)
         kernels.census(be, moved, cen_r, f, census_radius)
     progress(1)
     disp = be.empty((h, w), np.float32)

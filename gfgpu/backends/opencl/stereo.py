@@ -166,8 +166,8 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, 
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     group = be._group()
     second = agg if agg2 is None else agg2
-    be._launch(_stereo_kernel(be, "select_disparity", n, padded=padded, steps=steps), (-(-rows // group) * group,), (group,),
-               [agg, second], [disp, disp_right, margin],
+    knl = _stereo_kernel(be, "select_disparity", n, padded=padded, steps=steps)
+    be._launch(knl, (-(-rows // group) * group,), (group,), [agg, second], [disp, disp_right, margin],
                (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
                 np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
                 np.int32(y0)))
