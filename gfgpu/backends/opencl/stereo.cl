@@ -22,11 +22,11 @@ typedef float8 float8_u __attribute__((aligned(4)));
 typedef ulong8 ulong8_u __attribute__((aligned(8)));
 #define CENSUS_LOAD8(p) (*(const __global float8_u *)(p))
 #define CENSUS_STORE8(v, p) (*(__global ulong8_u *)(p) = (v))
-#define CENSUS_MASK(m) as_ulong8(__builtin_convertvector((m), long8))
+#define CENSUS_WIDEN(v) __builtin_convertvector((v), ulong8)
 #else
 #define CENSUS_LOAD8(p) vload8(0, p)
 #define CENSUS_STORE8(v, p) vstore8((v), 0, p)
-#define CENSUS_MASK(m) as_ulong8(convert_long8(m))
+#define CENSUS_WIDEN(v) convert_ulong8(v)
 #endif
 
 static inline ulong census_pixel(__global const float *const *rows, const int x, const int w)
@@ -62,8 +62,9 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
     for (; x < x0; ++x)
         o[x] = census_pixel(rows, x, w);
     for (; x < x1; x += 8) {
+        // bits 0..31 and 32..63 as 32-bit lanes (the compare's own width: no widening per bit)
         const float8 c = CENSUS_LOAD8(rows[R_] + x);
-        ulong8 code = (ulong8)(0);
+        uint8 lo = (uint8)(0), hi = (uint8)(0);
         int bit = 0;
         #pragma unroll
         for (int v = 0; v < 2 * R_ + 1; ++v) {
@@ -71,11 +72,15 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
             for (int u = -R_; u <= R_; ++u) {
                 if (v == R_ && u == 0)
                     continue;
-                code |= CENSUS_MASK(CENSUS_LOAD8(rows[v] + x + u) < c) & (ulong8)(1UL << bit);
+                const uint8 m = as_uint8(CENSUS_LOAD8(rows[v] + x + u) < c);
+                if (bit < 32)
+                    lo |= m & (uint8)(1U << bit);
+                else
+                    hi |= m & (uint8)(1U << (bit - 32));
                 ++bit;
             }
         }
-        CENSUS_STORE8(code, o + x);
+        CENSUS_STORE8(CENSUS_WIDEN(lo) | (CENSUS_WIDEN(hi) << 32), o + x);
     }
     for (; x < w; ++x)
         o[x] = census_pixel(rows, x, w);
