@@ -926,6 +926,13 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
 // tol px from d; the confidence margin times 1 - |d - d_R| / (2 tol), 0 where rejected.
 #ifdef LEFT_RIGHT
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#ifdef __clang__        // the instructions, not calls (PoCL does not inline its builtins)
+#define RINT_D(v) __builtin_rint(v)
+#define FABS_D(v) __builtin_fabs(v)
+#else
+#define RINT_D(v) rint(v)
+#define FABS_D(v) fabs(v)
+#endif
 __kernel void left_right(__global float *disp, __global const int *right, __global float *margin,
                          const int h, const int w, const int steps, const double tol)
 {
@@ -936,12 +943,12 @@ __kernel void left_right(__global float *disp, __global const int *right, __glob
     const float d = disp[p];
     int ok = 0;
     double diff = 0.0;
-    if (!isnan(d)) {
-        const double xr = rint((double)x - (double)d);
+    if (d == d) {                           // not NaN
+        const double xr = RINT_D((double)x - (double)d);
         if (xr >= 0.0 && xr <= (double)(w - 1)) {
             const int back = right[(size_t)y * w + (int)xr];
             if (back != NO_MATCH) {
-                diff = fabs((double)back / (double)steps - (double)d);
+                diff = FABS_D((double)back / (double)steps - (double)d);
                 ok = diff <= tol;
             }
         }
