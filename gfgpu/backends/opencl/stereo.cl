@@ -109,6 +109,7 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 // calls (does not inline) vloadn/vstoren/min, which would dominate the loops.
 #ifdef __clang__
 typedef short16 short16_u __attribute__((aligned(2)));
+typedef ushort16 ushort16_u __attribute__((aligned(2)));
 typedef short8 short8_u __attribute__((aligned(2)));
 typedef short4 short4_u __attribute__((aligned(2)));
 typedef short2 short2_u __attribute__((aligned(2)));
@@ -288,6 +289,12 @@ static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t
     view_range(x, r, w, first_step, steps, &lo, &hi);
     const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
     const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
+    if (lo <= 0 && hi >= N_DISP - 1) {      // every sample in view (most pixels): no mask
+        UNROLL_NV
+        for (int j = 0; j < NV; ++j)
+            STORE_COST(VMIN(as_short16(sum[j]), (short16)(COST_MAX)), dst, j);
+        return;
+    }
     UNROLL_NV
     for (int j = 0; j < NV; ++j) {
         const short16 k = lane + (short16)(16 * j);
@@ -417,7 +424,10 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
     const int xa = (int)((long)g * w / splits), xb = (int)((long)(g + 1) * w / splits);
     const int ca = max(xa - r, 0), cb = min(xb + r, w);
     const size_t slot = (size_t)slot_cols * NP;
-    __global uchar *ring = scratch + (size_t)g * BLOCK * slot;
+    __global uchar *ring = scratch + (size_t)g * (BLOCK + 2) * slot;
+    // the ring's column sums (ushort, two slots): each output row's block sums read one vector
+    // per entering and leaving column instead of BLOCK
+    __global ushort *colsum = (__global ushort *)(ring + BLOCK * slot);
     for (int i = 0; i < rows; ++i) {
         const int y = y0 + i;
         // the rows entering the window: all b at the first row, then y + r
@@ -425,21 +435,27 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
             const int sl = ((t % BLOCK) + BLOCK) % BLOCK;
             hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps);
         }
+        for (int c = 0; c < cb - ca; ++c) {
+            UNROLL_NV
+            for (int j = 0; j < NV; ++j)
+                VSTORE(ushort, 16, ring_column(ring, slot, c, j), colsum + (size_t)c * NP + 16 * j);
+        }
         ushort16 sum[NV];
         UNROLL_NV
         for (int j = 0; j < NV; ++j) {
             sum[j] = (ushort16)(0);
             for (int u = -r; u <= r; ++u)
-                sum[j] += ring_column(ring, slot, CLAMPI(xa + u, 0, w - 1) - ca, j);
+                sum[j] += VLOAD(ushort, 16, colsum + (size_t)(CLAMPI(xa + u, 0, w - 1) - ca) * NP + 16 * j);
         }
         __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * N_DISP;
         for (int x = xa; x < xb; ++x, dst += N_DISP) {
             const int add = min(x + r, w - 1) - ca, sub = max(x - 1 - r, 0) - ca;
-            const int moved = x > xa && add != sub;
-            UNROLL_NV
-            for (int j = 0; j < NV; ++j)
-                if (moved)
-                    sum[j] += ring_column(ring, slot, add, j) - ring_column(ring, slot, sub, j);
+            if (x > xa && add != sub) {
+                __global const ushort *pa = colsum + (size_t)add * NP, *ps = colsum + (size_t)sub * NP;
+                UNROLL_NV
+                for (int j = 0; j < NV; ++j)
+                    sum[j] += VLOAD(ushort, 16, pa + 16 * j) - VLOAD(ushort, 16, ps + 16 * j);
+            }
             store_block_costs(sum, dst, x, r, w, first_step, steps);
         }
     }

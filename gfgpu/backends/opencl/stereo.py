@@ -89,10 +89,11 @@ def _cost_splits(be, w):
 
 def _block_scratch(be, w, n, block):
     """The Hamming ring of the CPU block_cost kernel: per column range, ``block`` rows of its
-    columns plus the block's margins, 16 * ceil(n / 16) bytes per column; and its slot width."""
+    columns plus the block's margins, 16 * ceil(n / 16) bytes per column, and their column sums
+    (ushort: two more rows); and the slot width."""
     splits = _cost_splits(be, w)
     cols = -(-w // splits) + 2 * (block // 2)
-    return be.empty((splits * block * cols * (-(-n // 16) * 16),), np.uint8), cols
+    return be.empty((splits * (block + 2) * cols * (-(-n // 16) * 16),), np.uint8), cols
 
 
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, steps, block):
@@ -246,7 +247,7 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
     cost = h * w * n if keep_cost else k * w * n
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
-    ring = splits * block * (-(-w // splits) + block) * (-(-n // 16) * 16)
+    ring = splits * (block + 2) * (-(-w // splits) + block) * (-(-n // 16) * 16)
     return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints
 
 
