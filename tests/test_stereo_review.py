@@ -108,3 +108,24 @@ def test_numpy_disparity_memory_is_an_upper_estimate():
         tracemalloc.stop()
     estimate = disparity_memory(left.shape, 31, backend="numpy")
     assert peak <= 1.1 * estimate, f"numpy peak {peak / 2**20:.1f} MiB, estimate {estimate / 2**20:.1f} MiB"
+
+
+@pytest.mark.parametrize("tile_bytes", [1, 700, 3000])
+def test_band_sweeps_in_column_tiles(tile_bytes, monkeypatch, require_backend):
+    # the CPU band sweeps take the columns in tiles (4 paths; the horizontal path goes on across
+    # a tile's edge): tiles of 1, a few and many columns, one band and several, both sweeps'
+    # directions, ranges entering the view at both edges; 8 paths ignore the tiles
+    be = require_backend("opencl")
+    if be.kind != "cpu":
+        pytest.skip("the band matcher runs on CPU devices only")
+    from gfgpu.backends.opencl import stereo as ocl
+    monkeypatch.setattr(ocl, "TILE_BYTES", tile_bytes)
+    rng = np.random.default_rng(3)
+    for whole, (h, w, n, steps, paths, first) in zip(
+            (True, False, True, False), ((9, 23, 17, 1, 4, -3), (12, 31, 33, 2, 4, -8), (5, 40, 49, 3, 4, 0),
+                                         (7, 19, 16, 1, 8, -2))):
+        monkeypatch.setattr(ocl, "WHOLE_BYTES", ocl.WHOLE_BYTES if whole else 0)
+        monkeypatch.setattr(ocl, "BAND_BYTES", ocl.BAND_BYTES if whole else 1)
+        monkeypatch.setattr(ocl, "MIN_BAND_ROWS", 16 if whole else 3)
+        left, right = _codes(rng, h, w, steps, 3, 0.3)
+        _check(be, left, right, first, n, steps, 3, 6, 90, paths, 10)

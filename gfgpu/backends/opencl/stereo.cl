@@ -99,6 +99,11 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 #define NP (16 * NV)                       // padded disparities of a state vector
 // Loops over a pixel's vectors unroll (SIMD over all its disparities, arrays in registers) up to
 // 256 samples; wider ranges stay loops: unrolled, 4096 samples took PoCL minutes to build
+#if NV <= 32
+#define UNROLL_SEL _Pragma("unroll")
+#else
+#define UNROLL_SEL _Pragma("nounroll")
+#endif
 #if NV <= 16
 #define UNROLL_NV _Pragma("unroll")
 #else
@@ -638,7 +643,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        const int y0, const int rows, const short p1, const short p2,
                        const int diagonals, const int init, const int active, const int write_up,
                        const int cost_row0, const int split, const int r, const int first_step,
-                       const int steps)
+                       const int steps, const int tile, __global short *bound)
 {
     // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
     // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2); the state is
@@ -671,14 +676,28 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     }
     __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
     __global short *mv = mins, *me = mv + cells;
-    for (int i = 0; i < rows; ++i) {
+    // 4 paths: the columns in tiles of `tile`, all the band's rows of a tile before the next, so
+    // that the tile's vertical states stay in cache (a row of them exceeds L2 on wide images);
+    // each row's horizontal path goes on across a tile's edge from `bound` (the row's last
+    // vector cell and minimum).  The diagonals need the whole previous row: one tile.
+    const int ncol = xb - xa, tw = diagonals ? ncol : max(1, min(tile, ncol));
+    __global short *bnd = bound + (size_t)gid * rows * (NP + 1);
+    for (int t0 = 0; t0 < ncol; t0 += tw) {
+      const int tn = min(tw, ncol - t0);
+      for (int i = 0; i < rows; ++i) {
         const int bi = pass == 0 ? i : rows - 1 - i, y = y0 + bi;
         // the diagonal from x - s: read the buffer of the previous row's parity, write this row's
         const int in_buf = 1 + ((y & 1) ^ 1), out_buf = 1 + (y & 1);
         __global short *sd_in = se + in_buf * row, *sd_out = se + out_buf * row;
         __global short *md_in = me + in_buf * cells, *md_out = me + out_buf * cells;
         short mh = 0;
-        for (int xi = 0; xi < xb - xa; ++xi) {
+        if (write && t0 > 0) {      // the predecessor's cell of the tile's first pixel
+            __global short *c = sh + (size_t)(pass == 0 ? xa + t0 : xb - t0 + 1) * CELL;
+            for (int q = 0; q < NP; ++q)
+                c[q] = bnd[(size_t)i * (NP + 1) + q];
+            mh = bnd[(size_t)i * (NP + 1) + NP];
+        }
+        for (int xi = t0; xi < t0 + tn; ++xi) {
             const int x = pass == 0 ? xa + xi : xb - 1 - xi, cell = x + 1;
             __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * N_DISP;
             const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1), vp2 = (short16)(p2);
@@ -714,6 +733,13 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                 md_out[cell] = hmin16(run_d);
             }
         }
+        if (write && t0 + tn < ncol) {   // the row's last cell of this tile, for the next
+            __global const short *c = sh + (size_t)(pass == 0 ? xa + t0 + tn : xb - t0 - tn + 1) * CELL;
+            for (int q = 0; q < NP; ++q)
+                bnd[(size_t)i * (NP + 1) + q] = c[q];
+            bnd[(size_t)i * (NP + 1) + NP] = mh;
+        }
+      }
     }
 }
 
@@ -776,7 +802,7 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
     __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
     __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
     short16 m1 = none, m2 = none, i1 = (short16)(0);
-    UNROLL_NV
+    UNROLL_SEL
     for (int j = 0; j < NV; ++j) {
         const short16 k = lane + (short16)(16 * j);
         const short16 v = LOAD_SMAX(s, j);
@@ -837,7 +863,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
     short16 ev[NV], ei[NV];                     // F_x: costs and their k
-    UNROLL_NV
+    UNROLL_SEL
     for (int j = 0; j < NV; ++j) {
         ev[j] = none;                           // F beyond the right edge: no pixel
         ei[j] = lane + (short16)(16 * j);
@@ -868,7 +894,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     const int xr_end = min(w, -n0);
     if (xr_end > 0) {
         short idx[NP], val[NP];
-        UNROLL_NV
+        UNROLL_SEL
         for (int j = 0; j < NV; ++j) {
             *(__private short16 *)(idx + 16 * j) = ei[j];
             *(__private short16 *)(val + 16 * j) = ev[j];

@@ -181,20 +181,27 @@ def _sgm_state(be, w, n):
             be.empty((2, 4, w + 2), np.int16))
 
 
-def _band_sweeps(be, cost, down, up, state, state_min, y0, rows, cost_row0, h, w, p1, p2, paths, init, active,
-                 view, write_up=True):
-    """One launch of sgm_band; ``view`` = (block, first_step, steps): which samples are in view."""
+#: the band sweeps' column tiles (4 paths): as many columns as hold this many bytes of vertical
+#: path states, so that they stay in a core's L2 cache while the tile's rows are swept
+TILE_BYTES = 128 * 2**10
+
+
+def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, p1, p2, paths,
+                 init, active, view, write_up=True):
+    """One launch of sgm_band; ``view`` = (block, first_step, steps): which samples are in view;
+    ``bound``: the horizontal paths' states at the column tiles' edges."""
     n = cost.shape[2]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
     # one work-item initialises (a cell's guard lanes are read from the neighbouring column)
     split = not write_up and paths == 4 and w >= 2 and not init
     be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True), (2,), (1,), [cost],
-               [down, up, state, state_min],
+               [down, up, state, state_min, bound],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
                 np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
-                np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2])))
+                np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
+                np.int32(max(1, TILE_BYTES // (2 * (-(-n // 16) * 16 + 16)))), bound.data))
 
 
 #: rows of a band of the CPU matcher: at least this many (fewer launches) ...
@@ -248,7 +255,7 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     cost = h * w * n if keep_cost else k * w * n
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
     ring = splits * (block + 2) * (-(-w // splits) + block) * (-(-n // 16) * 16)
-    return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints
+    return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints + 4 * k * cell
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -282,6 +289,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     cost = _padded(be, (h if keep else k, w, n), np.uint8)
     down, up = _padded(be, (k, w, n), np.int16), _padded(be, (k, w, n), np.int16)
     state, state_min = _sgm_state(be, w, n)
+    bound = be.empty((2, k, -(-n // 16) * 16 + 1), np.int16)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
     view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
@@ -312,7 +320,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     for b in range(len(bands) - 1, 0, -1):
         y0, rows = bands[b]
         row0 = band_cost(y0, rows)
-        _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
+        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, p1, p2, paths,
                      init=2 if b == len(bands) - 1 else 0, active=2, view=view, write_up=False)
         copy(ckpt, state, st_len, (b - 1) * st_len, st_off)
         copy(ckpt_min, state_min, mn_len, (b - 1) * mn_len, mn_off)
@@ -323,7 +331,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         if not last:
             copy(state, ckpt, st_len, st_off, b * st_len)
             copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
-        _band_sweeps(be, cost, down, up, state, state_min, y0, rows, row0, h, w, p1, p2, paths,
+        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, p1, p2, paths,
                      init=(1 if b == 0 else 0) | (2 if last else 0), active=3, view=view)
         _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness,
                 padded=True)
