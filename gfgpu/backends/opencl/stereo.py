@@ -245,7 +245,8 @@ def match_plan(h, w, n, paths, block=3, budget=None):
 
 def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
-    the band's Hamming ring (``block`` rows) and sums, the path states and their checkpoints;
+    the cost kernel's Hamming ring (``block`` rows and their column sums), the band's sums, the
+    path states and their checkpoints, the horizontal paths' states at the column tiles' edges;
     bands of ``rows`` rows (default :func:`band_rows`)."""
     k = band_rows(h, paths, w, n) if rows is None else int(rows)
     cell = -(-n // 16) * 16 + 16
