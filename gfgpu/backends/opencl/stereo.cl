@@ -598,19 +598,6 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
         pend_##P = v_;                                                                        \
     } while (0)
 
-// Semi-global aggregation of a band of rows in two sweeps (for CPUs, as OpenCV's SGBM); the band's
-// byte costs are in `cost` (image row y0 + i at row cost_row0 + i).  Work-item 0 goes down the band's rows, each left
-// to right, with the paths (0,1), (1,0) [, (1,1), (1,-1)] and writes their sum to sum_down;
-// work-item 1 goes up, right to left, with the opposite paths, to sum_up.  The path costs of the
-// previous pixels live in `state` (per work-item 5 rows of w + 2 cells: horizontal, vertical,
-// diagonal from x + s, and the diagonal from x - s double-buffered by the row's parity; guard
-// cells of zeros at both ends) and their minima in `state_min` (4 rows); reading a guard or the
-// initial zeros is a path's first pixel.  The states persist between launches, so a band goes on
-// with the sweep of the band before it; bit p of `init` zeroes work-item p's state first (its
-// sweep enters the image here), bit p of `active` runs work-item p.  write_up = 0: work-item 1
-// only advances its vertical and diagonal paths (a checkpointing sweep: no horizontal path, no
-// output; `split` runs it on both work-items).  Memory O(band rows x w x N_DISP) whatever the
-// image's height.
 // One pixel of sgm_band: the paths' vectors j = 0 .. NV - 1 (MASKED: samples out of view or
 // entering it may occur; COST(c, j): the cost vector)
 #define BAND_PIXEL(MASKED, COST)                                                               \
@@ -631,6 +618,20 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
         }                                                                                     \
     } while (0)
 
+
+// Semi-global aggregation of a band of rows in two sweeps (for CPUs, as OpenCV's SGBM); the band's
+// byte costs are in `cost` (image row y0 + i at row cost_row0 + i).  Work-item 0 goes down the band's rows, each left
+// to right, with the paths (0,1), (1,0) [, (1,1), (1,-1)] and writes their sum to sum_down;
+// work-item 1 goes up, right to left, with the opposite paths, to sum_up.  The path costs of the
+// previous pixels live in `state` (per work-item 5 rows of w + 2 cells: horizontal, vertical,
+// diagonal from x + s, and the diagonal from x - s double-buffered by the row's parity; guard
+// cells of zeros at both ends) and their minima in `state_min` (4 rows); reading a guard or the
+// initial zeros is a path's first pixel.  The states persist between launches, so a band goes on
+// with the sweep of the band before it; bit p of `init` zeroes work-item p's state first (its
+// sweep enters the image here), bit p of `active` runs work-item p.  write_up = 0: work-item 1
+// only advances its vertical and diagonal paths (a checkpointing sweep: no horizontal path, no
+// output; `split` runs it on both work-items).  Memory O(band rows x w x N_DISP) whatever the
+// image's height.
 #ifdef COST_BYTES
 static inline short16 load_cost_bytes(__global const uchar *p, const int j)
 {
@@ -660,8 +661,8 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     if (!split && ((init >> pass) & 1)) {
         // (never with split: the vertical path reads the last guard lane of the cell before
         // its first, which the other work-item would be writing)
-        for (size_t r = 0; r < 5; ++r) {
-            __global short *p = st + r * row;
+        for (size_t q = 0; q < 5; ++q) {
+            __global short *p = st + q * row;
             for (int i = 0; i < 16; ++i)
                 p[i] = PAD_COST;
             for (size_t c = 0; c < cells; ++c) {
