@@ -33,6 +33,8 @@ sgm = register("stereo.sgm", specs.sgm_aggregate_reference, **_launchers("sgm"))
 
 #: ``select(be, aggregated, disp, disp_right, d_min, steps, uniqueness)``: both outputs of
 #: ``select_disparity_reference`` written into ``disp`` (H, W) float32 and ``disp_right`` (H, W) int32
+#: (aggregated costs below 32767, int16's largest value marking "no candidate"; the OpenCL kernel
+#: is built for ``steps`` 1..4, as ``disparity``'s ``subpixel_steps``)
 select = register("stereo.select", specs.select_disparity_reference, **_launchers("select"))
 
 #: ``match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block, p1,
