@@ -31,8 +31,9 @@ cost = register("stereo.cost", specs.census_cost_reference, **_launchers("cost")
 #: ``sgm(be, cost, out, p1, p2, paths)``: ``out = sgm_aggregate_reference(cost, p1, p2, paths)``
 sgm = register("stereo.sgm", specs.sgm_aggregate_reference, **_launchers("sgm"))
 
-#: ``select(be, aggregated, disp, disp_right, d_min, steps, uniqueness)``: both outputs of
-#: ``select_disparity_reference`` written into ``disp`` (H, W) float32 and ``disp_right`` (H, W) int32
+#: ``select(be, aggregated, disp, disp_right, margin, d_min, steps, uniqueness)``: the outputs of
+#: ``select_disparity_reference`` written into ``disp`` (H, W) float32, ``disp_right`` (H, W) int32
+#: and ``margin`` (H, W) float32
 #: (aggregated costs below 32767, int16's largest value marking "no candidate"; the OpenCL kernel
 #: is built for ``steps`` 1..4, as ``disparity``'s ``subpixel_steps``)
 select = register("stereo.select", specs.select_disparity_reference, **_launchers("select"))
