@@ -221,10 +221,10 @@ def band_rows(h, paths, w=1, n=1):
     return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 3.5)), fit)))
 
 
-#: images whose band buffers for every row fit this many bytes run as one band: no
-#: checkpointing up sweep and no band launches (teddy 9 %, motorcycle 24 % faster than bands
-#: of BAND_BYTES, same maps); larger ones stream bands
-WHOLE_BYTES = 256 * 2**20
+#: images whose band buffers for every row fit this many bytes (and the working set) run as one
+#: band: no checkpointing up sweep and no band launches (teddy 9 % faster than bands of
+#: BAND_BYTES; motorcycle, 314 MB of them, 11 %; same maps); larger ones stream bands
+WHOLE_BYTES = 512 * 2**20
 
 
 def match_plan(h, w, n, paths, block=3, budget=None):
