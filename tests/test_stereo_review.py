@@ -120,12 +120,26 @@ def test_band_sweeps_in_column_tiles(tile_bytes, monkeypatch, require_backend):
         pytest.skip("the band matcher runs on CPU devices only")
     from gfgpu.backends.opencl import stereo as ocl
     monkeypatch.setattr(ocl, "TILE_BYTES", tile_bytes)
+    whole_bytes, band_bytes = ocl.WHOLE_BYTES, ocl.BAND_BYTES
     rng = np.random.default_rng(3)
     for whole, (h, w, n, steps, paths, first) in zip(
             (True, False, True, False), ((9, 23, 17, 1, 4, -3), (12, 31, 33, 2, 4, -8), (5, 40, 49, 3, 4, 0),
                                          (7, 19, 16, 1, 8, -2))):
-        monkeypatch.setattr(ocl, "WHOLE_BYTES", ocl.WHOLE_BYTES if whole else 0)
-        monkeypatch.setattr(ocl, "BAND_BYTES", ocl.BAND_BYTES if whole else 1)
+        monkeypatch.setattr(ocl, "WHOLE_BYTES", whole_bytes if whole else 0)
+        monkeypatch.setattr(ocl, "BAND_BYTES", band_bytes if whole else 1)
         monkeypatch.setattr(ocl, "MIN_BAND_ROWS", 16 if whole else 3)
+        rows = ocl.match_plan(h, w, n, paths, 3)[0]
+        assert (rows == h) if whole else (rows < h), (whole, rows, h)
         left, right = _codes(rng, h, w, steps, 3, 0.3)
         _check(be, left, right, first, n, steps, 3, 6, 90, paths, 10)
+
+
+def test_opencl_match_refuses_steps_beyond_its_builds(require_backend):
+    # the selection kernel is built for 1..4 sub-pixel steps: more is refused before any work,
+    # naming the argument (disparity() limits subpixel_steps to the same range)
+    be = require_backend("opencl")
+    rng = np.random.default_rng(4)
+    left, right = _codes(rng, 4, 9, 5, 1, 0.3)
+    outs = be.empty((4, 9), np.float32), be.empty((4, 9), np.int32), be.empty((4, 9), np.float32)
+    with pytest.raises(ValueError, match="steps must be 1..4"):
+        kernels.match(be, be.asarray(left), be.asarray(right), *outs, 0, 21, 5, 3, 6, 90, 4, 10)

@@ -44,6 +44,11 @@ def _padded(be, shape, dtype):
     size = math.prod(shape)
     return be.empty((size + 16,), dtype)[:size].reshape(shape)
 
+def _padded_samples(n):
+    """A pixel's samples padded to whole short16 vectors (stereo.cl's NP)."""
+    return -(-n // 16) * 16
+
+
 def _check_written(a, name):
     if a.offset != 0 or not a.flags.c_contiguous:
         raise ValueError(f"{name} must be a C-contiguous array without offset")
@@ -93,7 +98,7 @@ def _block_scratch(be, w, n, block):
     (ushort: two more rows); and the slot width."""
     splits = _cost_splits(be, w)
     cols = -(-w // splits) + 2 * (block // 2)
-    return be.empty((splits * (block + 2) * cols * (-(-n // 16) * 16),), np.uint8), cols
+    return be.empty((splits * (block + 2) * cols * _padded_samples(n),), np.uint8), cols
 
 
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, steps, block):
@@ -176,8 +181,7 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, 
 
 def _sgm_state(be, w, n):
     """The band sweeps' path states (2 work-items x 5 rows of w + 2 cells) and their minima."""
-    nv = -(-n // 16)
-    return (be.empty((2, 5, 16 + (w + 2) * (nv * 16 + 16)), np.int16),
+    return (be.empty((2, 5, 16 + (w + 2) * (_padded_samples(n) + 16)), np.int16),
             be.empty((2, 4, w + 2), np.int16))
 
 
@@ -201,7 +205,7 @@ def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
                 np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
                 np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
-                np.int32(max(1, TILE_BYTES // (2 * (-(-n // 16) * 16 + 16)))), bound.data))
+                np.int32(max(1, TILE_BYTES // (2 * (_padded_samples(n) + 16)))), bound.data))
 
 
 #: rows of a band of the CPU matcher: at least this many (fewer launches) ...
@@ -249,13 +253,13 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     path states and their checkpoints, the horizontal paths' states at the column tiles' edges;
     bands of ``rows`` rows (default :func:`band_rows`)."""
     k = band_rows(h, paths, w, n) if rows is None else int(rows)
-    cell = -(-n // 16) * 16 + 16
+    cell = _padded_samples(n) + 16                          # stereo.cl's CELL
     state_row = 2 * (16 + (w + 2) * cell)
     c = 1 if paths == 4 else 4
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
     cost = h * w * n if keep_cost else k * w * n
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
-    ring = splits * (block + 2) * (-(-w // splits) + block) * (-(-n // 16) * 16)
+    ring = splits * (block + 2) * (-(-w // splits) + block) * _padded_samples(n)
     return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints + 4 * k * cell
 
 
@@ -271,6 +275,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     n = int(n_disp)
     if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
         raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
+    if not 1 <= steps <= 4:
+        raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     if be.kind != "cpu":
         # GPUs: whole int16 volumes, each path's lines in parallel (disparity() checks the
         # device's memory before allocating)
@@ -290,7 +296,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     cost = _padded(be, (h if keep else k, w, n), np.uint8)
     down, up = _padded(be, (k, w, n), np.int16), _padded(be, (k, w, n), np.int16)
     state, state_min = _sgm_state(be, w, n)
-    bound = be.empty((2, k, -(-n // 16) * 16 + 1), np.int16)
+    bound = be.empty((2, k, _padded_samples(n) + 1), np.int16)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
     view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
