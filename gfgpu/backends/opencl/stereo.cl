@@ -97,6 +97,16 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 #define TAIL (N_DISP - 16 * (NV - 1))      // lanes of the last vector that are disparities, 1..16
 #define PAD_COST 16384                     // path cost of the padding lanes: never a minimum
 #define NP (16 * NV)                       // padded disparities of a state vector
+// The pixel stride of the volumes: N_DISP (whole volumes, the public kernels), or NP with
+// -D PADDED_PIXELS (the CPU band matcher's own buffers): every pixel then starts on a 32-byte
+// boundary (short) and owns its padding lanes.  With an odd N_DISP (every default sub-pixel
+// range: (max - min) * 2 + 1 samples) the unpadded vectors straddled cache lines and the band
+// sweeps and the selection ran twice as long per sample (1000 x 1500, 383 samples)
+#ifdef PADDED_PIXELS
+#define PIX NP
+#else
+#define PIX N_DISP
+#endif
 // Loops over a pixel's vectors unroll (SIMD over all its disparities, arrays in registers) up to
 // 256 samples (UNROLL_NV), the selection's up to 512 (UNROLL_SEL: measured 5 % faster at 383
 // samples, where the sweeps were slower unrolled); wider ranges stay loops: unrolled, 4096
@@ -144,11 +154,11 @@ typedef uchar2 uchar2_u __attribute__((aligned(1)));
 
 // The last vector of a pixel: TAIL values, the other lanes PAD; loads and stores of the tail are
 // split into 8/4/2/1-lane parts so that no neighbouring pixel is read or written (the
-// neighbour may belong to another work-item).  Built with -D TAIL_READABLE (the band matcher's
-// own buffers, allocated with 16 elements to spare): the tail is one full load, its lanes past
-// TAIL replaced (a split load assembles the vector in private memory: a store-forwarding stall
-// per pixel on CPUs).
-#ifdef TAIL_READABLE
+// neighbour may belong to another work-item).  Built with -D PADDED_PIXELS (a pixel owns its
+// padding lanes): the tail is one full load, its lanes past TAIL replaced (a split load
+// assembles the vector in private memory: a store-forwarding stall per pixel on CPUs), and one
+// full store.
+#ifdef PADDED_PIXELS
 #define TAIL_LOAD(NAME, T, PAD, LANE_T)                                                        \
 static inline T##16 NAME(__global const T *p)                                                 \
 {                                                                                             \
@@ -176,10 +186,15 @@ TAIL_LOAD(load_last_short_max, short, SHRT_MAX, short)
 TAIL_LOAD(load_last_uchar, uchar, 0, char)
 
 // ... and its store, also in 8/4/2/1-lane parts
+#ifdef PADDED_PIXELS
+#define PADDED 1
+#else
+#define PADDED 0
+#endif
 #define TAIL_STORE(NAME, T)                                                                    \
 static inline void NAME(T##16 v, __global T *p)                                               \
 {                                                                                             \
-    if (TAIL == 16) {                                                                         \
+    if (TAIL == 16 || PADDED) {                                                               \
         VSTORE(T, 16, v, p);                                                                  \
         return;                                                                               \
     }                                                                                         \
@@ -454,8 +469,8 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
             for (int u = -r; u <= r; ++u)
                 sum[j] += VLOAD(ushort, 16, colsum + (size_t)(CLAMPI(xa + u, 0, w - 1) - ca) * NP + 16 * j);
         }
-        __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * N_DISP;
-        for (int x = xa; x < xb; ++x, dst += N_DISP) {
+        __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * PIX;
+        for (int x = xa; x < xb; ++x, dst += PIX) {
             const int add = min(x + r, w - 1) - ca, sub = max(x - 1 - r, 0) - ca;
             if (x > xa && add != sub) {
                 __global const ushort *pa = colsum + (size_t)add * NP, *ps = colsum + (size_t)sub * NP;
@@ -702,9 +717,9 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
         }
         for (int xi = t0; xi < t0 + tn; ++xi) {
             const int x = pass == 0 ? xa + xi : xb - 1 - xi, cell = x + 1;
-            __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * N_DISP;
+            __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * PIX;
             const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1), vp2 = (short16)(p2);
-            __global short *o = out + ((size_t)bi * w + x) * N_DISP;
+            __global short *o = out + ((size_t)bi * w + x) * PIX;
             // the paths: horizontal from x - s, vertical, diagonals from x + s and x - s
             __global const short *in_h = sh + (cell - s) * CELL, *in_v = sv + cell * CELL;
             __global const short *in_e = se + (cell + s) * CELL, *in_d = sd_in + (cell - s) * CELL;
@@ -802,8 +817,8 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
-    __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
-    __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
+    __global const short *s = agg + ((size_t)y * w + x) * PIX;
+    __global const short *s2 = agg2 + ((size_t)y * w + x) * PIX;
     short16 m1 = none, m2 = none, i1 = (short16)(0);
     UNROLL_SEL
     for (int j = 0; j < NV; ++j) {
@@ -832,8 +847,8 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
                                       const short16 m2, const short16 i1, const int t0, const int steps,
                                       const int uniqueness, __global float *drow, __global float *mrow)
 {
-    __global const short *s = agg + ((size_t)y * w + x) * N_DISP;
-    __global const short *s2 = agg2 + ((size_t)y * w + x) * N_DISP;
+    __global const short *s = agg + ((size_t)y * w + x) * PIX;
+    __global const short *s2 = agg2 + ((size_t)y * w + x) * PIX;
     const int best = hmin16(m1);
     const int kb = hmin16(m1 == (short16)(best) ? i1 : (short16)(SHRT_MAX));
     const short16 near = (i1 >= (short16)(kb - 1)) & (i1 <= (short16)(kb + 1));

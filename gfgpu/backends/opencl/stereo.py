@@ -26,7 +26,7 @@ def _plain(be, a, name, dtype):
 
 def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=None):
     """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
-    with ``cost_bytes`` for byte costs, with ``padded`` for buffers of :func:`_padded`, the
+    with ``cost_bytes`` for byte costs, with ``padded`` for volumes of :func:`_padded`, the
     selection for its sub-pixel ``steps``)."""
     defines = {} if n_disp is None else {"N_DISP": int(n_disp), "COST_MAX": COST_MAX}
     if steps is not None:
@@ -34,15 +34,16 @@ def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=
     if cost_bytes:
         defines["COST_BYTES"] = 1
     if padded:
-        defines["TAIL_READABLE"] = 1
+        defines["PADDED_PIXELS"] = 1
     return be._kernel(name, np.dtype(np.float32), source="stereo.cl", **defines)
 
 
-def _padded(be, shape, dtype):
-    """An array of ``shape`` whose allocation has 16 elements to spare after it: a pixel's last
-    disparity vector can be loaded whole (``TAIL_READABLE`` kernels)."""
-    size = math.prod(shape)
-    return be.empty((size + 16,), dtype)[:size].reshape(shape)
+def _padded(be, rows, w, n, dtype):
+    """A (rows, w, n) volume of the band matcher with each pixel's samples padded to whole
+    vectors, (rows, w, :func:`_padded_samples` (n)): every pixel starts on a vector boundary
+    (``PADDED_PIXELS`` kernels; an odd n, the default sub-pixel ranges, otherwise misaligns
+    half of the loads and stores)."""
+    return be.empty((rows, w, _padded_samples(n)), dtype)
 
 def _padded_samples(n):
     """A pixel's samples padded to whole short16 vectors (stereo.cl's NP)."""
@@ -75,7 +76,7 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     # interleaved right codes -> uchar Hamming volume -> running block sums (stereo.cl)
     ri = _interleave(be, cr, h, w, steps, n)
     ham = None if be.kind == "cpu" else be.empty((h, w, n), np.uint8)
-    _band_cost(be, cl_, ri, out, ham, 0, h, 0, h, w, first_step, steps, block)
+    _band_cost(be, cl_, ri, out, ham, 0, h, 0, h, w, n, first_step, steps, block)
     return out
 
 
@@ -101,17 +102,19 @@ def _block_scratch(be, w, n, block):
     return be.empty((splits * (block + 2) * cols * _padded_samples(n),), np.uint8), cols
 
 
-def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, steps, block):
+def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block):
     """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows], int16 or
-    byte costs as ``out``'s dtype.  CPUs: straight from the census codes, each column range's
-    rows in sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
+    byte costs as ``out``'s dtype, n samples per pixel (``out`` of :func:`_padded` where its
+    last axis is longer).  CPUs: straight from the census codes, each column range's rows in
+    sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
     ``ham`` (one work-item per pixel), then block sums."""
-    n = out.shape[2]
+    padded = out.shape[2] != n
     group = be._group()
     gsize = (-(-rows // group) * group,)
     if ham is None:
         knl = be._kernel("block_cost", np.dtype(np.float32), source="stereo.cl", N_DISP=n, COST_MAX=COST_MAX,
-                         BLOCK=int(block), **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}))
+                         BLOCK=int(block), **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}),
+                         **({"PADDED_PIXELS": 1} if padded else {}))
         splits = _cost_splits(be, w)
         scratch, cols = _block_scratch(be, w, n, block)
         be._launch(knl, (splits,), (1,), [cl_, ri], [out, scratch],
@@ -119,6 +122,8 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, first_step, step
                     np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0), np.int32(splits),
                     np.int32(cols)))
         return
+    if padded:
+        raise ValueError("padded volumes are the CPU band matcher's")
     r = block // 2
     ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
     be._launch(_stereo_kernel(be, "census_hamming", n), (w, yb - ya), None, [cl_, ri], [ham],
@@ -161,13 +166,14 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
     if n > 32767:
         raise ValueError(f"aggregated must have at most 32767 disparity samples (int16 lane "
                          f"indices in select_disparity), got {n}")
-    _select(be, agg, None, disp, disp_right, margin, 0, h, w, d_min, steps, uniqueness)
+    _select(be, agg, None, disp, disp_right, margin, 0, h, w, n, d_min, steps, uniqueness)
     return disp, disp_right, margin
 
 
-def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, d_min, steps, uniqueness, padded=False):
-    """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows])."""
-    n = agg.shape[2]
+def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness):
+    """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows]), n samples per
+    pixel (volumes of :func:`_padded` where their last axis is longer)."""
+    padded = agg.shape[2] != n
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     group = be._group()
@@ -190,11 +196,11 @@ def _sgm_state(be, w, n):
 TILE_BYTES = 128 * 2**10
 
 
-def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, p1, p2, paths,
+def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
                  init, active, view, write_up=True):
-    """One launch of sgm_band; ``view`` = (block, first_step, steps): which samples are in view;
-    ``bound``: the horizontal paths' states at the column tiles' edges."""
-    n = cost.shape[2]
+    """One launch of sgm_band on volumes of :func:`_padded` with n samples per pixel; ``view`` =
+    (block, first_step, steps): which samples are in view; ``bound``: the horizontal paths'
+    states at the column tiles' edges."""
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
     # one work-item initialises (a cell's guard lanes are read from the neighbouring column)
@@ -257,10 +263,11 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     state_row = 2 * (16 + (w + 2) * cell)
     c = 1 if paths == 4 else 4
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
-    cost = h * w * n if keep_cost else k * w * n
+    npix = _padded_samples(n)                               # a pixel's samples in _padded
+    cost = h * w * npix if keep_cost else k * w * npix
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
     ring = splits * (block + 2) * (-(-w // splits) + block) * _padded_samples(n)
-    return cost + ring + 14 * w * n + 4 * k * w * n + 10 * state_row + checkpoints + 4 * k * cell
+    return cost + ring + 14 * w * n + 4 * k * w * npix + 10 * state_row + checkpoints + 4 * k * cell
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -293,8 +300,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # ``budget`` allows (H W D bytes), else computed again for each band.
     k, keep, _ = match_plan(h, w, n, paths, block, budget)
     ri = _interleave(be, cr, h, w, steps, n)
-    cost = _padded(be, (h if keep else k, w, n), np.uint8)
-    down, up = _padded(be, (k, w, n), np.int16), _padded(be, (k, w, n), np.int16)
+    cost = _padded(be, h if keep else k, w, n, np.uint8)
+    down, up = _padded(be, k, w, n, np.int16), _padded(be, k, w, n, np.int16)
     state, state_min = _sgm_state(be, w, n)
     bound = be.empty((2, k, _padded_samples(n) + 1), np.int16)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
@@ -314,12 +321,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         dst.add_event(evt)
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
-        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, first_step, steps, block)
+        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block)
 
     def band_cost(y0, rows):
         if keep:
             return y0
-        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, first_step, steps, block)
+        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block)
         return 0
 
     # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep
@@ -327,7 +334,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     for b in range(len(bands) - 1, 0, -1):
         y0, rows = bands[b]
         row0 = band_cost(y0, rows)
-        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, p1, p2, paths,
+        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
                      init=2 if b == len(bands) - 1 else 0, active=2, view=view, write_up=False)
         copy(ckpt, state, st_len, (b - 1) * st_len, st_off)
         copy(ckpt_min, state_min, mn_len, (b - 1) * mn_len, mn_off)
@@ -338,10 +345,9 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         if not last:
             copy(state, ckpt, st_len, st_off, b * st_len)
             copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
-        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, p1, p2, paths,
+        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
                      init=(1 if b == 0 else 0) | (2 if last else 0), active=3, view=view)
-        _select(be, down, up, disp, disp_right, margin, y0, rows, w, first_step // steps, steps, uniqueness,
-                padded=True)
+        _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps, uniqueness)
     return disp, disp_right, margin
 
 
