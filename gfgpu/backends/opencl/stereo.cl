@@ -108,15 +108,16 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 #define PIX N_DISP
 #endif
 // Loops over a pixel's vectors unroll (SIMD over all its disparities, arrays in registers) up to
-// 256 samples (UNROLL_NV), the selection's up to 512 (UNROLL_SEL: measured 5 % faster at 383
-// samples, where the sweeps were slower unrolled); wider ranges stay loops: unrolled, 4096
-// samples took PoCL minutes to build
+// 1024 samples (UNROLL_NV; with padded pixels the band sweeps of 1000 x 1500 x 383 samples took
+// 605 -> 407 ms unrolled, their checkpointing sweep 220 -> 89 ms; 511 samples alike; 5 s to
+// build at 1023), the selection's up to 512 (UNROLL_SEL: at 767 samples 526 ms as a loop, 742
+// unrolled); wider ranges stay loops: unrolled, 4096 samples took PoCL minutes to build
 #if NV <= 32
 #define UNROLL_SEL _Pragma("unroll")
 #else
 #define UNROLL_SEL _Pragma("nounroll")
 #endif
-#if NV <= 16
+#if NV <= 64
 #define UNROLL_NV _Pragma("unroll")
 #else
 #define UNROLL_NV _Pragma("nounroll")
