@@ -617,21 +617,23 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
     } while (0)
 
 // One pixel of sgm_band: the paths' vectors j = 0 .. NV - 1 (MASKED: samples out of view or
-// entering it may occur; COST(c, j): the cost vector)
-#define BAND_PIXEL(MASKED, COST)                                                               \
+// entering it may occur; COST(c, j): the cost vector; WRITE: the horizontal path and the sum;
+// DIAG: the diagonals).  The interior's 4-path sweeps get WRITE and DIAG as constants: no test
+// per vector (band sweeps of 1000 x 1500 x 383 -6 %, of teddy -16 %)
+#define BAND_PIXEL(MASKED, COST, WRITE, DIAG)                                                  \
     do {                                                                                      \
         UNROLL_NV                                                                             \
         for (int j = 0; j < NV; ++j) {                                                        \
             const short16 cv = COST;                                                          \
             short16 sum = (short16)(0);                                                       \
-            if (write)                                                                        \
+            if (WRITE)                                                                        \
                 PATH_STEP(h, j, MASKED, MASKED);                                              \
             PATH_STEP(v, j, 0, MASKED);                                                       \
-            if (diagonals) {                                                                  \
+            if (DIAG) {                                                                       \
                 PATH_STEP(e, j, MASKED, MASKED);                                              \
                 PATH_STEP(d, j, MASKED, MASKED);                                              \
             }                                                                                 \
-            if (write)                                                                        \
+            if (WRITE)                                                                        \
                 STORE_S((MASKED) ? (cv < (short16)(0) ? (short16)(-1) : sum) : sum, o, j);      \
         }                                                                                     \
     } while (0)
@@ -736,9 +738,14 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             // the entering rule: its predecessor is the same column, whose samples in view are
             // the same.
             if (all_in_view(x - 1, r, w, first_step, steps) && all_in_view(x + 1, r, w, first_step, steps))
-                BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)));
+                if (!diagonals && write)
+                    BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)), 1, 0);
+                else if (!diagonals)
+                    BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)), 0, 0);
+                else
+                    BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)), write, diagonals);
             else
-                BAND_PIXEL(1, LOAD_COST(c, j));
+                BAND_PIXEL(1, LOAD_COST(c, j), write, diagonals);
             if (write) {
                 VSTORE(short, 16, pend_h, out_h + 16 * (NV - 1));
                 mh = hmin16(run_h);
