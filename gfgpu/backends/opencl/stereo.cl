@@ -907,7 +907,11 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         const int cnt = min(4, x + 1);
         for (int q = 0; q < 4; ++q) {
             if (q < cnt) {
-                select_pass(agg, agg2, y, w, x - q, two, ev, ei, &m1[q], &m2[q], &i1[q]);
+                // `two` as a constant: no test per vector (1000 x 1500 x 383: -38 %)
+                if (two)
+                    select_pass(agg, agg2, y, w, x - q, 1, ev, ei, &m1[q], &m2[q], &i1[q]);
+                else
+                    select_pass(agg, agg2, y, w, x - q, 0, ev, ei, &m1[q], &m2[q], &i1[q]);
                 if (x - q - n0 >= 0 && x - q - n0 < w)
                     rrow[x - q - n0] = right_winner(ev[0], ei[0], t0);
             }
