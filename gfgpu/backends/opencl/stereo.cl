@@ -673,7 +673,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     if (gid > 1 || (!split && !((active >> gid) & 1)))
         return;
     const int xa = split ? gid * (w / 2) : 0, xb = split && gid == 0 ? w / 2 : w;
-    const int s = pass == 0 ? 1 : -1, write = pass == 0 || write_up;
+    const int write = pass == 0 || write_up;
     __global short *out = pass == 0 ? sum_down : sum_up;
     const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
     __global short *st = state + (size_t)pass * 5 * row;
@@ -697,6 +697,10 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     }
     __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
     __global short *mv = mins, *me = mv + cells;
+    // A state row's cells in the sweep's order: column x in cell x + 1 going right (work-item
+    // 0), in cell w - x going left, so that both sweeps walk their states (and the path
+    // predecessors) upwards in memory: descending, the up sweep took 35 % longer than the down
+    // sweep (1000 x 1500 x 383)
     // 4 paths: the columns in tiles of `tile`, all the band's rows of a tile before the next, so
     // that the tile's vertical states stay in cache (a row of them exceeds L2 on wide images);
     // each row's horizontal path goes on across a tile's edge from `bound` (the row's last
@@ -713,24 +717,25 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
         __global short *md_in = me + in_buf * cells, *md_out = me + out_buf * cells;
         short mh = 0;
         if (write && t0 > 0) {      // the predecessor's cell of the tile's first pixel
-            __global short *c = sh + (size_t)(pass == 0 ? xa + t0 : xb - t0 + 1) * CELL;
+            __global short *c = sh + (size_t)(pass == 0 ? xa + t0 : w - xb + t0) * CELL;
             for (int q = 0; q < NP; ++q)
                 c[q] = bnd[(size_t)i * (NP + 1) + q];
             mh = bnd[(size_t)i * (NP + 1) + NP];
         }
         for (int xi = t0; xi < t0 + tn; ++xi) {
-            const int x = pass == 0 ? xa + xi : xb - 1 - xi, cell = x + 1;
+            const int x = pass == 0 ? xa + xi : xb - 1 - xi, cell = pass == 0 ? x + 1 : w - x;
             __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * PIX;
             const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1), vp2 = (short16)(p2);
             __global short *o = out + ((size_t)bi * w + x) * PIX;
-            // the paths: horizontal from x - s, vertical, diagonals from x + s and x - s
-            __global const short *in_h = sh + (cell - s) * CELL, *in_v = sv + cell * CELL;
-            __global const short *in_e = se + (cell + s) * CELL, *in_d = sd_in + (cell - s) * CELL;
+            // the paths: horizontal from x - s, vertical, diagonals from x + s and x - s (cells
+            // cell - 1, cell, cell + 1 and cell - 1: the cells' order above)
+            __global const short *in_h = sh + (cell - 1) * CELL, *in_v = sv + cell * CELL;
+            __global const short *in_e = se + (cell + 1) * CELL, *in_d = sd_in + (cell - 1) * CELL;
             __global short *out_h = sh + cell * CELL, *out_v = in_v, *out_e = se + cell * CELL;
             __global short *out_d = sd_out + cell * CELL;
             const short16 vm_h = (short16)(mh), vm_v = (short16)(mv[cell]);
-            const short16 vm_e = (short16)(diagonals ? me[cell + s] : 0);
-            const short16 vm_d = (short16)(diagonals ? md_in[cell - s] : 0);
+            const short16 vm_e = (short16)(diagonals ? me[cell + 1] : 0);
+            const short16 vm_d = (short16)(diagonals ? md_in[cell - 1] : 0);
             short16 pend_h = pad, pend_v = pad, pend_e = pad, pend_d = pad;
             short16 run_h = pad, run_v = pad, run_e = pad, run_d = pad;
             // columns x - 1 .. x + 1 with every sample in view (most of the image): no sample is
@@ -760,7 +765,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             }
         }
         if (write && t0 + tn < ncol) {   // the row's last cell of this tile, for the next
-            __global const short *c = sh + (size_t)(pass == 0 ? xa + t0 + tn : xb - t0 - tn + 1) * CELL;
+            __global const short *c = sh + (size_t)(pass == 0 ? xa + t0 + tn : w - xb + t0 + tn) * CELL;
             for (int q = 0; q < NP; ++q)
                 bnd[(size_t)i * (NP + 1) + q] = c[q];
             bnd[(size_t)i * (NP + 1) + NP] = mh;
