@@ -642,7 +642,9 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
 // Semi-global aggregation of a band of rows in two sweeps (for CPUs, as OpenCV's SGBM); the band's
 // byte costs are in `cost` (image row y0 + i at row cost_row0 + i).  Work-item 0 goes down the band's rows, each left
 // to right, with the paths (0,1), (1,0) [, (1,1), (1,-1)] and writes their sum to sum_down;
-// work-item 1 goes up, right to left, with the opposite paths, to sum_up.  The path costs of the
+// work-item 1 goes up, right to left, with the opposite paths, to sum_up (each row stored right to
+// left: column x at w - 1 - x, so that the up sweep writes, and the selection reads, upwards in
+// memory).  The path costs of the
 // previous pixels live in `state` (per work-item 5 rows of w + 2 cells: horizontal, vertical,
 // diagonal from x + s, and the diagonal from x - s double-buffered by the row's parity; guard
 // cells of zeros at both ends) and their minima in `state_min` (4 rows); reading a guard or the
@@ -726,7 +728,8 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             const int x = pass == 0 ? xa + xi : xb - 1 - xi, cell = pass == 0 ? x + 1 : w - x;
             __global const cost_t *c = cost + ((size_t)(cost_row0 + bi) * w + x) * PIX;
             const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1), vp2 = (short16)(p2);
-            __global short *o = out + ((size_t)bi * w + x) * PIX;
+            // (sum_up in the up sweep's order too: column x at w - 1 - x)
+            __global short *o = out + ((size_t)bi * w + (pass == 0 ? x : w - 1 - x)) * PIX;
             // the paths: horizontal from x - s, vertical, diagonals from x + s and x - s (cells
             // cell - 1, cell, cell + 1 and cell - 1: the cells' order above)
             __global const short *in_h = sh + (cell - 1) * CELL, *in_v = sv + cell * CELL;
@@ -821,7 +824,8 @@ static inline int right_winner(const short16 ev, const short16 ei, const int t0)
     return best < SHRT_MAX ? t0 + k : NO_MATCH;
 }
 
-// One pass over pixel x's vectors (two = 1: S = agg + agg2, the band sweeps' sums, both -1 where
+// One pass over pixel x's vectors (two = 1: S = agg + agg2, the band sweeps' sums, agg2's rows
+// stored right to left as sgm_band's sum_up, both -1 where
 // out of view): per lane the least cost m1 (its first k, i1) and the second least m2, and the
 // right view's F_x from F_(x+1) in ev, ei (one shift by STEPS lanes).
 static ALWAYS_INLINE void select_pass(__global const short *agg, __global const short *agg2, const int y,
@@ -831,7 +835,7 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
     __global const short *s = agg + ((size_t)y * w + x) * PIX;
-    __global const short *s2 = agg2 + ((size_t)y * w + x) * PIX;
+    __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // mirrored: see below
     short16 m1 = none, m2 = none, i1 = (short16)(0);
     UNROLL_SEL
     for (int j = 0; j < NV; ++j) {
@@ -861,7 +865,7 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
                                       const int uniqueness, __global float *drow, __global float *mrow)
 {
     __global const short *s = agg + ((size_t)y * w + x) * PIX;
-    __global const short *s2 = agg2 + ((size_t)y * w + x) * PIX;
+    __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // mirrored: see below
     const int best = hmin16(m1);
     const int kb = hmin16(m1 == (short16)(best) ? i1 : (short16)(SHRT_MAX));
     const short16 near = (i1 >= (short16)(kb - 1)) & (i1 <= (short16)(kb + 1));

@@ -171,8 +171,9 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
 
 
 def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness):
-    """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows]), n samples per
-    pixel (volumes of :func:`_padded` where their last axis is longer)."""
+    """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows], whose rows are
+    stored right to left as sgm_band's up sums), n samples per pixel (volumes of
+    :func:`_padded` where their last axis is longer)."""
     padded = agg.shape[2] != n
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
