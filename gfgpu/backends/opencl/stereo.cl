@@ -418,6 +418,12 @@ static void hamming_row(__global uchar *dst, __global const ulong *cl, __global 
 #ifdef HAMMING16
         for (; k + 16 <= k_hi; k += 16)
             hamming16_reversed(dst + k, lc, row + j0 - k - 15);
+        // the last, partial vector whole where all its 16 codes exist (the ring's lanes past
+        // N_DISP are padding, never read as costs): no scalar tail of up to 15 samples
+        if (k < k_hi && k + 15 <= j0 && k + 16 <= NP) {
+            hamming16_reversed(dst + k, lc, row + j0 - k - 15);
+            k = k_hi;
+        }
 #endif
         for (; k < k_hi; ++k)
             dst[k] = (uchar)POPCOUNT(lc ^ row[j0 - k]);
