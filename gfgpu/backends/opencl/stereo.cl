@@ -841,7 +841,7 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
     __global const short *s = agg + ((size_t)y * w + x) * PIX;
-    __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // mirrored: see below
+    __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // rows right to left
     short16 m1 = none, m2 = none, i1 = (short16)(0);
     UNROLL_SEL
     for (int j = 0; j < NV; ++j) {
@@ -871,7 +871,7 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
                                       const int uniqueness, __global float *drow, __global float *mrow)
 {
     __global const short *s = agg + ((size_t)y * w + x) * PIX;
-    __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // mirrored: see below
+    __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // rows right to left
     const int best = hmin16(m1);
     const int kb = hmin16(m1 == (short16)(best) ? i1 : (short16)(SHRT_MAX));
     const short16 near = (i1 >= (short16)(kb - 1)) & (i1 <= (short16)(kb + 1));
