@@ -83,8 +83,8 @@ import numpy as np
 from scipy import ndimage
 
 import gfgpu
-from gfgpu.backends.specs import suppress_nonmaxima_reference
 from gfgpu.edges import hysteresis
+from gfgpu.edges.spec import suppress_nonmaxima_reference
 from gfgpu.greens import EDGE_A, EDGE_ETA
 
 try:

@@ -133,8 +133,9 @@ def test_import_is_lazy():
 
 
 def test_kernels_ship_with_the_package():
-    for name in ("recurse.cl", "recurse_lines.cl", "edges.cl", "stereo.cl"):
-        cl = importlib.resources.files("gfgpu.backends.opencl").joinpath(name)
+    for package, name in (("gfgpu.backends.opencl", "recurse.cl"), ("gfgpu.backends.opencl", "recurse_lines.cl"),
+                          ("gfgpu.edges", "edges.cl"), ("gfgpu.stereo", "stereo.cl"), ("gfgpu.motion", "motion.cl")):
+        cl = importlib.resources.files(package).joinpath(name)
         assert cl.is_file() and "__kernel" in cl.read_text()
 
 

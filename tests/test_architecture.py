@@ -305,6 +305,27 @@ def test_no_private_names_across_package_levels():
                     "them public):\n" + "\n".join(bad)
 
 
+#: the applications, whose code (math, numpy specification, device code) lives in their own package
+FEATURES = ("stereo", "motion", "edges", "shading")
+
+
+def engine_share(root, package=PACKAGE):
+    """``(lines of gfgpu/backends, lines of the package, files of backends named after a feature)``:
+    the backends hold the engine only (.py and .cl files counted)."""
+    top = Path(root) / package
+    files = [p for p in top.rglob("*") if p.suffix in (".py", ".cl") and "__pycache__" not in p.parts]
+    lines = {p: len(p.read_text(encoding="utf-8").splitlines()) for p in files}
+    engine = [p for p in files if (top / "backends") in p.parents]
+    named = sorted(str(p.relative_to(root)) for p in engine if any(f in p.stem for f in FEATURES))
+    return sum(lines[p] for p in engine), sum(lines.values()), named
+
+
+def test_the_backends_hold_only_the_engine():
+    engine, total, named = engine_share(ROOT)
+    assert not named, f"feature code in gfgpu/backends (move it into the feature's package): {named}"
+    assert engine <= 0.2 * total, f"gfgpu/backends holds {engine} of {total} lines (at most 20 %)"
+
+
 def test_no_references_to_files_outside_the_repository():
     hits = outside_references(ROOT)
     assert not hits, f"{len(hits)} line(s) cite files that are not in the repository:\n" + "\n".join(hits)
@@ -330,6 +351,9 @@ def faulty_copy(tmp_path_factory):
     (pkg / "stereo" / "peek.py").write_text(
         "from ..filters import _private_thing\nfrom .. import greens\n\n\n"
         "def f():\n    return _private_thing, greens._hidden\n")
+    # a feature's device module imported directly (not through the registry), and Warp imported
+    # by a module that is not device code
+    (pkg / "motion" / "eager.py").write_text("from . import _warp\n\n\ndef f():\n    import warp\n    return warp\n")
     (pkg / "notes.md").write_text("see " + "DESIGN" + " § 4\n")
     return root
 
@@ -341,6 +365,9 @@ def test_the_checkers_catch_faults(faulty_copy):
     bad = private_imports(faulty_copy)
     assert any("gfgpu.stereo.peek" in b and "_private_thing" in b for b in bad), bad
     assert any("gfgpu.greens._hidden" in b for b in bad), bad
+    (faulty_copy / PACKAGE / "backends" / "opencl" / "stereo.cl").write_text("__kernel void k() {}\n" * 10**4)
+    engine, total, named = engine_share(faulty_copy)
+    assert named == [os.path.join(PACKAGE, "backends", "opencl", "stereo.cl")] and engine > 0.2 * total
     hits = outside_references(faulty_copy, places=("gfgpu",))
     assert f"{os.path.join('gfgpu', 'notes.md')}:1: see {'DESIGN'} § 4" in hits, hits
 
@@ -349,6 +376,8 @@ def test_import_linter_catches_faults(faulty_copy):
     status, report = run_import_linter(faulty_copy)
     assert status != 0, report
     assert "BROKEN" in report and "gfgpu._core.lines -> gfgpu.backends.base" in report, report
+    assert "gfgpu.motion.eager -> gfgpu.motion._warp" in report, report
+    assert "gfgpu.motion.eager -> warp" in report, report
 
 
 def test_the_scan_resolves_every_kind_of_import(tmp_path):

@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 import gfgpu
-from gfgpu.backends.specs import suppress_nonmaxima_reference
 from gfgpu.edges import kernels as edge_kernels
+from gfgpu.edges.spec import suppress_nonmaxima_reference
 
 
 def _disc(size=96, radius=30.3, noise=0.0, seed=0):

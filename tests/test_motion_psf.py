@@ -4,7 +4,7 @@ Every kind (uniform, per-pixel field, spin, zoom) on every backend against a sup
 rendering that shares nothing with the fast paths: the average of many exactly warped copies
 of the image, each resampled by ``scipy.ndimage.map_coordinates`` (cubic spline), weighted by
 the PSF's mass over the copy's time cell.  The fused kernels against their numpy
-specifications (:mod:`gfgpu.backends.specs_motion`).
+specifications (:mod:`gfgpu.motion.spec`).
 """
 
 import math
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 import scipy.ndimage as ndi
 
-from gfgpu.backends import specs_motion as specs
 from gfgpu.greens import g_uniform
 from gfgpu.motion import kernels, motion_blur
+from gfgpu.motion import spec as specs
 
 SCIPY_MODES = {"wrap": "grid-wrap", "reflect": "reflect", "mirror": "mirror", "nearest": "nearest"}
 

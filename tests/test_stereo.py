@@ -5,8 +5,8 @@ import pytest
 from scipy import ndimage
 
 from gfgpu import stereo
-from gfgpu.backends import specs
 from gfgpu.stereo import kernels as stereo_kernels
+from gfgpu.stereo import spec as specs
 
 
 def random_dot_pair(disp_fn, shape=(64, 112), seed=0):
@@ -456,13 +456,13 @@ def test_band_matcher_keeps_or_recomputes_costs_with_the_same_result(require_bac
     # small for the byte cost volume it recomputes each band's costs (bit-identical maps), and
     # a working set too small even for the bands is refused before any work
     import gfgpu
-    from gfgpu.backends.opencl.stereo import band_rows
+    from gfgpu.stereo.band_plan import band_rows
     be = require_backend("opencl")
     if be.kind != "cpu":
         pytest.skip("the band matcher runs on OpenCL CPU devices")
     left, right, _ = random_dot_pair(slanted, shape=(90, 72), seed=5)
-    monkeypatch.setattr("gfgpu.backends.opencl.stereo.BAND_BYTES", 1)   # bands of the fewest rows
-    monkeypatch.setattr("gfgpu.backends.opencl.stereo.WHOLE_BYTES", 0)  # (not one band)
+    monkeypatch.setattr("gfgpu.stereo.band_plan.BAND_BYTES", 1)   # bands of the fewest rows
+    monkeypatch.setattr("gfgpu.stereo.band_plan.WHOLE_BYTES", 0)  # (not one band)
     assert band_rows(90, 4, 72, 16) < 90                # several bands, checkpoints
     keep = stereo.disparity(left, right, 12, min_disparity=-3, backend=be)
     full = stereo.disparity_memory(left.shape, 12, min_disparity=-3, backend=be)
@@ -479,7 +479,7 @@ def test_band_matcher_keeps_or_recomputes_costs_with_the_same_result(require_bac
 def test_band_matcher_memory_stays_below_a_volume():
     # the CPU matcher's working memory grows like H W D bytes (costs), not like the 4-6 bytes per
     # sample of whole int16 volumes; with the costs recomputed, far below that
-    from gfgpu.backends.opencl.stereo import match_memory
+    from gfgpu.stereo.band_plan import match_memory
     h, w, n = 1000, 1500, 192
     assert match_memory(h, w, n, 4, True) < 1.3 * h * w * n
     assert match_memory(h, w, n, 4, False) < 0.35 * h * w * n

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import gfgpu
-from gfgpu.backends import specs
 from gfgpu.stereo import disparity, disparity_memory, kernels, matching, random_dot_stereogram
+from gfgpu.stereo import spec as specs
 
 
 def _codes(rng, h, w, steps, shift, flip, bits=48):
@@ -52,7 +52,7 @@ def test_opencl_match_many_bands_keep_and_recompute(monkeypatch, require_backend
     be = require_backend("opencl")
     if be.kind != "cpu":
         pytest.skip("the band matcher runs on CPU devices only")
-    from gfgpu.backends.opencl import stereo as ocl
+    from gfgpu.stereo import band_plan as ocl
     monkeypatch.setattr(ocl, "BAND_BYTES", 1)
     monkeypatch.setattr(ocl, "WHOLE_BYTES", 0)
     rng = np.random.default_rng(1)
@@ -118,7 +118,7 @@ def test_band_sweeps_in_column_tiles(tile_bytes, monkeypatch, require_backend):
     be = require_backend("opencl")
     if be.kind != "cpu":
         pytest.skip("the band matcher runs on CPU devices only")
-    from gfgpu.backends.opencl import stereo as ocl
+    from gfgpu.stereo import band_plan as ocl
     monkeypatch.setattr(ocl, "TILE_BYTES", tile_bytes)
     whole_bytes, band_bytes = ocl.WHOLE_BYTES, ocl.BAND_BYTES
     rng = np.random.default_rng(3)

@@ -3,12 +3,14 @@
 The :class:`~gfgpu.backends.base.Backend` contract holds only what every operator needs (arrays,
 the recursion primitive, a gather).  A stage that must be one kernel for speed (census, SGM
 aggregation, disparity selection, non-maximum suppression) is a :class:`FusedKernel`: a name,
-its numpy specification (:mod:`gfgpu.backends.specs`) and one launcher per backend, named as
-``"module:function"`` and imported on first use, so registering a kernel imports no device
-library.  A launcher is called as ``launcher(backend, *args)``.
+its numpy specification (the feature's ``spec.py``) and one launcher per backend, named as
+``"module:function"`` (the feature's ``_numpy.py``, ``_warp.py``, ``_opencl.py``) and imported on
+first use, so registering a kernel imports no device library.  A launcher is called as
+``launcher(backend, *args)``.
 
-The application that needs a kernel registers it (``gfgpu.stereo.kernels``,
-``gfgpu.edges.kernels``); the backends never import an application.
+The feature that needs a kernel registers it (``gfgpu.stereo.kernels``, ``gfgpu.motion.kernels``,
+``gfgpu.edges.kernels``); this registry is the only place that imports a feature's device
+modules, and the backends never import an application.
 """
 
 from __future__ import annotations

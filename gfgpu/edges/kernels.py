@@ -1,19 +1,18 @@
 """The fused kernel of the edge detector, registered with the backends.
 
 ``nms(be, gy, gx, out)``: interpolated non-maximum suppression of the gradient ``(gy, gx)``
-(2-D device arrays), specification
-:func:`gfgpu.backends.specs.suppress_nonmaxima_reference`; device code in
-``backends/warp/edges.py`` and ``backends/opencl/edges.cl``.
+(2-D device arrays), specification :func:`gfgpu.edges.spec.suppress_nonmaxima_reference`;
+launchers ``launch_suppress_nonmaxima`` in this package's ``_numpy.py``, ``_warp.py`` and
+``_opencl.py`` (with ``edges.cl``), imported on first use.
 """
 
 from __future__ import annotations
 
-from ..backends import specs
 from ..backends.fused import register
+from .spec import suppress_nonmaxima_reference
 
 __all__ = ["nms"]
 
-nms = register("edges.nms", specs.suppress_nonmaxima_reference,
-               numpy="gfgpu.backends.numpy.fused:launch_suppress_nonmaxima",
-               warp="gfgpu.backends.warp.edges:launch_suppress_nonmaxima",
-               opencl="gfgpu.backends.opencl.edges:launch_suppress_nonmaxima")
+nms = register("edges.nms", suppress_nonmaxima_reference,
+               **{backend: f"{__package__}._{backend}:launch_suppress_nonmaxima"
+                  for backend in ("numpy", "warp", "opencl")})

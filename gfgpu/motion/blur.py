@@ -8,13 +8,13 @@ import numpy as np
 from .._core.job import apply_program, copy_of_input
 from .._core.recursion import check_mode
 from .._core.validation import finite_cval, flag
-from ..backends.specs_motion import PSF_CODES
 from ..filters import make_job
 from .box import apply_uniform_box
 from .field import apply_field, check_field, is_field
 from .params import KINDS, center_point, move_channels, psf_name, velocity_pair, zoom_factors
 from .polar import apply_radial_green_zoom, apply_radial_zoom, apply_spin
 from .rotation import rotation_angle
+from .spec import PSF_CODES
 from .uniform import uniform_motion_program
 from .zoom import apply_zoom
 

@@ -11,7 +11,7 @@ slides the window with one running sum, so fractional lengths are exact, and sta
 closed form (beyond the line whole periods of the extension, or its geometric approach to the
 edge value), so the cost per pixel does not depend on the length.  Beyond the image the spline
 is the one of the image extended by ``mode`` (for ``"nearest"`` the edge pixel's value, not the
-edge coefficient's: :func:`gfgpu.backends.specs_motion.coef_taps`).
+edge coefficient's: :func:`gfgpu.motion.spec.coef_taps`).
 """
 
 from __future__ import annotations

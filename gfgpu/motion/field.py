@@ -1,7 +1,7 @@
 """Per-pixel velocity fields: every pixel blurred along its own path (the post-process model).
 
 The pixel at ``x`` gathers the image along the straight path ``x - t v(x)``, ``t`` over the
-shutter, weighted by the point-spread function in ``t`` (:data:`gfgpu.backends.specs_motion.PSF_CODES`):
+shutter, weighted by the point-spread function in ``t`` (:data:`gfgpu.motion.spec.PSF_CODES`):
 the box (uniform exposure, ``t`` in ``[0, 1]``, or ``[-1/2, 1/2]`` centred) or the chapter's
 G_u along the path (``u = |v|``: mean exactly one velocity; centred: the autocorrelation of
 G_{|v|/2}).  The image is the cubic B-spline through its samples (:mod:`gfgpu.motion.spline`);

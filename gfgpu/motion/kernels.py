@@ -1,23 +1,21 @@
 """The fused kernels of motion blur, registered with the backends.
 
-Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification lives in
-:mod:`gfgpu.backends.specs_motion`, its device code beside each backend
-(``backends/warp/motion.py``, ``backends/opencl/motion.cl``).  Call as ``kernel(backend, *args)``
-with device arrays; ``mode`` is a scipy.ndimage boundary name.
+Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification is in
+:mod:`gfgpu.motion.spec`, its launchers ``launch_<name>`` in this package's ``_numpy.py``,
+``_warp.py`` and ``_opencl.py`` (with ``motion.cl``), imported on first use.  Call as
+``kernel(backend, *args)`` with device arrays; ``mode`` is a scipy.ndimage boundary name.
 """
 
 from __future__ import annotations
 
-from ..backends import specs_motion as specs
 from ..backends.fused import register
+from . import spec as specs
 
 __all__ = ["box_lines", "field_blur", "to_polar", "from_polar", "add_rows"]
 
 
 def _launchers(name):
-    return {"numpy": f"gfgpu.backends.numpy.motion:launch_{name}",
-            "warp": f"gfgpu.backends.warp.motion:launch_{name}",
-            "opencl": f"gfgpu.backends.opencl.motion:launch_{name}"}
+    return {backend: f"{__package__}._{backend}:launch_{name}" for backend in ("numpy", "warp", "opencl")}
 
 
 #: ``box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None)``: ``dst = box_lines_reference(src,

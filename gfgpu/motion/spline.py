@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from .._core.passes import LinePass, Section
 from .._core.program import run_axis_passes
-from ..backends.specs_motion import SPLINE_POLE
+from .spec import SPLINE_POLE
 
 __all__ = ["prefilter_passes", "line_coefficients", "spline_coefficients"]
 

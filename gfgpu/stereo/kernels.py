@@ -1,22 +1,21 @@
 """The fused kernels of the stereo matcher, registered with the backends.
 
-Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification lives in
-:mod:`gfgpu.backends.specs`, its device code beside each backend (``backends/warp/stereo.py``,
-``backends/opencl/stereo.cl``).  Call as ``kernel(backend, *args)``.
+Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification is in
+:mod:`gfgpu.stereo.spec`, its launchers ``launch_<name>`` in this package's ``_numpy.py``,
+``_warp.py`` and ``_opencl.py`` (with ``stereo.cl``), imported on first use so that registering
+imports no device library.  Call as ``kernel(backend, *args)``.
 """
 
 from __future__ import annotations
 
-from ..backends import specs
 from ..backends.fused import register
+from . import spec as specs
 
 __all__ = ["census", "cost", "sgm", "select", "match", "left_right", "sweep"]
 
 
 def _launchers(name):
-    return {"numpy": f"gfgpu.backends.numpy.fused:launch_{name}",
-            "warp": f"gfgpu.backends.warp.stereo:launch_{name}",
-            "opencl": f"gfgpu.backends.opencl.stereo:launch_{name}"}
+    return {backend: f"{__package__}._{backend}:launch_{name}" for backend in ("numpy", "warp", "opencl")}
 
 
 #: ``census(be, image, out, plane, radius)``: ``out[plane] = census_transform_reference(image, radius)``

@@ -23,7 +23,7 @@ Three methods share one entry point, :func:`disparity`:
 
 Each stage runs on the backend: census, matching cost, path aggregation, selection and the
 sweep's running best are fused kernels (:mod:`gfgpu.stereo.kernels`), whose executable numpy
-specifications are the ``*_reference`` functions of :mod:`gfgpu.backends.specs`.  The
+specifications are the ``*_reference`` functions of :mod:`gfgpu.stereo.spec`.  The
 left-right check and the input handling run on the host (O(H·W)).
 """
 
@@ -38,10 +38,11 @@ from .. import greens
 from .._core.job import Job, apply_program
 from .._core.strips import get_working_set
 from .._core.validation import finite_scalar
-from ..backends import resolve_backend, specs
-from ..backends.specs import COST_MAX, SWEEP_PLANES
+from ..backends import resolve_backend
 from ..filters import green_filter, shift, shift_program
 from . import kernels
+from . import spec as specs
+from .spec import COST_MAX, SWEEP_PLANES
 
 __all__ = ["disparity", "disparity_work", "disparity_memory", "estimate_max_disparity", "METHODS", "fill_holes",
            "random_dot_stereogram", "sweep_finish"]
@@ -80,7 +81,7 @@ def sweep_finish(state, step, return_margin=False):
     Parameters
     ----------
     state : (9, H, W) array_like
-        The sweep's state (:func:`gfgpu.backends.specs.sweep_update_reference`).
+        The sweep's state (:func:`gfgpu.stereo.spec.sweep_update_reference`).
     step : float
         The sweep's disparity step (px).
     return_margin : bool, optional
@@ -406,7 +407,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     ``"sgm"`` uses the Green shift where it is exact and cheap: the fractional disparity
     samples of the cost volume (``subpixel_steps > 1``).  Census cost, path aggregation and
     the left-right check follow Hirschmüller (2008); matching costs saturate at
-    :data:`gfgpu.backends.specs.COST_MAX` (254) so that a cost fits a byte.
+    :data:`gfgpu.stereo.spec.COST_MAX` (254) so that a cost fits a byte.
 
     References
     ----------
@@ -505,7 +506,7 @@ _SGM_BYTES_DEFAULT = 4
 
 
 def _streams_bands(be):
-    # the OpenCL matcher on CPU devices streams bands of rows (backends/opencl/stereo.py)
+    # the OpenCL matcher on CPU devices streams bands of rows (_opencl.py, planned by band_plan.py)
     return be.name == "opencl" and be.kind == "cpu"
 
 
@@ -573,7 +574,7 @@ def _sgm_memory(be, shape, n, steps, paths, budget, keep=None, block=3):
     h, w = shape
     base = _sgm_base(shape, steps)
     if _streams_bands(be):
-        from ..backends.opencl.stereo import match_memory, match_plan
+        from .band_plan import match_memory, match_plan
         if keep is None:     # as the matcher plans it
             return base + match_plan(h, w, n, paths, block, None if budget is None else budget - base)[2]
         return base + match_memory(h, w, n, paths, keep, block)

@@ -18,7 +18,8 @@ from oracle import relerr
 import gfgpu
 from gfgpu import greens
 from gfgpu._core.recursion import MODES, plan_lines, plan_pass, run_reference, run_reference_lines
-from gfgpu.backends import BACKENDS, fused, specs
+from gfgpu.backends import BACKENDS, fused
+from gfgpu.stereo import spec as specs
 
 
 def _import_every_application():
@@ -306,9 +307,9 @@ def test_every_registered_kernel_is_tested():
     assert not stale, f"input builders for kernels nobody registers: {stale}"
     for name, kernel in fused.registered().items():
         assert set(kernel.launchers) == set(BACKENDS), f"{name} runs on {sorted(kernel.launchers)} only"
-        # the numpy specifications: gfgpu.backends.specs (stereo, edges), specs_motion (motion)
-        assert callable(kernel.spec) and kernel.spec.__module__ in ("gfgpu.backends.specs",
-                                                                    "gfgpu.backends.specs_motion"), name
+        # the numpy specification: the spec module of the feature that registers the kernel
+        feature = name.partition(".")[0]
+        assert callable(kernel.spec) and kernel.spec.__module__ == f"gfgpu.{feature}.spec", name
 
 
 @pytest.mark.parametrize("name", REGISTERED)

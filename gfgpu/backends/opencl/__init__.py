@@ -1,4 +1,6 @@
-"""The PyOpenCL backend (PoCL on the CPU, any OpenCL GPU) and its device code (``*.cl``).
+"""The PyOpenCL backend (PoCL on the CPU, any OpenCL GPU): the recursion primitive's device code
+(``recurse.cl``, ``recurse_lines.cl``) and the launch toolkit (``launch.py``) with which the features'
+kernels (``gfgpu/<feature>/*.cl``, launched from ``_opencl.py``) are built and run.
 
 Importing this package neither imports PyOpenCL nor creates a context.
 """

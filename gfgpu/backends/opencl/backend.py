@@ -2,12 +2,12 @@
 
 PyOpenCL is imported lazily: importing this module neither imports PyOpenCL nor creates a
 context.  The device sources beside this module (``recurse.cl``: the recursion primitive,
-gather and the non-finite check; ``recurse_lines.cl``: the per-line primitive; ``edges.cl``
-and ``stereo.cl``: the fused kernels, launched from ``edges.py`` and ``stereo.py``) are built
+gather and the non-finite check; ``recurse_lines.cl``: the per-line primitive) are built
 on first use, specialised by ``-D`` defines (real type, sections, constant coefficients,
 lanes, layout), and cached per (context, source, defines).  PyOpenCL caches the binaries on disk by source and
 options (``PYOPENCL_CACHE_DIR``) and PoCL keeps its own cache (``POCL_CACHE_DIR``), so only
-the first process on a machine pays the compile time.
+the first process on a machine pays the compile time (:mod:`gfgpu.backends.opencl.launch`, the
+toolkit that the features' device code builds and launches with).
 """
 
 from __future__ import annotations
@@ -17,29 +17,19 @@ import ctypes
 import os
 import shutil
 import tempfile
-import threading
 import warnings
 from collections import OrderedDict
-from functools import cache
 
 import numpy as np
 
 from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
+from . import launch
 
-REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
-GPU_GROUP = 64            # work-group size on non-CPU devices (a multiple of warp/wavefront)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
 
-_programs = {}             # (context, source, defines) -> built pyopencl.Program
-_kernels = {}              # (context, source, defines, name) -> pyopencl.Kernel (one per kernel)
-# a pyopencl.Kernel call sets the shared kernel object's arguments, then enqueues it: two threads
-# launching one kernel at once could enqueue each other's arguments (seen under a tiny
-# sys.setswitchinterval: wrong pixels in shift and disparity) -- every launch holds this lock
-_LAUNCH_LOCK = threading.RLock()
-_KERNEL_LOCK = threading.RLock()   # one kernel object per key, also when threads build at once
 _queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
 
 
@@ -100,8 +90,7 @@ def _import_cl():
 
 def _forget_in_child():
     # objects of the parent's runtime must never be reused in a forked child
-    _programs.clear()
-    _kernels.clear()
+    launch.forget_programs()
     _queue_backends.clear()
 
 
@@ -167,28 +156,6 @@ def unavailable_reason():
     if not opencl_devices():
         return "no OpenCL device found on platforms " + ", ".join(p.name.strip() for p in platforms)
     return None
-
-
-@cache
-def _source(name):
-    from importlib.resources import files
-    return files(__package__).joinpath(name).read_text()
-
-
-def _program(context, source, defines):
-    """The program of ``source`` built with ``defines`` (sorted (name, value) pairs), cached."""
-    key = (context, source, defines)
-    prog = _programs.get(key)
-    if prog is None:
-        import pyopencl as cl
-        # no fast-math: accuracy relies on IEEE arithmetic.  -w: PoCL warns on every 512-bit
-        # vector argument (an x86 ABI note), which PyOpenCL would surface as CompilerWarning.
-        # PyOpenCL's binary cache is keyed by source + options + device: later processes
-        # skip the compiler.
-        options = [f"-D{k}={v}" for k, v in defines] + ["-w"]
-        prog = cl.Program(context, _source(source)).build(options=options)
-        _programs[key] = prog
-    return prog
 
 
 def backend_for_queue(queue):
@@ -344,11 +311,12 @@ class OpenCLBackend(Backend):
 
     # ---- arrays -------------------------------------------------------------------
     def _check_dtype(self, dtype):
-        dtype = np.dtype(dtype)
-        if dtype == np.float64 and not self.supports_float64:
-            raise TypeError(f"float64 is not supported by OpenCL device {self.device} (no cl_khr_fp64); "
-                            f"convert the input to float32 or choose another device")
-        return dtype
+        return launch.check_dtype(self, dtype)
+
+    @property
+    def cl_device(self):
+        """The ``pyopencl.Device`` this backend runs on."""
+        return self._device
 
     def owns(self, array):
         return isinstance(array, self._array.Array) and array.context == self.context
@@ -428,7 +396,7 @@ class OpenCLBackend(Backend):
         dtype = self._check_dtype(array.dtype)
         if array.flags.c_contiguous or array.size == 0:
             return array
-        if dtype not in REALS:
+        if dtype not in launch.REALS:
             raise TypeError(f"input must be float32 or float64, got {dtype}")
         item = dtype.itemsize
         if any(st % item for st in array.strides) or array.offset % item:
@@ -442,11 +410,11 @@ class OpenCLBackend(Backend):
         dev_index, _ = self._index_array(index, available)
         out = self.empty(array.shape, dtype)
         knl = self._kernel("gather", dtype)
-        group = 64 if self.kind == "cpu" else self._group()
+        group = 64 if self.kind == "cpu" else launch.group_size(self)
         gsize = (-(-out.size // group) * group,)
         args = (array.base_data, np.int64(array.offset // item), dev_index.data, out.base_data,
                 np.int64(out.offset // item), dtype.type(0), np.int64(out.size))
-        self._launch(knl, gsize, (group,), [dev_index], [out], args)
+        launch.launch(self, knl, gsize, (group,), [dev_index], [out], args)
         return out
 
     def may_share_memory(self, a, b):
@@ -463,7 +431,7 @@ class OpenCLBackend(Backend):
 
     def all_finite(self, array):
         dtype = np.dtype(array.dtype)
-        if dtype not in REALS or array.size == 0:
+        if dtype not in launch.REALS or array.size == 0:
             return True   # integer arrays hold no NaN or infinity
         if not array.flags.c_contiguous:
             return bool(np.isfinite(array.get(queue=self.queue)).all())
@@ -475,7 +443,7 @@ class OpenCLBackend(Backend):
             first, stride, count, group = chunk, 1, chunk, 1
         else:
             # grid-stride loop: adjacent work-items read adjacent elements
-            group = self._group()
+            group = launch.group_size(self)
             items = min(-(-size // group), 256 * self._device.max_compute_units) * group
             first, stride, count = 1, items, -(-size // items)
         mf = self._cl.mem_flags
@@ -485,8 +453,7 @@ class OpenCLBackend(Backend):
         args = (array.base_data, np.int64(array.offset // dtype.itemsize), np.int64(size),
                 np.int64(first), np.int64(stride), np.int64(count), flag_buf)
         gsize = -(-items // group) * group
-        with _LAUNCH_LOCK:
-            evt = knl(self.queue, (gsize,), (group,), *args, wait_for=array.events or None)
+        evt = launch.launch(self, knl, (gsize,), (group,), [array], [], args)
         self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
         return int(flag[0]) == 0
 
@@ -514,21 +481,8 @@ class OpenCLBackend(Backend):
         # CPU: one cache line per step; GPU: one line per work-item (coalesced columns)
         return _CACHE_LINE // dtype.itemsize if self.kind == "cpu" else 1
 
-    def _group(self):
-        return 1 if self.kind == "cpu" else min(GPU_GROUP, self._device.max_work_group_size)
-
-    def _kernel(self, name, dtype, source="recurse.cl", **defines):
-        real = "double" if dtype == np.float64 else "float"
-        defines = tuple(sorted(dict(REAL=real, **defines).items()))
-        key = (self.context, source, defines, name)
-        knl = _kernels.get(key)
-        if knl is None:
-            with _KERNEL_LOCK:
-                knl = _kernels.get(key)
-                if knl is None:
-                    # each attribute access would create a new kernel object: keep one
-                    knl = _kernels[key] = getattr(_program(self.context, source, defines), name)
-        return knl
+    def _kernel(self, name, dtype, **defines):
+        return launch.kernel(self, __package__, "recurse.cl", name, dtype, **defines)
 
     def recurse_lines(self, src, dst, axis, plans, cval=0.0):
         check_line_plans(src, dst, axis, plans)
@@ -549,13 +503,13 @@ class OpenCLBackend(Backend):
         n, lines = (cols, rows) if axis == 2 else (rows, cols)
         line_stride, step = (cols, 1) if axis == 2 else (1, cols)
         item = dtype.itemsize
-        knl = self._kernel("recurse_lines", dtype, source="recurse_lines.cl")
+        knl = launch.kernel(self, __package__, "recurse_lines.cl", "recurse_lines", dtype)
         args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
                 lam, kap, tap, reverse, omega, omega_c, np.int32(plans.omega.shape[1]), np.int32(n),
                 np.int32(lines), np.int64(line_stride), np.int64(step), np.int64(rows * cols), dtype.type(cval))
-        group = 1 if self.kind == "cpu" else self._group()
+        group = 1 if self.kind == "cpu" else launch.group_size(self)
         gsize = (-(-lines // group) * group, b)
-        self._launch(knl, gsize, (group, 1), [src], [dst], args)
+        launch.launch(self, knl, gsize, (group, 1), [src], [dst], args)
         return dst
 
     def _plan_buffers(self, plan, dtype):
@@ -576,14 +530,6 @@ class OpenCLBackend(Backend):
             self._plans.popitem(last=False)
         return self._plans[key][1]
 
-    def _launch(self, knl, gsize, lsize, arrays_in, arrays_out, args):
-        wait = [e for a in arrays_in + arrays_out for e in a.events]
-        with _LAUNCH_LOCK:
-            evt = knl(self.queue, gsize, lsize, *args, wait_for=wait or None)
-        for a in arrays_out:
-            a.add_event(evt)
-        return evt
-
     # ---- the primitive --------------------------------------------------------------
     def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
         if axis not in (1, 2):
@@ -597,7 +543,7 @@ class OpenCLBackend(Backend):
         if src.shape != dst.shape or src.dtype != dst.dtype:
             raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
         dtype = np.dtype(src.dtype)
-        if dtype not in REALS:
+        if dtype not in launch.REALS:
             raise TypeError(f"src must be float32 or float64, got {dtype}")
         self._check_dtype(dtype)
         if plan.n != src.shape[axis]:
@@ -609,7 +555,7 @@ class OpenCLBackend(Backend):
         if src.size == 0:
             return dst
         lanes = self._lanes(dtype)
-        group = self._group()
+        group = launch.group_size(self)
         knl = self._kernel("recurse", dtype, SECTIONS=plan.sections, CONSTANT_COEF=int(plan.constant),
                            LANES=lanes, ROWS=int(axis == 2))
         lam, kap, omega, omega_c = self._plan_buffers(plan, dtype)
@@ -625,7 +571,7 @@ class OpenCLBackend(Backend):
                 lam, kap, omega, omega_c, np.int32(plan.omega.shape[1]), np.int32(plan.n),
                 real(cval), real(plan.tap), np.int32(plan.reverse), np.int32(bool(accumulate)),
                 np.int32(b), np.int32(n), np.int32(m))
-        self._launch(knl, gsize, lsize, [src], [dst], args)
+        launch.launch(self, knl, gsize, lsize, [src], [dst], args)
         return dst
 
     def translate(self, src, dst, axis, index, cval=0.0, check=False):
@@ -640,7 +586,7 @@ class OpenCLBackend(Backend):
         if self.may_share_memory(src, dst):
             raise ValueError("dst may not overlap src")
         dtype = self._check_dtype(src.dtype)
-        if dtype not in REALS:
+        if dtype not in launch.REALS:
             raise TypeError(f"src must be float32 or float64, got {dtype}")
         b, n, m = src.shape
         length = src.shape[axis]
@@ -652,7 +598,7 @@ class OpenCLBackend(Backend):
         dev_index, _ = self._index_array(index, length)
         lo, hi, shift = _interior(idx) if axis == 2 else (0, 0, 0)
         seg = 2048 if self.kind == "cpu" else 1   # CPU: a vectorised loop per segment; GPU: coalesced items
-        group = self._group()
+        group = launch.group_size(self)
         items = -(-m // seg)
         knl = self._kernel("translate", dtype, CHECK=int(bool(check)))
         flag = np.zeros(1, np.int32)
@@ -661,7 +607,7 @@ class OpenCLBackend(Backend):
         args = (src.base_data, np.int64(src.offset // dtype.itemsize), dev_index.data, dst.base_data,
                 np.int64(dst.offset // dtype.itemsize), dtype.type(cval), np.int32(n), np.int32(m),
                 np.int32(axis == 2), np.int32(seg), np.int32(lo), np.int32(hi), np.int32(shift), flag_buf)
-        evt = self._launch(knl, (-(-items // group) * group, b * n), (group, 1), [src, dev_index], [dst], args)
+        evt = launch.launch(self, knl, (-(-items // group) * group, b * n), (group, 1), [src, dev_index], [dst], args)
         if not check:
             return None
         self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
@@ -709,7 +655,7 @@ class OpenCLBackend(Backend):
         if src.dtype != out.dtype:
             raise ValueError(f"src and out must have one dtype, got {src.dtype} and {out.dtype}")
         dtype = self._check_dtype(src.dtype)
-        if dtype not in REALS:
+        if dtype not in launch.REALS:
             raise TypeError(f"src must be float32 or float64, got {dtype}")
         dev_index, count = self._index_array(index, src.size)
         if count != out.size:
@@ -719,9 +665,9 @@ class OpenCLBackend(Backend):
         knl = self._kernel("gather", dtype)
         item = dtype.itemsize
         # on a CPU, PoCL vectorises the loop over a group's work-items: 64 per group, not 1
-        group = 64 if self.kind == "cpu" else self._group()
+        group = 64 if self.kind == "cpu" else launch.group_size(self)
         gsize = (-(-out.size // group) * group,)
         args = (src.base_data, np.int64(src.offset // item), dev_index.data, out.base_data,
                 np.int64(out.offset // item), dtype.type(cval), np.int64(out.size))
-        self._launch(knl, gsize, (group,), [src, dev_index], [out], args)
+        launch.launch(self, knl, gsize, (group,), [src, dev_index], [out], args)
         return out

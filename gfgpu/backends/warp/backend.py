@@ -210,6 +210,11 @@ class WarpBackend(Backend):
         self._indices = OrderedDict()  # id(index) -> (index, device array, max index)
         self._flat = {}                # (id(line index), shape, axis) -> (line index, flat gather index)
 
+    @property
+    def wp_device(self):
+        """The ``warp.context.Device`` this backend runs on."""
+        return self._device
+
     # ---- arrays -------------------------------------------------------------------
     def owns(self, array):
         return isinstance(array, self._wp.array) and array.device == self._device

@@ -1,28 +1,18 @@
 """OpenCL launchers of the stereo matcher's fused kernels (``stereo.cl``), registered by
 :mod:`gfgpu.stereo.kernels`; specifications: the ``*_reference`` functions of
-:mod:`gfgpu.backends.specs` (``SGM_PATHS`` gives the path order the SGM launch follows).
+:mod:`gfgpu.stereo.spec` (``SGM_PATHS`` gives the path order the SGM launch follows).
 """
 
 from __future__ import annotations
 
-import math
-import os
-
 import numpy as np
 
-from .. import specs
-from ..specs import COST_MAX
+from ..backends.opencl import launch as ocl
+from . import band_plan
+from . import spec as specs
+from .band_plan import padded_samples
+from .spec import COST_MAX
 
-
-def _plain(be, a, name, dtype):
-    """``a`` checked as this context's C-contiguous array of ``dtype`` without an offset
-    (stereo.cl takes plain pointers); offset views are copied."""
-    if not be.owns(a):
-        raise TypeError(f"{name} must be a pyopencl.array.Array in the context of {be.device}, "
-                        f"got {type(a).__name__}")
-    if np.dtype(a.dtype) != np.dtype(dtype):
-        raise TypeError(f"{name} must be {np.dtype(dtype)}, got {a.dtype}")
-    return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
 
 def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=None):
     """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
@@ -35,7 +25,7 @@ def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=
         defines["COST_BYTES"] = 1
     if padded:
         defines["PADDED_PIXELS"] = 1
-    return be._kernel(name, np.dtype(np.float32), source="stereo.cl", **defines)
+    return ocl.kernel(be, __package__, "stereo.cl", name, np.float32, **defines)
 
 
 def _padded(be, rows, w, n, dtype):
@@ -43,33 +33,22 @@ def _padded(be, rows, w, n, dtype):
     vectors, (rows, w, :func:`_padded_samples` (n)): every pixel starts on a vector boundary
     (``PADDED_PIXELS`` kernels; an odd n, the default sub-pixel ranges, otherwise misaligns
     half of the loads and stores)."""
-    return be.empty((rows, w, _padded_samples(n)), dtype)
-
-def _padded_samples(n):
-    """A pixel's samples padded to whole short16 vectors (stereo.cl's NP)."""
-    return -(-n // 16) * 16
-
-
-def _check_written(a, name):
-    if a.offset != 0 or not a.flags.c_contiguous:
-        raise ValueError(f"{name} must be a C-contiguous array without offset")
+    return be.empty((rows, w, padded_samples(n)), dtype)
 
 def launch_census(be, image, out, plane, radius):
-    image = _plain(be, image, "image", np.float32)
-    _plain(be, out, "out", np.uint64)
-    _check_written(out, "out")
+    image = ocl.plain(be, image, "image", np.float32)
+    ocl.plain(be, out, "out", np.uint64, output=True)
     h, w = image.shape
-    knl = be._kernel("census", np.dtype(np.float32), source="stereo.cl", CENSUS_RADIUS=int(radius))
-    group = be._group()
-    be._launch(knl, (-(-h // group) * group,), (group,), [image], [out],
+    knl = ocl.kernel(be, __package__, "stereo.cl", "census", np.float32, CENSUS_RADIUS=int(radius))
+    group = ocl.group_size(be)
+    ocl.launch(be, knl, (-(-h // group) * group,), (group,), [image], [out],
                (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w)))
     return out
 
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
-    cl_ = _plain(be, census_left, "census_left", np.uint64)
-    cr = _plain(be, census_right, "census_right", np.uint64)
-    _plain(be, out, "out", np.int16)
-    _check_written(out, "out")
+    cl_ = ocl.plain(be, census_left, "census_left", np.uint64)
+    cr = ocl.plain(be, census_right, "census_right", np.uint64)
+    ocl.plain(be, out, "out", np.int16, output=True)
     h, w, n = out.shape
     if out.size == 0:
         return out
@@ -82,7 +61,7 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
 
 def _interleave(be, cr, h, w, steps, n):
     ri = be.empty((h, w * steps), np.uint64)
-    be._launch(_stereo_kernel(be, "census_interleave", n), (w, h), None, [cr], [ri],
+    ocl.launch(be, _stereo_kernel(be, "census_interleave", n), (w, h), None, [cr], [ri],
                (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
     return ri
 
@@ -90,7 +69,7 @@ def _interleave(be, cr, h, w, steps, n):
 def _cost_splits(be, w):
     """Column ranges of the CPU block_cost kernel: two per core (load balance), at least one
     column each."""
-    return max(1, min(2 * be._device.max_compute_units, w))
+    return max(1, min(2 * be.cl_device.max_compute_units, w))
 
 
 def _block_scratch(be, w, n, block):
@@ -99,7 +78,7 @@ def _block_scratch(be, w, n, block):
     (ushort: two more rows); and the slot width."""
     splits = _cost_splits(be, w)
     cols = -(-w // splits) + 2 * (block // 2)
-    return be.empty((splits * (block + 2) * cols * _padded_samples(n),), np.uint8), cols
+    return be.empty((splits * (block + 2) * cols * padded_samples(n),), np.uint8), cols
 
 
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block):
@@ -109,15 +88,15 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, s
     sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
     ``ham`` (one work-item per pixel), then block sums."""
     padded = out.shape[2] != n
-    group = be._group()
+    group = ocl.group_size(be)
     gsize = (-(-rows // group) * group,)
     if ham is None:
-        knl = be._kernel("block_cost", np.dtype(np.float32), source="stereo.cl", N_DISP=n, COST_MAX=COST_MAX,
+        knl = ocl.kernel(be, __package__, "stereo.cl", "block_cost", np.float32, N_DISP=n, COST_MAX=COST_MAX,
                          BLOCK=int(block), **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}),
                          **({"PADDED_PIXELS": 1} if padded else {}))
         splits = _cost_splits(be, w)
         scratch, cols = _block_scratch(be, w, n, block)
-        be._launch(knl, (splits,), (1,), [cl_, ri], [out, scratch],
+        ocl.launch(be, knl, (splits,), (1,), [cl_, ri], [out, scratch],
                    (cl_.data, ri.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(first_step),
                     np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0), np.int32(splits),
                     np.int32(cols)))
@@ -126,40 +105,38 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, s
         raise ValueError("padded volumes are the CPU band matcher's")
     r = block // 2
     ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
-    be._launch(_stereo_kernel(be, "census_hamming", n), (w, yb - ya), None, [cl_, ri], [ham],
+    ocl.launch(be, _stereo_kernel(be, "census_hamming", n), (w, yb - ya), None, [cl_, ri], [ham],
                (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
                 np.int32(steps), np.int32(ya)))
     knl = _stereo_kernel(be, "block_sum", n, cost_bytes=out.dtype == np.uint8)
-    be._launch(knl, gsize, (group,), [ham], [out],
+    ocl.launch(be, knl, gsize, (group,), [ham], [out],
                (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block), np.int32(first_step),
                 np.int32(steps), np.int32(y0), np.int32(rows), np.int32(ya), np.int32(out_row0)))
 
 
 def launch_sgm(be, cost, out, p1, p2, paths):
-    cost = _plain(be, cost, "cost", np.int16)
-    _plain(be, out, "out", np.int16)
-    _check_written(out, "out")
+    cost = ocl.plain(be, cost, "cost", np.int16)
+    ocl.plain(be, out, "out", np.int16, output=True)
     h, w, n = cost.shape
     if cost.size == 0:
         return out
     if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
         raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
     knl = _stereo_kernel(be, "sgm_line_pair", n)
-    group = be._group()   # GPU: a warp's multiple
-    # each launch sweeps a direction of gfgpu.backends.specs.SGM_PATHS and its opposite
+    group = ocl.group_size(be)   # GPU: a warp's multiple
+    # each launch sweeps a direction of gfgpu.stereo.spec.SGM_PATHS and its opposite
     for i, (dy, dx) in enumerate(((0, 1), (1, 0), (1, 1), (1, -1))[:paths // 2]):
         count = w if dx == 0 else h if dy == 0 else h + w - 1
-        be._launch(knl, (-(-count // group) * group,), (group,), [cost], [out],
+        ocl.launch(be, knl, (-(-count // group) * group,), (group,), [cost], [out],
                      (cost.data, out.data, np.int32(h), np.int32(w), np.int32(dy), np.int32(dx),
                       np.int16(p1), np.int16(p2), np.int32(i > 0)))
     return out
 
 def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, uniqueness):
-    agg = _plain(be, aggregated, "aggregated", np.int16)
+    agg = ocl.plain(be, aggregated, "aggregated", np.int16)
     for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
                         (margin, "margin", np.float32)):
-        _plain(be, a, name, dt)
-        _check_written(a, name)
+        ocl.plain(be, a, name, dt, output=True)
     h, w, n = agg.shape
     if agg.size == 0:
         return disp, disp_right, margin
@@ -177,10 +154,10 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, step
     padded = agg.shape[2] != n
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
-    group = be._group()
+    group = ocl.group_size(be)
     second = agg if agg2 is None else agg2
     knl = _stereo_kernel(be, "select_disparity", n, padded=padded, steps=steps)
-    be._launch(knl, (-(-rows // group) * group,), (group,), [agg, second], [disp, disp_right, margin],
+    ocl.launch(be, knl, (-(-rows // group) * group,), (group,), [agg, second], [disp, disp_right, margin],
                (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
                 np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
                 np.int32(y0)))
@@ -188,13 +165,8 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, step
 
 def _sgm_state(be, w, n):
     """The band sweeps' path states (2 work-items x 5 rows of w + 2 cells) and their minima."""
-    return (be.empty((2, 5, 16 + (w + 2) * (_padded_samples(n) + 16)), np.int16),
+    return (be.empty((2, 5, 16 + (w + 2) * (padded_samples(n) + 16)), np.int16),
             be.empty((2, 4, w + 2), np.int16))
-
-
-#: the band sweeps' column tiles (4 paths): as many columns as hold this many bytes of vertical
-#: path states, so that they stay in a core's L2 cache while the tile's rows are swept
-TILE_BYTES = 128 * 2**10
 
 
 def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
@@ -206,79 +178,22 @@ def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row
     # both work-items take half of the columns each; not the sweep's first band, whose state
     # one work-item initialises (a cell's guard lanes are read from the neighbouring column)
     split = not write_up and paths == 4 and w >= 2 and not init
-    be._launch(_stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True), (2,), (1,), [cost],
+    ocl.launch(be, _stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True), (2,), (1,), [cost],
                [down, up, state, state_min, bound],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
                 np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
                 np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
-                np.int32(max(1, TILE_BYTES // (2 * (_padded_samples(n) + 16)))), bound.data))
-
-
-#: rows of a band of the CPU matcher: at least this many (fewer launches) ...
-MIN_BAND_ROWS = 16
-#: ... and as many as fit this many bytes of band buffers (small images: one band, no
-#: checkpointing sweep at all)
-BAND_BYTES = 64 * 2**20
-
-
-def band_rows(h, paths, w=1, n=1):
-    """Rows per band of the CPU matcher for an (h, w) image and n disparity samples: the
-    checkpoints (h / k of them, 1 or 4 state rows of ~2 bytes per sample each) and the band
-    buffers (~7 bytes per sample of each of k rows) balance at k = sqrt(c h / 3.5), c the
-    state rows; at least :data:`MIN_BAND_ROWS`, and as many as :data:`BAND_BYTES` hold."""
-    c = 1 if paths == 4 else 4
-    fit = BAND_BYTES // (7 * w * n)
-    return int(min(h, max(MIN_BAND_ROWS, round(math.sqrt(c * h / 3.5)), fit)))
-
-
-#: images whose band buffers for every row fit this many bytes (and the working set) run as one
-#: band: no checkpointing up sweep and no band launches (teddy 9 % faster than bands of
-#: BAND_BYTES; motorcycle, 314 MB of them, 11 %; same maps); larger ones stream bands
-WHOLE_BYTES = 512 * 2**20
-
-
-def match_plan(h, w, n, paths, block=3, budget=None):
-    """How the CPU matcher runs an (h, w) image with n disparity samples within ``budget``
-    bytes (None: no limit): ``(rows per band, keep the whole image's byte costs, bytes)``.
-    One band where :data:`WHOLE_BYTES` and the budget allow, else bands of :func:`band_rows`
-    with the costs kept if they fit, else recomputed per band (the least memory)."""
-    if 7 * h * w * n <= WHOLE_BYTES:
-        nbytes = match_memory(h, w, n, paths, True, block, rows=h)
-        if budget is None or nbytes <= budget:
-            return h, True, nbytes
-    k = band_rows(h, paths, w, n)
-    nbytes = match_memory(h, w, n, paths, True, block, rows=k)
-    if budget is None or nbytes <= budget:
-        return k, True, nbytes
-    return k, False, match_memory(h, w, n, paths, False, block, rows=k)
-
-
-def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
-    """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
-    the cost kernel's Hamming ring (``block`` rows and their column sums), the band's sums, the
-    path states and their checkpoints, the horizontal paths' states at the column tiles' edges;
-    bands of ``rows`` rows (default :func:`band_rows`)."""
-    k = band_rows(h, paths, w, n) if rows is None else int(rows)
-    cell = _padded_samples(n) + 16                          # stereo.cl's CELL
-    state_row = 2 * (16 + (w + 2) * cell)
-    c = 1 if paths == 4 else 4
-    checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
-    npix = _padded_samples(n)                               # a pixel's samples in _padded
-    cost = h * w * npix if keep_cost else k * w * npix
-    splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
-    ring = splits * (block + 2) * (-(-w // splits) + block) * _padded_samples(n)
-    return cost + ring + 14 * w * n + 4 * k * w * npix + 10 * state_row + checkpoints + 4 * k * cell
+                np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(n) + 16)))), bound.data))
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
                  p1, p2, paths, uniqueness, budget=None):
-    cl_ = _plain(be, census_left, "census_left", np.uint64)
-    cr = _plain(be, census_right, "census_right", np.uint64)
+    cl_ = ocl.plain(be, census_left, "census_left", np.uint64)
+    cr = ocl.plain(be, census_right, "census_right", np.uint64)
     for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
                         (margin, "margin", np.float32)):
-        _plain(be, a, name, dt)
-        _check_written(a, name)
+        ocl.plain(be, a, name, dt, output=True)
     h, w = disp.shape
     n = int(n_disp)
     if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
@@ -299,12 +214,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # recomputed from its checkpoint: O(k W D + (H / k) W D) for the sums instead of (H, W, D)
     # volumes.  The byte costs of the whole image are kept between the two sweeps when
     # ``budget`` allows (H W D bytes), else computed again for each band.
-    k, keep, _ = match_plan(h, w, n, paths, block, budget)
+    k, keep, _ = band_plan.match_plan(h, w, n, paths, block, budget)
     ri = _interleave(be, cr, h, w, steps, n)
     cost = _padded(be, h if keep else k, w, n, np.uint8)
     down, up = _padded(be, k, w, n, np.int16), _padded(be, k, w, n, np.int16)
     state, state_min = _sgm_state(be, w, n)
-    bound = be.empty((2, k, _padded_samples(n) + 1), np.int16)
+    bound = be.empty((2, k, padded_samples(n) + 1), np.int16)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
     view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
@@ -317,9 +232,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     ckpt_min = be.empty((max(len(bands) - 1, 1), mn_len // 2), np.int16)
 
     def copy(dst, src, nbytes, dst_off, src_off):
-        evt = be._cl.enqueue_copy(be.queue, dst.data, src.data, byte_count=nbytes, dst_offset=dst_off,
-                                  src_offset=src_off, wait_for=(src.events + dst.events) or None)
-        dst.add_event(evt)
+        ocl.copy_bytes(be, dst, src, nbytes, dst_off, src_off)
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
         _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block)
@@ -356,8 +269,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
 def launch_left_right(be, disp, disp_right, margin, steps, tol):
     for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
                         (margin, "margin", np.float32)):
-        _plain(be, a, name, dt)
-        _check_written(a, name)
+        ocl.plain(be, a, name, dt, output=True)
     h, w = disp.shape
     if disp.size == 0:
         return disp, margin
@@ -367,22 +279,21 @@ def launch_left_right(be, disp, disp_right, margin, steps, tol):
         disp.set(d)
         margin.set(m)
         return disp, margin
-    knl = be._kernel("left_right", np.dtype(np.float32), source="stereo.cl", LEFT_RIGHT=1)
-    be._launch(knl, (w, h), None, [disp_right], [disp, margin],
+    knl = ocl.kernel(be, __package__, "stereo.cl", "left_right", np.float32, LEFT_RIGHT=1)
+    ocl.launch(be, knl, (w, h), None, [disp_right], [disp, margin],
                (disp.data, disp_right.data, margin.data, np.int32(h), np.int32(w), np.int32(steps),
                 np.float64(tol)))
     return disp, margin
 
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
-    _plain(be, state, "state", np.float32)
-    _check_written(state, "state")
-    ls = _plain(be, left_shifted, "left_shifted", np.float32)
-    rs = _plain(be, right_shifted, "right_shifted", np.float32)
-    gl = _plain(be, gain_left, "gain_left", np.float32)
-    gr = _plain(be, gain_right, "gain_right", np.float32)
+    ocl.plain(be, state, "state", np.float32, output=True)
+    ls = ocl.plain(be, left_shifted, "left_shifted", np.float32)
+    rs = ocl.plain(be, right_shifted, "right_shifted", np.float32)
+    gl = ocl.plain(be, gain_left, "gain_left", np.float32)
+    gr = ocl.plain(be, gain_right, "gain_right", np.float32)
     h, w = ls.shape
-    be._launch(_stereo_kernel(be, "sweep_update"), (w, h), None, [ls, rs, gl, gr], [state],
+    ocl.launch(be, _stereo_kernel(be, "sweep_update"), (w, h), None, [ls, rs, gl, gr], [state],
                  (state.data, ls.data, rs.data, gl.data, gr.data, np.int32(h), np.int32(w),
                   np.int32(offset), np.float32(d), np.int32(radius)))
     return state

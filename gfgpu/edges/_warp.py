@@ -1,6 +1,6 @@
 """Warp kernel of the edge detector: interpolated non-maximum suppression.
 
-Executable specification: :func:`gfgpu.backends.specs.suppress_nonmaxima_reference`; the
+Executable specification: :func:`gfgpu.edges.spec.suppress_nonmaxima_reference`; the
 launcher at the end is registered by :mod:`gfgpu.edges.kernels`.
 """
 
@@ -8,7 +8,12 @@ from typing import Any
 
 import warp as wp
 
+from ..backends.warp import launch as wpl
+from .spec import TIE_RTOL
+
 wp.set_module_options({"enable_backward": False})
+
+_TIE_RTOL = wp.constant(TIE_RTOL)
 
 
 @wp.func
@@ -51,7 +56,7 @@ def suppress_nonmaxima(gy: wp.array2d(dtype=Any), gx: wp.array2d(dtype=Any), out
         t = ay / ax
         plus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j + 1) + t * _magnitude(gy, gx, i + s, j + 1)
         minus = (type(t)(1.0) - t) * _magnitude(gy, gx, i, j - 1) + t * _magnitude(gy, gx, i - s, j - 1)
-    tol = type(m)(1.0e-5) * m   # gfgpu.backends.specs.TIE_RTOL: equal up to rounding is a tie
+    tol = type(m)(_TIE_RTOL) * m   # equal up to rounding is a tie
     if m > plus + tol and m >= minus - tol:
         out[i, j] = m
     else:
@@ -64,9 +69,9 @@ for _real in (wp.float32, wp.float64):
 
 
 def launch_suppress_nonmaxima(be, gy, gx, out):
-    """Launcher of the fused kernel ``edges.nms`` (spec: gfgpu.backends.specs.suppress_nonmaxima_reference)."""
+    """Launcher of the fused kernel ``edges.nms`` (spec: gfgpu.edges.spec.suppress_nonmaxima_reference)."""
     if not (gy.shape == gx.shape == out.shape) or len(out.shape) != 2:
         raise ValueError(f"gy, gx and out must be 2-D arrays of one shape, got {gy.shape}, "
                          f"{gx.shape}, {out.shape}")
-    be._wp.launch(suppress_nonmaxima, dim=out.shape, inputs=[gy, gx, out], device=be._device)
+    wpl.launch(be, suppress_nonmaxima, dim=out.shape, inputs=[gy, gx, out])
     return out

@@ -1,7 +1,7 @@
 """Warp kernels of motion blur: box windows along lines, per-pixel paths, polar resampling.
 
-Executable specification: :mod:`gfgpu.backends.specs_motion`; the OpenCL twins are in
-``backends/opencl/motion.cl``; :mod:`gfgpu.motion.kernels` registers the ``launch_*`` functions
+Executable specification: :mod:`gfgpu.motion.spec`; the OpenCL twins are in ``motion.cl``
+beside this module; :mod:`gfgpu.motion.kernels` registers the ``launch_*`` functions
 at the end.  Written for GPUs: one thread per line (box windows) or per output sample, arrays
 passed flat with explicit strides.  Positions and weights are float64 (a ring of 10^4 samples
 needs more than float32's 24 bits to place a sample to 1e-4 px); samples are accumulated in
@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 import warp as wp
 
-from ..specs_motion import (
+from ..backends.warp import launch as wpl
+from .spec import (
     GAUSS_NODES,
     GAUSS_WEIGHTS,
     GREEN_TAIL,
@@ -43,7 +44,7 @@ _MIN_CG = wp.constant(PSF_MIN_CELLS[3])
 
 @wp.func
 def _extend(i: int, n: int, mode: int):
-    """Index of sample ``i`` of a line of ``n`` extended by ``mode`` (-1: cval); specs_motion.extend_index."""
+    """Index of sample ``i`` of a line of ``n`` extended by ``mode`` (-1: cval); spec.extend_index."""
     if mode == 0:
         if i < 0 or i >= n:
             return -1
@@ -91,7 +92,7 @@ def _geometric(m: int):
 
 @wp.func
 def _coef_taps(i: int, n: int, mode: int):
-    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (specs_motion.coef_taps)."""
+    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (spec.coef_taps)."""
     if i >= 0 and i < n:
         return i, wp.float64(1.0), i, wp.float64(0.0)
     if mode >= 2:
@@ -158,7 +159,7 @@ def _coef_run(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b
 @wp.func
 def _coef_sum(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b: int, mode: int, cval: Any):
     """``Σ_{a <= i < b}`` of the extended coefficients in O(n) whatever ``b - a``
-    (specs_motion._coef_prefix): whole periods, or the geometric tails, in closed form."""
+    (spec._coef_prefix): whole periods, or the geometric tails, in closed form."""
     total = src.dtype(0.0)
     if b > a:
         if mode >= 2:
@@ -215,7 +216,7 @@ def _weight(t: wp.float64, p: int):
 
 @wp.func
 def _weight_integral(f: wp.float64, p: int):
-    """``∫_0^f`` of the weight of offset ``p - 1`` (specs_motion._bspline_integrals)."""
+    """``∫_0^f`` of the weight of offset ``p - 1`` (spec._bspline_integrals)."""
     f2 = f * f
     f4 = f2 * f2
     if p == 0:
@@ -281,7 +282,7 @@ def box_lines(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), n: int, lines:
             ia = ia + 1
         width = e - a
         value = src.dtype(0.0)
-        if width < _NARROW:     # the spline at the middle (specs_motion.NARROW)
+        if width < _NARROW:     # the spline at the middle (spec.NARROW)
             m = wp.float64(0.5) * (a + e)
             im = int(wp.floor(m))
             pm, vm = _partial(src, start, step, n, im, m - wp.float64(im), mode, cval)
@@ -298,7 +299,7 @@ def box_lines(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), n: int, lines:
 @wp.func
 def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64, px: wp.float64,
             mode_y: int, mode_x: int, cval: Any):
-    """The 2-D cubic B-spline of one plane at ``(py, px)`` (specs_motion.spline_sample); beyond the
+    """The 2-D cubic B-spline of one plane at ``(py, px)`` (spec.spline_sample); beyond the
     border a coefficient may weigh two ('nearest')."""
     fy = wp.floor(py)
     fx = wp.floor(px)
@@ -339,7 +340,7 @@ def _support(psf: int):
 
 @wp.func
 def _cdf(psf: int, t: wp.float64, t0: wp.float64, t1: wp.float64):
-    """specs_motion.psf_cdf."""
+    """spec.psf_cdf."""
     if t <= t0:
         return wp.float64(0.0)
     if t >= t1:
@@ -357,7 +358,7 @@ def _cdf(psf: int, t: wp.float64, t0: wp.float64, t1: wp.float64):
 
 @wp.func
 def _density(psf: int, t: wp.float64):
-    """G_u's density at ``t`` (specs_motion.psf_density; psf 1 or 3)."""
+    """G_u's density at ``t`` (spec.psf_density; psf 1 or 3)."""
     if psf == 1:
         return wp.float64(2.0) * wp.exp(-t) * wp.sin(t)
     s = wp.float64(2.0) * wp.abs(t)
@@ -489,54 +490,50 @@ def _flat(be, a):
     return be.reshape(a, (-1,))
 
 
-def _real(be, a):
-    return be._wp.float64 if be.dtype_of(a) == np.float64 else be._wp.float32
-
-
 def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     bsz, rows, cols = (int(s) for s in src.shape)
     n, lines = (cols, rows) if axis == 2 else (rows, cols)
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
-    real = _real(be, src)
-    be._wp.launch(box_lines, dim=bsz * lines, device=be._device,
-                  inputs=[_flat(be, src), _flat(be, dst), n, lines, rows * cols, line_stride, step, wp.float64(a0),
-                          wp.float64(a1), wp.float64(b0), wp.float64(b1), MODE_CODES[mode], real(cval),
-                          _flat(be, dst if less is None else less), int(less is not None)])
+    real = wpl.real_type(be, src)
+    wpl.launch(be, box_lines, dim=bsz * lines,
+               inputs=[_flat(be, src), _flat(be, dst), n, lines, rows * cols, line_stride, step, wp.float64(a0),
+                       wp.float64(a1), wp.float64(b0), wp.float64(b1), MODE_CODES[mode], real(cval),
+                       _flat(be, dst if less is None else less), int(less is not None)])
     return dst
 
 
 def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     bsz, h, w = (int(s) for s in coef.shape)
-    real = _real(be, coef)
-    be._wp.launch(field_blur, dim=bsz * h * w, device=be._device,
-                  inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, int(psf), wp.float64(density),
-                          MODE_CODES[mode], real(cval)])
+    real = wpl.real_type(be, coef)
+    wpl.launch(be, field_blur, dim=bsz * h * w,
+               inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, int(psf), wp.float64(density),
+                       MODE_CODES[mode], real(cval)])
     return out
 
 
 def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     bsz, h, w = (int(s) for s in coef.shape)
     n_r, n_phi = int(out.shape[1]), int(out.shape[2])
-    real = _real(be, coef)
-    be._wp.launch(to_polar, dim=bsz * n_r * n_phi, device=be._device,
-                  inputs=[_flat(be, coef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx), int(r0),
-                          MODE_CODES[mode], real(cval)])
+    real = wpl.real_type(be, coef)
+    wpl.launch(be, to_polar, dim=bsz * n_r * n_phi,
+               inputs=[_flat(be, coef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx), int(r0),
+                       MODE_CODES[mode], real(cval)])
     return out
 
 
 def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
     bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
-    be._wp.launch(from_polar, dim=bsz * h * w, device=be._device,
-                  inputs=[_flat(be, pcoef), _flat(be, base), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy),
-                          wp.float64(cx), int(r0), wp.float64(r_lo), wp.float64(min(float(r_hi), 1e300)),
-                          wp.float64(keep)])
+    wpl.launch(be, from_polar, dim=bsz * h * w,
+               inputs=[_flat(be, pcoef), _flat(be, base), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy),
+                       wp.float64(cx), int(r0), wp.float64(r_lo), wp.float64(min(float(r_hi), 1e300)),
+                       wp.float64(keep)])
     return out
 
 
 def launch_add_rows(be, src, dst, scale):
     bsz, n, m = (int(s) for s in dst.shape)
     weights = be.asarray(np.ascontiguousarray(scale, np.float64 if be.dtype_of(dst) == np.float64 else np.float32))
-    be._wp.launch(add_rows, dim=bsz * n * m, device=be._device,
-                  inputs=[_flat(be, src), _flat(be, dst), weights, n, m])
+    wpl.launch(be, add_rows, dim=bsz * n * m,
+               inputs=[_flat(be, src), _flat(be, dst), weights, n, m])
     return dst

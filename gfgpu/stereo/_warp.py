@@ -1,7 +1,7 @@
 """Warp kernels of the stereo matcher (float32 images, integer costs).
 
-Executable specification: the ``*_reference`` functions of :mod:`gfgpu.backends.specs`; the
-OpenCL twins are in ``backends/opencl/stereo.cl``.  The ``launch_*`` functions at the end are
+Executable specification: the ``*_reference`` functions of :mod:`gfgpu.stereo.spec`; the
+OpenCL twins are in ``stereo.cl`` beside this module.  The ``launch_*`` functions at the end are
 the launchers that :mod:`gfgpu.stereo.kernels` registers.
 """
 
@@ -10,7 +10,8 @@ the launchers that :mod:`gfgpu.stereo.kernels` registers.
 import numpy as np
 import warp as wp
 
-from ..specs import COST_MAX, SGM_PATHS
+from ..backends.warp import launch as wpl
+from .spec import COST_MAX, SGM_PATHS
 
 wp.set_module_options({"enable_backward": False})
 
@@ -271,38 +272,29 @@ def sweep_update(state: wp.array3d(dtype=wp.float32), ls: wp.array2d(dtype=wp.fl
 
 
 # ---- launchers (registered by gfgpu.stereo.kernels) -------------------------------------
-def _contiguous(be, a, name):
-    if not be.owns(a):
-        raise TypeError(f"{name} must be a warp.array on {be._device.alias}, got {type(a).__name__}")
-    return a if a.is_contiguous else a.contiguous()
-
 def launch_census(be, image, out, plane, radius):
-    image = _contiguous(be, image, "image")
-    be._wp.launch(census, dim=image.shape, inputs=[image, out, int(plane), int(radius)],
-                    device=be._device)
+    image = wpl.contiguous(be, image, "image")
+    wpl.launch(be, census, dim=image.shape, inputs=[image, out, int(plane), int(radius)])
     return out
 
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
-    be._wp.launch(census_cost, dim=out.shape,
-                    inputs=[census_left, census_right, out, int(first_step), int(steps), int(block)],
-                    device=be._device)
+    wpl.launch(be, census_cost, dim=out.shape,
+               inputs=[census_left, census_right, out, int(first_step), int(steps), int(block)])
     return out
 
 def launch_sgm(be, cost, out, p1, p2, paths):
     h, w, n = cost.shape
     lines = h + w - 1
-    scratch = be._wp.empty((lines, 2 * n), dtype=be._wp.int32, device=be._device)
+    scratch = be.empty((lines, 2 * n), np.int32)
     for i, (dy, dx) in enumerate(SGM_PATHS[:paths]):
         count = w if dx == 0 else h if dy == 0 else lines
-        be._wp.launch(sgm_path, dim=count,
-                        inputs=[cost, out, scratch, dy, dx, int(p1), int(p2), int(i > 0)],
-                        device=be._device)
+        wpl.launch(be, sgm_path, dim=count,
+                   inputs=[cost, out, scratch, dy, dx, int(p1), int(p2), int(i > 0)])
     return out
 
 def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, uniqueness):
-    be._wp.launch(select_disparity, dim=disp.shape,
-                    inputs=[aggregated, disp, disp_right, margin, int(d_min), int(steps), int(uniqueness)],
-                    device=be._device)
+    wpl.launch(be, select_disparity, dim=disp.shape,
+               inputs=[aggregated, disp, disp_right, margin, int(d_min), int(steps), int(uniqueness)])
     return disp, disp_right, margin
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -318,14 +310,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
 
 def launch_left_right(be, disp, disp_right, margin, steps, tol):
-    be._wp.launch(left_right, dim=disp.shape, inputs=[disp, disp_right, margin, int(steps), float(tol)],
-                  device=be._device)
+    wpl.launch(be, left_right, dim=disp.shape, inputs=[disp, disp_right, margin, int(steps), float(tol)])
     return disp, margin
 
 def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, offset, d, radius):
-    ls = _contiguous(be, left_shifted, "left_shifted")
-    rs = _contiguous(be, right_shifted, "right_shifted")
-    be._wp.launch(sweep_update, dim=ls.shape,
-                    inputs=[state, ls, rs, gain_left, gain_right, int(offset), float(d), int(radius)],
-                    device=be._device)
+    ls = wpl.contiguous(be, left_shifted, "left_shifted")
+    rs = wpl.contiguous(be, right_shifted, "right_shifted")
+    wpl.launch(be, sweep_update, dim=ls.shape,
+               inputs=[state, ls, rs, gain_left, gain_right, int(offset), float(d), int(radius)])
     return state

@@ -1,17 +1,9 @@
-"""numpy launchers of the fused kernels: the specifications themselves, written into ``out``.
-
-Registered by the applications that need them (:mod:`gfgpu.stereo.kernels`,
-:mod:`gfgpu.edges.kernels`).
-"""
+"""numpy launchers of the stereo fused kernels: the specifications themselves, written into the outputs
+(registered by :mod:`gfgpu.stereo.kernels`)."""
 
 from __future__ import annotations
 
-from .. import specs
-
-
-def launch_suppress_nonmaxima(be, gy, gx, out):
-    out[...] = specs.suppress_nonmaxima_reference(gy, gx)
-    return out
+from . import spec as specs
 
 
 def launch_census(be, image, out, plane, radius):

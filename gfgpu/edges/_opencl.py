@@ -1,16 +1,17 @@
 """OpenCL launcher of the edge detector's fused kernel (``edges.cl``), registered by
-:mod:`gfgpu.edges.kernels`; specification :func:`gfgpu.backends.specs.suppress_nonmaxima_reference`.
+:mod:`gfgpu.edges.kernels`; specification :func:`gfgpu.edges.spec.suppress_nonmaxima_reference`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from .backend import GPU_GROUP, REALS
+from ..backends.opencl import launch as ocl
+from .spec import TIE_RTOL
 
 
 def launch_suppress_nonmaxima(be, gy, gx, out):
-    """Launcher of ``edges.nms`` (spec: gfgpu.backends.specs.suppress_nonmaxima_reference)."""
+    """Launcher of ``edges.nms`` (spec: gfgpu.edges.spec.suppress_nonmaxima_reference)."""
     for arg, a in (("gy", gy), ("gx", gx), ("out", out)):
         if not be.owns(a):
             raise TypeError(f"{arg} must be a pyopencl.array.Array in the context of {be.device}, "
@@ -20,8 +21,8 @@ def launch_suppress_nonmaxima(be, gy, gx, out):
                          f"{gx.shape}, {out.shape}")
     if not (gy.dtype == gx.dtype == out.dtype):
         raise ValueError(f"gy, gx and out must have one dtype, got {gy.dtype}, {gx.dtype}, {out.dtype}")
-    dtype = be._check_dtype(out.dtype)
-    if dtype not in REALS:
+    dtype = ocl.check_dtype(be, out.dtype)
+    if dtype not in ocl.REALS:
         raise TypeError(f"gy must be float32 or float64, got {dtype}")
     h, w = out.shape
     if out.size == 0:
@@ -30,10 +31,11 @@ def launch_suppress_nonmaxima(be, gy, gx, out):
     gy, gx = (a if a.offset == 0 and a.flags.c_contiguous else a.copy() for a in (gy, gx))
     res = out if out.offset == 0 and out.flags.c_contiguous else be.empty(out.shape, dtype)
     defines = {"GFGPU_DOUBLE": 1} if dtype == np.float64 else {}
-    knl = be._kernel("suppress_nonmaxima", dtype, source="edges.cl", **defines)
-    group = min(GPU_GROUP, be._device.max_work_group_size)   # PoCL vectorises a group on CPUs
+    defines["TIE_RTOL"] = repr(float(TIE_RTOL))
+    knl = ocl.kernel(be, __package__, "edges.cl", "suppress_nonmaxima", dtype, **defines)
+    group = min(ocl.GPU_GROUP, be.cl_device.max_work_group_size)   # PoCL vectorises a group on CPUs
     gsize = (-(-w // group) * group, h)
-    be._launch(knl, gsize, (group, 1), [gy, gx], [res],
+    ocl.launch(be, knl, gsize, (group, 1), [gy, gx], [res],
                  (gy.data, gx.data, res.data, np.int32(h), np.int32(w)))
     if res is not out:
         out.set(res.get(queue=be.queue), queue=be.queue)

@@ -1,30 +1,12 @@
 """OpenCL launchers of the motion-blur fused kernels (``motion.cl``), registered by
-:mod:`gfgpu.motion.kernels`; specifications: :mod:`gfgpu.backends.specs_motion`."""
+:mod:`gfgpu.motion.kernels`; specifications: :mod:`gfgpu.motion.spec`."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ..specs_motion import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, MODE_CODES, NARROW, NEAREST_EDGE, PSF_MIN_CELLS
-
-
-def _plain(be, a, name):
-    """``a`` as this context's C-contiguous array without offset (motion.cl takes plain pointers)."""
-    if not be.owns(a):
-        raise TypeError(f"{name} must be a pyopencl.array.Array in the context of {be.device}, "
-                        f"got {type(a).__name__}")
-    return a if a.offset == 0 and a.flags.c_contiguous else a.copy()
-
-
-def _written(be, a, name):
-    """``(buffer, offset in elements)`` of an output: C-contiguous, any offset (a caller's
-    ``output=`` is wrapped from an aligned address below it)."""
-    if not be.owns(a) or not a.flags.c_contiguous:
-        raise ValueError(f"{name} must be a C-contiguous array of this backend")
-    item = np.dtype(a.dtype).itemsize
-    if a.offset % item:
-        raise ValueError(f"{name} must start on a whole element")
-    return a.base_data, np.int64(a.offset // item)
+from ..backends.opencl import launch as ocl
+from .spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, MODE_CODES, NARROW, NEAREST_EDGE, PSF_MIN_CELLS
 
 
 def _setup(be, a):
@@ -36,7 +18,7 @@ def _setup(be, a):
 
 def _kernel(be, name, dtype, pos, grid=None, **defines):
     grid = pos if grid is None else grid
-    return be._kernel(name, dtype, source="motion.cl", POS="double" if pos == np.float64 else "float",
+    return ocl.kernel(be, __package__, "motion.cl", name, dtype, POS="double" if pos == np.float64 else "float",
                       GRID="double" if grid == np.float64 else "float", GRID_IS_FLOAT=int(grid == np.float32),
                       GREEN_TAIL=repr(float(GREEN_TAIL)), NARROW=repr(float(NARROW)),
                       NEAR_A=repr(NEAREST_EDGE[0]), NEAR_B=repr(NEAREST_EDGE[1]), GAUSS_U0=repr(GAUSS_NODES[0]),
@@ -69,7 +51,7 @@ def _global(size):
 
 
 def _group(be, count):
-    g = be._group()
+    g = ocl.group_size(be)
     return -(-count // g) * g, g
 
 
@@ -89,10 +71,10 @@ _PAD = 32
 
 
 def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
-    src = _plain(be, src, "src")
-    dbuf, doff = _written(be, dst, "dst")
+    src = ocl.plain(be, src, "src")
+    dbuf, doff = ocl.written(be, dst, "dst")
     # less: read where it lies (it may be dst itself); without it the kernels read nothing
-    lbuf, loff = (dbuf, doff) if less is None else _written(be, less, "less")
+    lbuf, loff = (dbuf, doff) if less is None else ocl.written(be, less, "less")
     dtype, pos = _setup(be, src)
     bsz, rows, cols = (int(s) for s in src.shape)
     lanes = _VECTOR_BYTES // dtype.itemsize
@@ -108,13 +90,13 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
         if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
             a, b = int(np.floor(a0)), int(np.floor(b0))
             wa, wb = (_end_weights(x - np.floor(x)) for x in (a0, b0))
-            be._launch(_kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
+            ocl.launch(be, _kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
                        (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
                         np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
                         dtype.type(1.0 / (b0 - a0)), np.int32(MODE_CODES[mode]), dtype.type(cval),
                         np.int32(total), lbuf, loff))
             return dst
-        be._launch(_kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
+        ocl.launch(be, _kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
                    (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
                     pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval), np.int32(total), lbuf, loff))
         return dst
@@ -122,7 +104,7 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
     total = bsz * lines
     gsize, lsize = _group(be, total)
-    be._launch(_kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs, [dst],
+    ocl.launch(be, _kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs, [dst],
                (src.data, dbuf, np.int32(n), np.int32(lines), np.int64(rows * cols), np.int64(line_stride),
                 np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval),
                 np.int32(total), doff, lbuf, loff))
@@ -130,19 +112,19 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
 
 
 def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
-    coef, field = _plain(be, coef, "coef"), _plain(be, field, "field")
-    obuf, ooff = _written(be, out, "out")
+    coef, field = ocl.plain(be, coef, "coef"), ocl.plain(be, field, "field")
+    obuf, ooff = ocl.written(be, out, "out")
     dtype, pos = _setup(be, coef)
     bsz, h, w = (int(s) for s in coef.shape)
-    be._launch(_kernel(be, "field_blur", dtype, pos), (w, h), None, [coef, field], [out],
+    ocl.launch(be, _kernel(be, "field_blur", dtype, pos), (w, h), None, [coef, field], [out],
                (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
                 np.int32(MODE_CODES[mode]), dtype.type(cval), ooff))
     return out
 
 
 def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
-    coef = _plain(be, coef, "coef")
-    obuf, ooff = _written(be, out, "out")
+    coef = ocl.plain(be, coef, "coef")
+    obuf, ooff = ocl.written(be, out, "out")
     dtype, pos = _setup(be, coef)
     grid = _grid(dtype, pos)
     bsz, h, w = (int(s) for s in coef.shape)
@@ -154,7 +136,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
         # the extension materialised _PAD coefficients beyond every border, then read clamped
         h, w, cy, cx = h + 2 * _PAD, w + 2 * _PAD, cy + _PAD, cx + _PAD
         padded = be.empty((bsz, h, w), dtype)
-        be._launch(_kernel(be, "pad_coef", dtype, pos), _global((w, h)), _LOCAL, [coef], [padded],
+        ocl.launch(be, _kernel(be, "pad_coef", dtype, pos), _global((w, h)), _LOCAL, [coef], [padded],
                    (coef.data, padded.data, np.int32(h - 2 * _PAD), np.int32(w - 2 * _PAD), np.int32(bsz),
                     np.int32(MODE_CODES[mode]), dtype.type(cval)))
         coef, mode, fast = padded, "nearest", {"MODE_Y": MODE_CODES["nearest"], "MODE_X": MODE_CODES["nearest"]}
@@ -165,7 +147,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
                 and cx + reach <= 2 * w - 4):
             fast = {"MODE_Y": MODE_CODES[mode], "MODE_X": MODE_CODES[mode]}
     chunk = _CHUNK if be.kind == "cpu" else 1
-    be._launch(_kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_phi // chunk), n_r)),
+    ocl.launch(be, _kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_phi // chunk), n_r)),
                _LOCAL, [coef, trig], [out],
                (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
                 np.int32(bsz), grid(cy), grid(cx), np.int32(r0), np.int32(MODE_CODES[mode]), dtype.type(cval)))
@@ -173,9 +155,9 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
 
 
 def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
-    pcoef = _plain(be, pcoef, "pcoef")
-    obuf, ooff = _written(be, out, "out")
-    bbuf, boff = _written(be, base, "base")      # base may be out
+    pcoef = ocl.plain(be, pcoef, "pcoef")
+    obuf, ooff = ocl.written(be, out, "out")
+    bbuf, boff = ocl.written(be, base, "base")      # base may be out
     dtype, pos = _setup(be, pcoef)
     grid = _grid(dtype, pos)
     bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
@@ -189,7 +171,7 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
             return out
     # radius within the band's rings (mirrored at their ends), angle within one turn: always near
     fast = {"MODE_Y": MODE_CODES["mirror"], "MODE_X": MODE_CODES["wrap"]} if n_r > 3 and n_phi > 3 else {}
-    be._launch(_kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
+    ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
                [pcoef, base], [out],
                (pcoef.data, bbuf, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
                 np.int32(bsz), grid(cy), grid(cx), np.int32(r0), grid(r_lo), grid(reach),
@@ -198,11 +180,11 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
 
 
 def launch_add_rows(be, src, dst, scale):
-    sbuf, soff = _written(be, src, "src")        # src may be dst
-    dbuf, doff = _written(be, dst, "dst")
+    sbuf, soff = ocl.written(be, src, "src")        # src may be dst
+    dbuf, doff = ocl.written(be, dst, "dst")
     dtype, pos = _setup(be, dst)
     bsz, n, m = (int(s) for s in dst.shape)
     weights = be.asarray(np.ascontiguousarray(scale, dtype))
-    be._launch(_kernel(be, "add_rows", dtype, pos), _global((m, bsz * n)), _LOCAL, [src, weights], [dst],
+    ocl.launch(be, _kernel(be, "add_rows", dtype, pos), _global((m, bsz * n)), _LOCAL, [src, weights], [dst],
                (sbuf, dbuf, doff, weights.data, np.int32(n), np.int32(m), np.int32(bsz * n), soff))
     return dst

@@ -1,10 +1,10 @@
-"""Executable numpy specifications of the fused kernels (census, SGM, selection, sweep, NMS).
+"""Executable numpy specifications of the stereo matcher's fused kernels.
 
-Every backend's fused kernel must compute what the function here computes (integer kernels
-bit for bit; float kernels to rounding); the numpy backend runs these functions themselves,
-and ``tests/backends/test_fused.py`` checks every backend against them.  The applications
-that need a kernel register it with :mod:`gfgpu.backends.fused` (``gfgpu.stereo.kernels``,
-``gfgpu.edges.kernels``); these specifications know nothing about the applications.
+Census, matching cost, semi-global aggregation, disparity selection, the left-right check and the
+chapter's sweep.  Every backend's kernel (``_warp.py``, ``stereo.cl`` through ``_opencl.py``) must
+compute what the function here computes (integer kernels bit for bit; float kernels to rounding);
+the numpy backend runs these functions themselves (``_numpy.py``), and ``tests/stereo`` checks every
+backend against them.  They are written in terms of arrays only.
 """
 
 from __future__ import annotations
@@ -12,10 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "TIE_RTOL", "SWEEP_PLANES",
+    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "SWEEP_PLANES",
     "census_transform_reference", "in_view_reference", "census_cost_reference", "sgm_aggregate_reference",
-    "select_disparity_reference", "semi_global_match_reference", "sweep_update_reference",
-    "suppress_nonmaxima_reference",
+    "select_disparity_reference", "left_right_check_reference", "left_right_reference",
+    "semi_global_match_reference", "sweep_update_reference",
 ]
 
 #: the 8 path directions (dy, dx) of semi-global aggregation; the first 4 are the axis paths
@@ -24,54 +24,7 @@ SGM_PATHS = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1
 #: right-view disparity (in steps) of a pixel that no left pixel can match
 NO_MATCH = -(2**31)
 
-#: relative difference below which two magnitudes are a tie in non-maximum suppression
-TIE_RTOL = 1e-5
 
-
-def suppress_nonmaxima_reference(gy, gx):
-    """Interpolated non-maximum suppression (numpy; the kernels' specification).
-
-    Returns ``|g|`` where it is not smaller than the magnitudes interpolated at ``±g/|g|``
-    (linear interpolation between the two pixels of the next row, if ``|gy| >= |gx|``, or
-    column, that straddle the gradient line), else 0.  A tie with the ``-g`` (darker)
-    neighbour keeps this pixel and a tie with the ``+g`` neighbour does not, so a symmetric
-    two-pixel crest gives one edge pixel, on the brighter side; magnitudes within a relative
-    ``TIE_RTOL`` (1e-5) count as tied, since a crest straddling two pixels is only equal up to
-    the gradient's rounding.  Border pixels are 0.
-    """
-    gy = np.asarray(gy)
-    gx = np.asarray(gx)
-    mag = np.hypot(gy, gx)
-    out = np.zeros_like(mag)
-    if min(mag.shape) < 3:
-        return out
-    c = (slice(1, -1), slice(1, -1))
-    vy, vx, m = gy[c], gx[c], mag[c]
-    s = np.where(vy * vx < 0, -1, 1)
-    ay, ax = np.abs(vy), np.abs(vx)
-    steep = ay >= ax
-    with np.errstate(invalid="ignore", divide="ignore"):
-        t = np.where(steep, ax / ay, ay / ax)
-    t = np.nan_to_num(t)
-    ii, jj = np.meshgrid(np.arange(1, mag.shape[0] - 1), np.arange(1, mag.shape[1] - 1), indexing="ij")
-    # neighbours on the +g side (a) and -g side (b): (row, column) offsets
-    a1 = np.where(steep, mag[ii + 1, jj], mag[ii, jj + 1])
-    a2 = np.where(steep, mag[ii + 1, np.clip(jj + s, 0, mag.shape[1] - 1)],
-                  mag[np.clip(ii + s, 0, mag.shape[0] - 1), jj + 1])
-    b1 = np.where(steep, mag[ii - 1, jj], mag[ii, jj - 1])
-    b2 = np.where(steep, mag[ii - 1, np.clip(jj - s, 0, mag.shape[1] - 1)],
-                  mag[np.clip(ii - s, 0, mag.shape[0] - 1), jj - 1])
-    plus = (1 - t) * a1 + t * a2
-    minus = (1 - t) * b1 + t * b2
-    tol = TIE_RTOL * m
-    out[c] = np.where((m > 0) & (m > plus + tol) & (m >= minus - tol), m, 0)
-    return out
-
-
-
-# --------------------------------------------------------------------------------------
-# stereo
-# --------------------------------------------------------------------------------------
 def census_transform_reference(image, radius):
     """Census transform: bit ``b`` set where neighbour ``b`` is darker than the centre.
 

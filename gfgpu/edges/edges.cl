@@ -1,5 +1,5 @@
 // Interpolated non-maximum suppression for the edge detector (-D REAL=float|double).
-// Executable specification: gfgpu.backends.specs.suppress_nonmaxima_reference.
+// Executable specification: gfgpu.edges.spec.suppress_nonmaxima_reference.
 #ifdef GFGPU_DOUBLE
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
@@ -36,6 +36,6 @@ __kernel void suppress_nonmaxima(__global const REAL *gy, __global const REAL *g
         plus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j + 1, w) + t * magnitude_at(gy, gx, i + s, j + 1, w);
         minus = ((REAL)1 - t) * magnitude_at(gy, gx, i, j - 1, w) + t * magnitude_at(gy, gx, i - s, j - 1, w);
     }
-    const REAL tol = (REAL)1e-5 * m;   // gfgpu.backends.specs.TIE_RTOL: equal up to rounding is a tie
+    const REAL tol = (REAL)TIE_RTOL * m;   // -D TIE_RTOL (gfgpu.edges.spec): equal up to rounding is a tie
     out[p] = (m > plus + tol && m >= minus - tol) ? m : (REAL)0;
 }
