@@ -18,7 +18,7 @@ from functools import cache
 
 import numpy as np
 
-__all__ = ["REALS", "GPU_GROUP", "kernel", "launch", "group_size", "rounded", "check_dtype", "plain",
+__all__ = ["REALS", "GPU_GROUP", "kernel", "launch", "group_size", "check_dtype", "plain",
            "written", "copy_bytes", "forget_programs"]
 
 #: the real dtypes every kernel is built for
@@ -127,11 +127,6 @@ def group_size(be):
     """Work-items per group for one-dimensional line kernels: 1 on a CPU (one work-item per core
     runs many lines), :data:`GPU_GROUP` (or the device's maximum) elsewhere."""
     return 1 if be.kind == "cpu" else min(GPU_GROUP, be.cl_device.max_work_group_size)
-
-
-def rounded(count, group):
-    """``count`` rounded up to whole groups of ``group`` (the kernels check their bounds)."""
-    return -(-int(count) // group) * group
 
 
 def check_dtype(be, dtype):
