@@ -29,6 +29,7 @@ from functools import lru_cache
 
 import numpy as np
 
+from ._core import bspline
 from ._core.passes import LinePass, Section
 from ._core.shiftfit import shift_coefficients_many as _shift_coefficients_many
 from ._core.validation import finite_scalar, positive, scale
@@ -502,32 +503,19 @@ def translation_passes(s, interpolation="green"):
     return [LinePass(lp.sections, lp.tap, lp.reverse, n) for lp in passes]
 
 
-#: pole of the cubic B-spline interpolation prefilter, sqrt(3) - 2
-_SPLINE_POLE = math.sqrt(3.0) - 2.0
-
-
-def _bspline3(t):
-    t = abs(t)
-    if t < 1.0:
-        return 2.0 / 3.0 - t * t + 0.5 * t**3
-    if t < 2.0:
-        return (2.0 - t) ** 3 / 6.0
-    return 0.0
-
-
 def cubic_shift_passes(f):
     """The cubic B-spline shift by ``|f| <= 1/2`` as one causal and one anticausal pass.
 
     Sampling the interpolating cubic spline of the line at ``x - f`` is the filter
     ``h = p * b_f`` with the spline prefilter ``p[k] = c0 z^|k|`` (``z = sqrt(3) - 2``,
-    ``c0 = -6 z / (1 - z^2)``) and the four or five taps ``b_f[i] = β3(i - f)``; it is geometric
-    beyond ``|m| >= 2`` (``h[m] = A z^m``, ``h[-m] = B z^m``), so it is exactly a direct tap, one
-    pole per direction and a one-sample correction per direction (scipy.ndimage's ``order=3``
-    interpolation, evaluated as recursions: O(1) per sample).
+    ``c0 = -6 z / (1 - z^2)``) and the four or five taps ``b_f[i] = β3(i - f)``
+    (:mod:`gfgpu._core.bspline`); it is geometric beyond ``|m| >= 2`` (``h[m] = A z^m``,
+    ``h[-m] = B z^m``), so it is exactly a direct tap, one pole per direction and a one-sample
+    correction per direction (scipy.ndimage's ``order=3`` interpolation, evaluated as
+    recursions: O(1) per sample).
     """
-    z = _SPLINE_POLE
-    c0 = -6.0 * z / (1.0 - z * z)
-    taps = {i: _bspline3(i - f) for i in range(-2, 3)}
+    z, c0 = bspline.SPLINE_POLE, bspline.PREFILTER_GAIN
+    taps = {i: bspline.basis(i - f) for i in range(-2, 3)}
 
     def h(m):
         return sum(b * c0 * z ** abs(m - i) for i, b in taps.items())

@@ -31,7 +31,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .recursion import extension_index
+from .boundary import extend_index
 from .validation import finite_scalar, integer
 
 
@@ -51,21 +51,6 @@ def normalize_axis(axis, ndim, name="axis"):
     if not -ndim <= a < ndim:
         raise ValueError(f"{name}={axis} is out of range for an array of {ndim} dimension(s)")
     return a % ndim
-
-
-def _extend(idx, size, mode):
-    """Map indices outside [0, size) by the boundary mode; -1 means cval."""
-    idx = np.asarray(idx, np.int64)
-    out = idx.copy()
-    low = idx < 0
-    if low.any():
-        out[low] = extension_index(idx[low], size, mode)
-    high = idx >= size
-    if high.any():
-        # the right side mirrors the left side's rule on the reversed line
-        e = extension_index(size - 1 - idx[high], size, mode)
-        out[high] = np.where(e < 0, -1, size - 1 - e)
-    return out
 
 
 #: largest |angle| (radians) accepted: float64 spacing there is 1e-10 rad
@@ -141,7 +126,7 @@ def shear_maps(height, width, batch, angle, mode, margin, transposed=False):
     # (-1 - steps*tstride where the extension is cval: stays negative after adding the step)
     lo = first + int(r.min())
     span = np.arange(lo, first + lines - 1 + int(r.max()) + 1)
-    ext = _extend(span, across, mode)
+    ext = extend_index(span, across, mode)
     stride = 1 if steep else width           # pixel (minor c, step t): c * stride + t * tstride
     tstride = width if steep else 1
     base = np.where(ext >= 0, ext * stride, -1 - steps * tstride).astype(itype)

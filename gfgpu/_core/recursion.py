@@ -19,19 +19,8 @@ For each line ``I[0..n-1]`` (traversal order) a kernel computes::
         out[k] = y            (or out[k] += y when accumulating)
         F_s = lam[s, k] F_s + kap[s, k] I[k]
 
-Boundary modes (scipy.ndimage names) extend the line beyond its first sample:
-
-=========  ==========================  =======================
-mode       extension                   left of ``a b c d``
-=========  ==========================  =======================
-constant   ``cval``                    ``k k k k | a b c d``
-nearest    edge value                  ``a a a a | a b c d``
-reflect    half-sample symmetric       ``d c b a | a b c d``
-mirror     whole-sample symmetric      ``d c b | a b c d``
-wrap       periodic                    ``a b c d | a b c d``
-=========  ==========================  =======================
-
-The infinite sum over the extension is folded into ``omega`` exactly (geometric series
+Boundary modes (scipy.ndimage names, :mod:`gfgpu._core.boundary`) extend the line beyond its
+first sample.  The infinite sum over the extension is folded into ``omega`` exactly (geometric series
 summed in float64; terms below ``tol`` relative to the largest are dropped, ``tol`` = 1e-18
 for float64 and 1e-10 for float32, i.e. far below each type's rounding).
 """
@@ -44,39 +33,15 @@ from functools import lru_cache
 
 import numpy as np
 
+from .boundary import MODES, check_mode, extend_index
+from .boundary import period as mode_period
 from .passes import LinePass
 
-MODES = ("constant", "nearest", "reflect", "mirror", "wrap")
+__all__ = ["MODES", "TOL", "check_mode", "PassPlan", "plan_pass", "run_reference",
+           "LinePlans", "plan_lines", "line_plans", "run_reference_lines"]
 
 TOL = {np.dtype(np.float32): 1e-10, np.dtype(np.float64): 1e-18}
 _MAX_EXTENSION = 50_000_000
-
-
-def check_mode(mode):
-    if mode not in MODES:
-        raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
-    return mode
-
-
-def extension_index(x0, n, mode):
-    """Index into a line of ``n`` samples of the extension sample at ``x0 < 0`` (-1: cval)."""
-    x0 = np.asarray(x0, dtype=np.int64)
-    if mode == "constant":
-        return np.full(x0.shape, -1, np.int64)
-    if mode == "nearest":
-        return np.zeros(x0.shape, np.int64)
-    if mode == "wrap":
-        return np.mod(x0, n)
-    if mode == "reflect":
-        i = np.mod(x0, 2 * n)
-        return np.where(i >= n, 2 * n - 1 - i, i)
-    if mode == "mirror":
-        if n == 1:
-            return np.zeros(x0.shape, np.int64)
-        i = np.mod(x0, 2 * n - 2)
-        return np.where(i >= n, 2 * n - 2 - i, i)
-    raise ValueError(f"mode must be one of {', '.join(MODES)}; got {mode!r}")
-
 
 @dataclass(frozen=True, eq=False)
 class PassPlan:
@@ -128,7 +93,7 @@ def _initial_weights(section, n, mode, tol):
     weights = np.exp(log_prod) * kap
     if mode == "constant":
         return np.zeros(0, np.complex128), weights.sum()
-    idx = extension_index(x0.astype(np.int64), n, mode)
+    idx = extend_index(x0.astype(np.int64), n, mode)
     omega = np.bincount(idx, weights.real, minlength=n) + 1j * np.bincount(idx, weights.imag, minlength=n)
     return omega, 0j
 
@@ -352,7 +317,7 @@ def _line_initial_weights(lam, kap, n, mode, tol, store=np.complex128, chunk=64)
     reach = np.minimum(n, cut + 1).astype(np.int64)
     width = n if mode == "wrap" else int(reach.max(initial=0))
     omega = np.zeros((m, width), store)
-    period = {"wrap": n, "reflect": 2 * n, "mirror": 2 * n - 2}[mode]
+    period = mode_period(n, mode)
     amp = kap / (1 - _powers(lam, [period])[:, 0])
     order = np.argsort(reach, kind="stable")
     for c0 in range(0, m, chunk):

@@ -18,8 +18,9 @@ from functools import lru_cache
 
 import numpy as np
 
+from .boundary import extend_index, period
 from .lines import axis_view_shape
-from .recursion import TOL, extension_index
+from .recursion import TOL
 
 __all__ = ["step_offset", "without_offset", "decay_length", "window_index", "translate_index",
            "crop_index", "reduce_offset"]
@@ -61,9 +62,9 @@ def reduce_offset(offset, n, pad, mode):
     period; constant and nearest extensions saturate beyond the line and its padding.
     """
     offset = int(offset)
-    period = {"wrap": n, "reflect": 2 * n, "mirror": max(2 * n - 2, 1)}.get(mode)
-    if period is not None:
-        return offset % period
+    repeat = period(n, mode)
+    if repeat is not None:
+        return offset % repeat
     limit = n + 2 * pad + 1
     return max(-limit, min(limit, offset))
 
@@ -72,14 +73,7 @@ def window_index(n, offset, pad, mode):
     """Source index (-1: cval) of each sample of the translated window ``E[-offset - pad + q]``,
     ``q`` in ``[0, n + 2 pad)``."""
     k = np.arange(n + 2 * pad, dtype=np.int64) - pad - reduce_offset(offset, n, pad, mode)
-    out = k.copy()
-    low, high = k < 0, k >= n
-    if low.any():
-        out[low] = extension_index(k[low], n, mode)
-    if high.any():
-        e = extension_index(n - 1 - k[high], n, mode)
-        out[high] = np.where(e < 0, -1, n - 1 - e)
-    return out
+    return extend_index(k, n, mode)
 
 
 def _flat_index(view, line_axis, along):

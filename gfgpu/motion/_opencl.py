@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._core import boundary, bspline
 from ..backends.opencl import launch as ocl
-from .spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, MODE_CODES, NARROW, NEAREST_EDGE, PSF_MIN_CELLS
+from .spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, NARROW, PSF_CODES, PSF_MIN_CELLS
 
 
 def _setup(be, a):
@@ -16,31 +17,39 @@ def _setup(be, a):
     return dtype, pos
 
 
+def _constants():
+    """The ``-D`` defines of every motion.cl build that carry constants of the Python definitions:
+    the mode codes (:mod:`gfgpu._core.boundary`), the spline's pole and edge weights
+    (:mod:`gfgpu._core.bspline`), the PSF codes and quadrature (:mod:`gfgpu.motion.spec`).  Read at
+    each build, so the kernels cannot drift from them (the same values every call: one build)."""
+    green, centred = PSF_CODES["green", True], PSF_CODES["green", False]
+    near_a, near_b = bspline.NEAREST_EDGE
+    return dict(
+        **{f"MODE_{name.upper()}": code for name, code in boundary.MODE_CODES.items()},
+        PSF_BOX=PSF_CODES["box", True], PSF_GREEN=green, PSF_BOX_CENTRED=PSF_CODES["box", False],
+        PSF_GREEN_CENTRED=centred, MIN_CELLS_G=PSF_MIN_CELLS[green], MIN_CELLS_CG=PSF_MIN_CELLS[centred],
+        SPLINE_POLE=repr(float(bspline.SPLINE_POLE)), NEAR_A=repr(float(near_a)), NEAR_B=repr(float(near_b)),
+        GREEN_TAIL=repr(float(GREEN_TAIL)), NARROW=repr(float(NARROW)),
+        **{f"GAUSS_U{i}": repr(float(u)) for i, u in enumerate(GAUSS_NODES)},
+        **{f"GAUSS_W{i}": repr(float(g)) for i, g in enumerate(GAUSS_WEIGHTS)})
+
+
+def _code(mode):
+    """The integer code of boundary ``mode`` that the kernels take (gfgpu._core.boundary.MODE_CODES)."""
+    return boundary.MODE_CODES[mode]
+
+
 def _kernel(be, name, dtype, pos, grid=None, **defines):
     grid = pos if grid is None else grid
     return ocl.kernel(be, __package__, "motion.cl", name, dtype, POS="double" if pos == np.float64 else "float",
                       GRID="double" if grid == np.float64 else "float", GRID_IS_FLOAT=int(grid == np.float32),
-                      GREEN_TAIL=repr(float(GREEN_TAIL)), NARROW=repr(float(NARROW)),
-                      NEAR_A=repr(NEAREST_EDGE[0]), NEAR_B=repr(NEAREST_EDGE[1]), GAUSS_U0=repr(GAUSS_NODES[0]),
-                      GAUSS_W0=repr(GAUSS_WEIGHTS[0]), GAUSS_W1=repr(GAUSS_WEIGHTS[1]),
-                      MIN_CELLS_G=PSF_MIN_CELLS[1], MIN_CELLS_CG=PSF_MIN_CELLS[3], PAD=_PAD, **defines)
+                      PAD=_PAD, **_constants(), **defines)
 
 
 def _grid(dtype, pos):
     """Positions of the polar resampling: the image's own precision (float32: 1e-7 relative,
     1e-4 px on a ring of radius 1500, far below the spline's own resampling error)."""
     return np.float32 if dtype == np.float32 else pos
-
-
-def _end_weights(frac):
-    """The four tap weights at one end of a fixed-width window (``box_shift`` in motion.cl): the
-    partial cell's spline integral over ``[0, frac)`` on ``c[j - 1 .. j + 2]`` plus the telescoped
-    whole cells' ``(-1, 12, 1, 0) / 24``."""
-    f = float(frac)
-    f2, f4, g = f * f, f ** 4, 1.0 - f
-    partial = np.array([(1.0 - g ** 4) / 24.0, (0.75 * f4 - 2.0 * f2 * f + 4.0 * f) / 6.0,
-                        (-0.75 * f4 + f2 * f + 1.5 * f2 + f) / 6.0, f4 / 24.0])
-    return partial + np.array([-1.0, 12.0, 1.0, 0.0]) / 24.0
 
 
 def _global(size):
@@ -89,16 +98,18 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
         defines = dict(LANES=lanes, ROWS=int(by_rows), LESS=int(less is not None))
         if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
             a, b = int(np.floor(a0)), int(np.floor(b0))
-            wa, wb = (_end_weights(x - np.floor(x)) for x in (a0, b0))
+            # the taps at each end of the window: the partial cell's integral plus the telescoped
+            # whole cells (box_shift in motion.cl)
+            wa, wb = (bspline.prefix_weights(x - np.floor(x)) for x in (a0, b0))
             ocl.launch(be, _kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
                        (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
                         np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
-                        dtype.type(1.0 / (b0 - a0)), np.int32(MODE_CODES[mode]), dtype.type(cval),
+                        dtype.type(1.0 / (b0 - a0)), np.int32(_code(mode)), dtype.type(cval),
                         np.int32(total), lbuf, loff))
             return dst
         ocl.launch(be, _kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
                    (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
-                    pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval), np.int32(total), lbuf, loff))
+                    pos(b0), pos(b1), np.int32(_code(mode)), dtype.type(cval), np.int32(total), lbuf, loff))
         return dst
     n, lines = (cols, rows) if axis == 2 else (rows, cols)
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
@@ -106,7 +117,7 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     gsize, lsize = _group(be, total)
     ocl.launch(be, _kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs, [dst],
                (src.data, dbuf, np.int32(n), np.int32(lines), np.int64(rows * cols), np.int64(line_stride),
-                np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(MODE_CODES[mode]), dtype.type(cval),
+                np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(_code(mode)), dtype.type(cval),
                 np.int32(total), doff, lbuf, loff))
     return dst
 
@@ -118,7 +129,7 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     bsz, h, w = (int(s) for s in coef.shape)
     ocl.launch(be, _kernel(be, "field_blur", dtype, pos), (w, h), None, [coef, field], [out],
                (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
-                np.int32(MODE_CODES[mode]), dtype.type(cval), ooff))
+                np.int32(_code(mode)), dtype.type(cval), ooff))
     return out
 
 
@@ -138,19 +149,19 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
         padded = be.empty((bsz, h, w), dtype)
         ocl.launch(be, _kernel(be, "pad_coef", dtype, pos), _global((w, h)), _LOCAL, [coef], [padded],
                    (coef.data, padded.data, np.int32(h - 2 * _PAD), np.int32(w - 2 * _PAD), np.int32(bsz),
-                    np.int32(MODE_CODES[mode]), dtype.type(cval)))
-        coef, mode, fast = padded, "nearest", {"MODE_Y": MODE_CODES["nearest"], "MODE_X": MODE_CODES["nearest"]}
+                    np.int32(_code(mode)), dtype.type(cval)))
+        coef, mode, fast = padded, "nearest", {"MODE_Y": _code("nearest"), "MODE_X": _code("nearest")}
     else:
         # the modes as build constants where every coefficient read lies within one period of the image
         reach = r0 + n_r + 3
         if (h > 3 and w > 3 and cy - reach >= -(h - 3) and cy + reach <= 2 * h - 4 and cx - reach >= -(w - 3)
                 and cx + reach <= 2 * w - 4):
-            fast = {"MODE_Y": MODE_CODES[mode], "MODE_X": MODE_CODES[mode]}
+            fast = {"MODE_Y": _code(mode), "MODE_X": _code(mode)}
     chunk = _CHUNK if be.kind == "cpu" else 1
     ocl.launch(be, _kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_phi // chunk), n_r)),
                _LOCAL, [coef, trig], [out],
                (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
-                np.int32(bsz), grid(cy), grid(cx), np.int32(r0), np.int32(MODE_CODES[mode]), dtype.type(cval)))
+                np.int32(bsz), grid(cy), grid(cx), np.int32(r0), np.int32(_code(mode)), dtype.type(cval)))
     return out
 
 
@@ -170,7 +181,7 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
         if x1 <= x0 or y1 <= y0:
             return out
     # radius within the band's rings (mirrored at their ends), angle within one turn: always near
-    fast = {"MODE_Y": MODE_CODES["mirror"], "MODE_X": MODE_CODES["wrap"]} if n_r > 3 and n_phi > 3 else {}
+    fast = {"MODE_Y": _code("mirror"), "MODE_X": _code("wrap")} if n_r > 3 and n_phi > 3 else {}
     ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
                [pcoef, base], [out],
                (pcoef.data, bbuf, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),

@@ -15,20 +15,23 @@ from typing import Any
 import numpy as np
 import warp as wp
 
+from .._core.boundary import MODE_CODES
+from .._core.bspline import NEAREST_EDGE, SPLINE_POLE
 from ..backends.warp import launch as wpl
-from .spec import (
-    GAUSS_NODES,
-    GAUSS_WEIGHTS,
-    GREEN_TAIL,
-    MODE_CODES,
-    NARROW,
-    NEAREST_EDGE,
-    PSF_MIN_CELLS,
-    SPLINE_POLE,
-)
+from .spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, NARROW, PSF_CODES, PSF_MIN_CELLS
 
 wp.set_module_options({"enable_backward": False})
 
+# the constants of the Python definitions (none retyped here): mode codes, spline, PSF codes
+_CONSTANT = wp.constant(MODE_CODES["constant"])
+_NEAREST = wp.constant(MODE_CODES["nearest"])
+_WRAP = wp.constant(MODE_CODES["wrap"])
+_REFLECT = wp.constant(MODE_CODES["reflect"])
+_MIRROR = wp.constant(MODE_CODES["mirror"])
+_BOX = wp.constant(PSF_CODES["box", True])
+_GREEN = wp.constant(PSF_CODES["green", True])
+_BOX_CENTRED = wp.constant(PSF_CODES["box", False])
+_GREEN_CENTRED = wp.constant(PSF_CODES["green", False])
 _Z = wp.constant(wp.float64(SPLINE_POLE))
 _TAIL = wp.constant(wp.float64(GREEN_TAIL))
 _NARROW = wp.constant(wp.float64(NARROW))
@@ -36,27 +39,37 @@ _TWO_PI = wp.constant(wp.float64(2.0 * np.pi))
 _NEAR_A = wp.constant(wp.float64(NEAREST_EDGE[0]))
 _NEAR_B = wp.constant(wp.float64(NEAREST_EDGE[1]))
 _GU0 = wp.constant(wp.float64(GAUSS_NODES[0]))
+_GU1 = wp.constant(wp.float64(GAUSS_NODES[1]))
+_GU2 = wp.constant(wp.float64(GAUSS_NODES[2]))
 _GW0 = wp.constant(wp.float64(GAUSS_WEIGHTS[0]))
 _GW1 = wp.constant(wp.float64(GAUSS_WEIGHTS[1]))
-_MIN_G = wp.constant(PSF_MIN_CELLS[1])
-_MIN_CG = wp.constant(PSF_MIN_CELLS[3])
+_GW2 = wp.constant(wp.float64(GAUSS_WEIGHTS[2]))
+_MIN_G = wp.constant(PSF_MIN_CELLS[PSF_CODES["green", True]])
+_MIN_CG = wp.constant(PSF_MIN_CELLS[PSF_CODES["green", False]])
+
+
+@wp.func
+def _periodic(mode: int):
+    """Whether ``mode`` repeats with a period (gfgpu._core.boundary.PERIODIC_MODES)."""
+    return mode == _WRAP or mode == _REFLECT or mode == _MIRROR
 
 
 @wp.func
 def _extend(i: int, n: int, mode: int):
-    """Index of sample ``i`` of a line of ``n`` extended by ``mode`` (-1: cval); spec.extend_index."""
-    if mode == 0:
+    """Index of sample ``i`` of a line of ``n`` extended by ``mode`` (-1: cval);
+    gfgpu._core.boundary.extend_index."""
+    if mode == _CONSTANT:
         if i < 0 or i >= n:
             return -1
         return i
-    if mode == 1:
+    if mode == _NEAREST:
         return wp.clamp(i, 0, n - 1)
-    if mode == 2:
+    if mode == _WRAP:
         r = i % n
         if r < 0:
             r = r + n
         return r
-    if mode == 3:
+    if mode == _REFLECT:
         q = i % (2 * n)
         if q < 0:
             q = q + 2 * n
@@ -86,16 +99,16 @@ def _pole_power(m: int):
 
 @wp.func
 def _geometric(m: int):
-    """``Σ_{k=1}^{m} z^k``, ``m >= 0``."""
+    """``Σ_{k=1}^{m} z^k``, ``m >= 0`` (gfgpu._core.bspline.pole_series)."""
     return _Z * (wp.float64(1.0) - _pole_power(m)) / (wp.float64(1.0) - _Z)
 
 
 @wp.func
 def _coef_taps(i: int, n: int, mode: int):
-    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (spec.coef_taps)."""
+    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (gfgpu._core.bspline.coef_taps)."""
     if i >= 0 and i < n:
         return i, wp.float64(1.0), i, wp.float64(0.0)
-    if mode >= 2:
+    if _periodic(mode):
         j = _extend(i, n, mode)
         return j, wp.float64(1.0), j, wp.float64(0.0)
     j0 = 0
@@ -106,7 +119,7 @@ def _coef_taps(i: int, n: int, mode: int):
         j1 = wp.max(n - 2, 0)
         m = i - n + 1
     f = _pole_power(m)
-    if mode == 0:
+    if mode == _CONSTANT:
         return j0, f, j0, wp.float64(0.0)
     return j0, f + (wp.float64(1.0) - f) * _NEAR_A, j1, (wp.float64(1.0) - f) * _NEAR_B
 
@@ -114,7 +127,7 @@ def _coef_taps(i: int, n: int, mode: int):
 @wp.func
 def _edge(src: wp.array(dtype=Any), start: int, step: int, n: int, right: int, mode: int, cval: Any):
     """The extension's value beyond the left (right) end: ``cval``, or the edge sample for 'nearest'."""
-    if mode != 1:
+    if mode != _NEAREST:
         return cval
     j = 0
     j1 = wp.min(1, n - 1)
@@ -129,7 +142,7 @@ def _coef(src: wp.array(dtype=Any), start: int, step: int, n: int, i: int, mode:
     """Coefficient ``i`` of the line at ``start`` (stride ``step``), extended by ``mode``."""
     if i >= 0 and i < n:
         return src[start + i * step]
-    if mode >= 2:
+    if _periodic(mode):
         return src[start + _extend(i, n, mode) * step]
     right = 0
     j = 0
@@ -162,11 +175,11 @@ def _coef_sum(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b
     (spec._coef_prefix): whole periods, or the geometric tails, in closed form."""
     total = src.dtype(0.0)
     if b > a:
-        if mode >= 2:
-            per = n
-            if mode == 3:
+        if _periodic(mode):
+            per = n     # gfgpu._core.boundary.period
+            if mode == _REFLECT:
                 per = 2 * n
-            if mode == 4:
+            if mode == _MIRROR:
                 per = wp.max(2 * n - 2, 1)
             if b - a <= 3 * per:
                 total = _coef_run(src, start, step, n, a, b, mode, cval)
@@ -203,7 +216,7 @@ def _cells(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b: i
 
 @wp.func
 def _weight(t: wp.float64, p: int):
-    """Cubic B-spline weight of offset ``p - 1`` for the fraction ``t``."""
+    """Cubic B-spline weight of offset ``p - 1`` for the fraction ``t`` (gfgpu._core.bspline.tap_weights)."""
     g = wp.float64(1.0) - t
     if p == 0:
         return g * g * g / wp.float64(6.0)
@@ -216,7 +229,7 @@ def _weight(t: wp.float64, p: int):
 
 @wp.func
 def _weight_integral(f: wp.float64, p: int):
-    """``∫_0^f`` of the weight of offset ``p - 1`` (spec._bspline_integrals)."""
+    """``∫_0^f`` of the weight of offset ``p - 1`` (gfgpu._core.bspline.weight_integrals)."""
     f2 = f * f
     f4 = f2 * f2
     if p == 0:
@@ -308,7 +321,7 @@ def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64
     ty = py - fy
     tx = px - fx
     base = src.dtype(0.0)
-    if mode_x == 0:
+    if mode_x == _CONSTANT:
         base = cval
     acc = src.dtype(0.0)
     for p in range(4):
@@ -329,11 +342,12 @@ def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64
 
 @wp.func
 def _support(psf: int):
-    if psf == 0:
+    """spec.psf_support."""
+    if psf == _BOX:
         return wp.float64(0.0), wp.float64(1.0)
-    if psf == 1:
+    if psf == _GREEN:
         return wp.float64(0.0), _TAIL
-    if psf == 2:
+    if psf == _BOX_CENTRED:
         return wp.float64(-0.5), wp.float64(0.5)
     return -_TAIL / wp.float64(2.0), _TAIL / wp.float64(2.0)
 
@@ -345,9 +359,9 @@ def _cdf(psf: int, t: wp.float64, t0: wp.float64, t1: wp.float64):
         return wp.float64(0.0)
     if t >= t1:
         return wp.float64(1.0)
-    if psf == 0 or psf == 2:
+    if psf == _BOX or psf == _BOX_CENTRED:
         return (t - t0) / (t1 - t0)
-    if psf == 1:
+    if psf == _GREEN:
         return wp.float64(1.0) - wp.exp(-t) * (wp.sin(t) + wp.cos(t))
     s = wp.float64(2.0) * wp.abs(t)
     c = wp.float64(0.5) * (wp.float64(1.0) - wp.exp(-s) * wp.cos(s))
@@ -358,8 +372,8 @@ def _cdf(psf: int, t: wp.float64, t0: wp.float64, t1: wp.float64):
 
 @wp.func
 def _density(psf: int, t: wp.float64):
-    """G_u's density at ``t`` (spec.psf_density; psf 1 or 3)."""
-    if psf == 1:
+    """G_u's density at ``t`` (spec.psf_density; the G_u codes)."""
+    if psf == _GREEN:
         return wp.float64(2.0) * wp.exp(-t) * wp.sin(t)
     s = wp.float64(2.0) * wp.abs(t)
     return wp.exp(-s) * (wp.cos(s) + wp.sin(s))
@@ -369,7 +383,7 @@ def _density(psf: int, t: wp.float64):
 def _node_weight(psf: int, g: wp.float64, q: wp.float64, mass: wp.float64, rest: wp.float64):
     """Weight of one Gauss-Legendre node: its share of the cell's mass (box), or the quadrature
     weight ``q`` plus its share of what the quadrature missed (G_u)."""
-    if psf == 0 or psf == 2:
+    if psf == _BOX or psf == _BOX_CENTRED:
         return g * mass
     return q + g * rest
 
@@ -390,9 +404,9 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
     span = t1 - t0
     length = wp.max(wp.abs(vy), wp.abs(vx))
     fewest = 1
-    if psf == 1:
+    if psf == _GREEN:
         fewest = _MIN_G
-    if psf == 3:
+    if psf == _GREEN_CENTRED:
         fewest = _MIN_CG
     n = 1
     if length > wp.float64(0.0):
@@ -406,22 +420,22 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
         mass = c - prev
         prev = c
         s0 = ta + _GU0 * (tb - ta)
-        s1 = ta + wp.float64(0.5) * (tb - ta)
-        s2 = ta + (wp.float64(1.0) - _GU0) * (tb - ta)
+        s1 = ta + _GU1 * (tb - ta)
+        s2 = ta + _GU2 * (tb - ta)
         q0 = wp.float64(0.0)
         q1 = wp.float64(0.0)
         q2 = wp.float64(0.0)
-        if psf == 1 or psf == 3:
+        if psf == _GREEN or psf == _GREEN_CENTRED:
             q0 = (tb - ta) * _GW0 * _density(psf, s0)
             q1 = (tb - ta) * _GW1 * _density(psf, s1)
-            q2 = (tb - ta) * _GW0 * _density(psf, s2)
+            q2 = (tb - ta) * _GW2 * _density(psf, s2)
         rest = mass - (q0 + q1 + q2)
         base = plane * h * w
         acc = acc + coef.dtype(_node_weight(psf, _GW0, q0, mass, rest)) * _spline(
             coef, base, h, w, wp.float64(y) - s0 * vy, wp.float64(x) - s0 * vx, mode, mode, cval)
         acc = acc + coef.dtype(_node_weight(psf, _GW1, q1, mass, rest)) * _spline(
             coef, base, h, w, wp.float64(y) - s1 * vy, wp.float64(x) - s1 * vx, mode, mode, cval)
-        acc = acc + coef.dtype(_node_weight(psf, _GW0, q2, mass, rest)) * _spline(
+        acc = acc + coef.dtype(_node_weight(psf, _GW2, q2, mass, rest)) * _spline(
             coef, base, h, w, wp.float64(y) - s2 * vy, wp.float64(x) - s2 * vx, mode, mode, cval)
     out[t] = acc
 
@@ -463,7 +477,8 @@ def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.ar
     value = base[t]
     if r >= r_lo and r < r_hi:
         kr = keep * r
-        change = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, r - wp.float64(r0), jf, 4, 2, pcoef.dtype(0.0))
+        change = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, r - wp.float64(r0), jf, _MIRROR, _WRAP,
+                         pcoef.dtype(0.0))
         value = pcoef.dtype(wp.float64(1.0) / (wp.float64(1.0) + kr * kr)) * value + change
     out[t] = value
 

@@ -1,12 +1,18 @@
-// Motion-blur kernels of gfgpu.motion (spec: gfgpu/backends/specs_motion.py; Warp twins in
-// backends/warp/motion.py).  Built with -D REAL=float|double and -D POS=float|double (the type of
+// Motion-blur kernels of gfgpu.motion (spec: gfgpu/motion/spec.py; Warp twins in
+// gfgpu/motion/_warp.py).  Built with -D REAL=float|double and -D POS=float|double (the type of
 // positions and weights: double wherever the device has it, since a ring of 10^4 samples needs
 // more than float's 24 bits to place a sample to 1e-4 px).  Samples accumulate in REAL.
-// Mode codes (specs_motion.MODE_CODES): 0 constant, 1 nearest, 2 wrap, 3 reflect, 4 mirror.
-// PSF codes (PSF_CODES): 0 box, 1 G_u, 2 centred box, 3 centred G_u.
-// The launcher defines NEAR_A, NEAR_B (specs_motion.NEAREST_EDGE), GAUSS_U0, GAUSS_W0, GAUSS_W1
-// (GAUSS_NODES[0], GAUSS_WEIGHTS[0:2]), MIN_CELLS_G, MIN_CELLS_CG (PSF_MIN_CELLS[1], [3]), GREEN_TAIL,
-// NARROW and PAD (the coefficients pad_coef adds beyond each border).
+// The launcher (gfgpu/motion/_opencl.py) defines the constants of the Python definitions, none
+// retyped here: the mode codes MODE_CONSTANT, MODE_NEAREST, MODE_WRAP, MODE_REFLECT, MODE_MIRROR
+// (gfgpu._core.boundary.MODE_CODES); SPLINE_POLE, NEAR_A, NEAR_B (gfgpu._core.bspline.SPLINE_POLE,
+// NEAREST_EDGE); the PSF codes PSF_BOX, PSF_GREEN, PSF_BOX_CENTRED, PSF_GREEN_CENTRED
+// (spec.PSF_CODES), GAUSS_U0 .. GAUSS_U2, GAUSS_W0 .. GAUSS_W2 (GAUSS_NODES, GAUSS_WEIGHTS), MIN_CELLS_G,
+// MIN_CELLS_CG (PSF_MIN_CELLS of the two G_u codes), GREEN_TAIL, NARROW; and PAD (the coefficients
+// pad_coef adds beyond each border).
+
+#if !defined(MODE_MIRROR) || !defined(SPLINE_POLE) || !defined(PSF_GREEN_CENTRED)
+#error "motion.cl is built by gfgpu.motion._opencl, which defines the constants of the Python definitions"
+#endif
 
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -20,20 +26,24 @@
 #define GRID POS     // positions of spline2: the polar kernels may take float for float32 images
 #endif
 
-#define SPLINE_POLE ((POS)-0.2679491924311228)     // sqrt(3) - 2
+#define POLE ((POS)(SPLINE_POLE))     // sqrt(3) - 2
 #define TWO_PI ((POS)6.283185307179586)
 
+// the modes whose extension repeats with a period (gfgpu._core.boundary.PERIODIC_MODES)
+#define IS_PERIODIC(mode) ((mode) == MODE_WRAP || (mode) == MODE_REFLECT || (mode) == MODE_MIRROR)
+
+// index of sample i of a line of n extended by mode (-1: cval): gfgpu._core.boundary.extend_index
 static inline int extend(int i, const int n, const int mode)
 {
-    if (mode == 0)
+    if (mode == MODE_CONSTANT)
         return (i < 0 || i >= n) ? -1 : i;
-    if (mode == 1)
+    if (mode == MODE_NEAREST)
         return i < 0 ? 0 : (i >= n ? n - 1 : i);
-    if (mode == 2) {
+    if (mode == MODE_WRAP) {
         int r = i % n;
         return r < 0 ? r + n : r;
     }
-    if (mode == 3) {
+    if (mode == MODE_REFLECT) {
         int q = i % (2 * n);
         q = q < 0 ? q + 2 * n : q;
         return q >= n ? 2 * n - 1 - q : q;
@@ -55,30 +65,30 @@ static inline int ifloor(const GRID x)
 
 // z^m for m >= 0, by the bits of m (branch-free: exp and pown are library calls that stop PoCL's
 // vectorisation across work-items); 0 beyond m = 31, where |z|^m < 1e-18 (beside 1e-16 in double)
-#define POLE_2 (SPLINE_POLE * SPLINE_POLE)
+#define POLE_2 (POLE * POLE)
 #define POLE_4 (POLE_2 * POLE_2)
 #define POLE_8 (POLE_4 * POLE_4)
 
 static inline POS pole_power(const int m)
 {
-    return (m & 1 ? SPLINE_POLE : (POS)1) * (m & 2 ? POLE_2 : (POS)1) * (m & 4 ? POLE_4 : (POS)1)
+    return (m & 1 ? POLE : (POS)1) * (m & 2 ? POLE_2 : (POS)1) * (m & 4 ? POLE_4 : (POS)1)
            * (m & 8 ? POLE_8 : (POS)1) * (m & 16 ? POLE_8 * POLE_8 : (POS)1) * (m > 31 ? (POS)0 : (POS)1);
 }
 
-// sum_{k=1}^{m} z^k, m >= 0
+// sum_{k=1}^{m} z^k, m >= 0 (gfgpu._core.bspline.pole_series)
 static inline POS geometric(const int m)
 {
-    return SPLINE_POLE * ((POS)1 - pole_power(m)) / ((POS)1 - SPLINE_POLE);
+    return POLE * ((POS)1 - pole_power(m)) / ((POS)1 - POLE);
 }
 
-// period of the coefficients of a line extended by a periodic mode (2 wrap, 3 reflect, 4 mirror)
+// period of the coefficients of a line extended by a periodic mode (gfgpu._core.boundary.period)
 static inline int period_of(const int n, const int mode)
 {
-    return mode == 2 ? n : (mode == 3 ? 2 * n : max(2 * n - 2, 1));
+    return mode == MODE_WRAP ? n : (mode == MODE_REFLECT ? 2 * n : max(2 * n - 2, 1));
 }
 
 // The spline coefficients of a line (at `start`, stride `step`) beyond its ends
-// (specs_motion.coef_taps), and their sums over index ranges (specs_motion._coef_prefix), for one
+// (gfgpu._core.bspline.coef_taps), and their sums over index ranges (spec._coef_prefix), for one
 // line (T = REAL, LOAD a plain read) and for LANES lines in vector lanes (T = VT, LOAD = VGET; `ls`
 // the stride between the lanes): one body, two instances.
 //   P##edge(right): the extension's value beyond the left or right end: cval, or for 'nearest' the
@@ -92,7 +102,7 @@ static inline int period_of(const int n, const int mode)
 static inline T P##edge(__global const REAL *src, const long start, const long step, const long ls,       \
                         const int n, const int right, const int mode, const REAL cval)                     \
 {                                                                                                         \
-    if (mode != 1)                                                                                        \
+    if (mode != MODE_NEAREST)                                                                             \
         return (T)cval;                                                                                   \
     const int j = right ? n - 1 : 0, j1 = right ? max(n - 2, 0) : min(1, n - 1);                         \
     return (REAL)NEAR_A * LOAD(src + start + (long)j * step, ls)                                          \
@@ -104,7 +114,7 @@ static inline T P##at(__global const REAL *src, const long start, const long ste
 {                                                                                                         \
     if ((unsigned)i < (unsigned)n)        /* inside the line: no extension (the common case) */           \
         return LOAD(src + start + (long)i * step, ls);                                                    \
-    if (mode >= 2)                                                                                        \
+    if (IS_PERIODIC(mode))                                                                                \
         return LOAD(src + start + (long)extend(i, n, mode) * step, ls);                                   \
     const int right = i >= n;                                                                             \
     const T c = LOAD(src + start + (long)(right ? n - 1 : 0) * step, ls);                                 \
@@ -130,7 +140,7 @@ static inline T P##sum(__global const REAL *src, const long start, const long st
 {                                                                                                         \
     if (b <= a)                                                                                           \
         return (T)0;                                                                                      \
-    if (mode >= 2) {                                                                                      \
+    if (IS_PERIODIC(mode)) {                                                                              \
         const int per = period_of(n, mode);                                                               \
         if ((long)b - a <= 3L * per)                                                                      \
             return P##run(src, start, step, ls, n, a, b, mode, cval);                                     \
@@ -192,7 +202,7 @@ static inline REAL cell(__global const REAL *src, const long start, const long s
 }
 
 // the sum of the spline's whole cells j in [a, b): the coefficients' sum plus three at each end
-// (the cells' weights (1, 11, 11, 1)/24 telescope; specs_motion.box_lines_reference)
+// (the cells' weights (1, 11, 11, 1)/24 telescope; gfgpu._core.bspline.PREFIX_ENDS)
 static inline REAL cells(__global const REAL *src, const long start, const long step, const int n, const int a,
                          const int b, const int mode, const REAL cval)
 {
@@ -245,7 +255,7 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
         }
         const REAL fa = (REAL)(a - (POS)ia), fb = (REAL)(e - (POS)ib);
         const POS width = e - a;
-        if (width < (POS)NARROW) {     // the spline at the middle (specs_motion.NARROW)
+        if (width < (POS)NARROW) {     // the spline at the middle (spec.NARROW)
             const POS m = (POS)0.5 * (a + e), fm = floor(m);
             const int im = (int)fm;
             const REAL tm = (REAL)(m - fm);
@@ -265,20 +275,20 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
     }
 }
 
-// coefficient i of a line of n as w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval (specs_motion.coef_taps;
-// cval only in constant mode): returns j0
+// coefficient i of a line of n as w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval
+// (gfgpu._core.bspline.coef_taps; cval only in constant mode): returns j0
 static inline int coef_taps(const int i, const int n, const int mode, POS *w0, int *j1, POS *w1)
 {
     *w0 = (POS)1;
     *w1 = (POS)0;
-    if ((unsigned)i < (unsigned)n || mode >= 2) {
+    if ((unsigned)i < (unsigned)n || IS_PERIODIC(mode)) {
         *j1 = (unsigned)i < (unsigned)n ? i : extend(i, n, mode);
         return *j1;
     }
     const int left = i < 0, j = left ? 0 : n - 1;
     const POS f = pole_power(left ? -i : i - n + 1);
     *j1 = j;
-    if (mode == 0) {
+    if (mode == MODE_CONSTANT) {
         *w0 = f;
         return j;
     }
@@ -307,7 +317,7 @@ static inline REAL spline2(__global const REAL *src, const long plane, const int
         return acc;
     }
     // beyond the border a coefficient may weigh two ('nearest'): two columns and two rows per tap
-    const REAL base = mode_x == 0 ? cval : (REAL)0;
+    const REAL base = mode_x == MODE_CONSTANT ? cval : (REAL)0;
     int rx0[4], rx1[4];
     REAL vx0[4], vx1[4];
     for (int q = 0; q < 4; ++q) {
@@ -338,29 +348,31 @@ static inline REAL spline2(__global const REAL *src, const long plane, const int
 static inline void support(const int psf, POS *t0, POS *t1)
 {
     const POS tail = (POS)GREEN_TAIL;
-    *t0 = psf == 0 ? (POS)0 : psf == 1 ? (POS)0 : psf == 2 ? (POS)-0.5 : -tail / 2;
-    *t1 = psf == 0 ? (POS)1 : psf == 1 ? tail : psf == 2 ? (POS)0.5 : tail / 2;
+    // spec.psf_support
+    *t0 = psf == PSF_BOX ? (POS)0 : psf == PSF_GREEN ? (POS)0 : psf == PSF_BOX_CENTRED ? (POS)-0.5 : -tail / 2;
+    *t1 = psf == PSF_BOX ? (POS)1 : psf == PSF_GREEN ? tail : psf == PSF_BOX_CENTRED ? (POS)0.5 : tail / 2;
 }
 
+// spec.psf_cdf
 static inline POS cdf(const int psf, const POS t, const POS t0, const POS t1)
 {
     if (t <= t0)
         return 0;
     if (t >= t1)
         return 1;
-    if (psf == 0 || psf == 2)
+    if (psf == PSF_BOX || psf == PSF_BOX_CENTRED)
         return (t - t0) / (t1 - t0);
-    if (psf == 1)
+    if (psf == PSF_GREEN)
         return (POS)1 - exp(-t) * (sin(t) + cos(t));
     const POS s = (POS)2 * fabs(t);
     const POS c = (POS)0.5 * ((POS)1 - exp(-s) * cos(s));
     return t < 0 ? (POS)0.5 - c : (POS)0.5 + c;
 }
 
-// G_u's density at t (specs_motion.psf_density; psf 1 or 3)
+// G_u's density at t (spec.psf_density; psf PSF_GREEN or PSF_GREEN_CENTRED)
 static inline POS density(const int psf, const POS t)
 {
-    if (psf == 1)
+    if (psf == PSF_GREEN)
         return (POS)2 * exp(-t) * sin(t);
     const POS s = (POS)2 * fabs(t);
     return exp(-s) * (cos(s) + sin(s));
@@ -379,10 +391,10 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
     POS t0, t1;
     support(psf, &t0, &t1);
     const POS span = t1 - t0, length = fmax(fabs(vy), fabs(vx));
-    const int fewest = psf == 1 ? MIN_CELLS_G : (psf == 3 ? MIN_CELLS_CG : 1);
+    const int fewest = psf == PSF_GREEN ? MIN_CELLS_G : (psf == PSF_GREEN_CENTRED ? MIN_CELLS_CG : 1);
     const int n = length > 0 ? max(fewest, (int)ceil(length * span * density_px - (POS)1e-9)) : 1;
-    const POS u[3] = {(POS)GAUSS_U0, (POS)0.5, (POS)1 - (POS)GAUSS_U0};
-    const POS g[3] = {(POS)GAUSS_W0, (POS)GAUSS_W1, (POS)GAUSS_W0};
+    const POS u[3] = {(POS)GAUSS_U0, (POS)GAUSS_U1, (POS)GAUSS_U2};
+    const POS g[3] = {(POS)GAUSS_W0, (POS)GAUSS_W1, (POS)GAUSS_W2};
     for (int b = 0; b < planes; ++b) {
         REAL acc = 0;
         POS prev = 0;
@@ -393,7 +405,7 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
             POS t[3], wt[3];
             for (int i = 0; i < 3; ++i)
                 t[i] = ta + u[i] * (tb - ta);
-            if (psf == 0 || psf == 2) {
+            if (psf == PSF_BOX || psf == PSF_BOX_CENTRED) {
                 for (int i = 0; i < 3; ++i)
                     wt[i] = g[i] * mass;
             } else {          // Gauss-Legendre on the density, the cell's exact mass restored
@@ -412,19 +424,19 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
 
 #ifdef MODE_X
 // spline2 for the polar kernels, with the modes as build constants (MODE_Y along the rows, MODE_X
-// along the columns: 1 nearest, on coefficients that pad_coef extended by PAD beyond every border;
-// 2, 3, 4 periodic) and every coefficient index within one period or reflection of the line (the
+// along the columns: nearest, on coefficients that pad_coef extended by PAD beyond every border;
+// or a periodic mode) and every coefficient index within one period or reflection of the line (the
 // launcher checks): branch-free index arithmetic, so PoCL vectorises across work-items.
-#if MODE_X < 1 || MODE_Y < 1
+#if MODE_X == MODE_CONSTANT || MODE_Y == MODE_CONSTANT
 #error "spline2_near: constant mode runs on coefficients extended by pad_coef, as nearest"
 #endif
 static inline int near_index(const int i, const int n, const int mode)
 {
-    if (mode == 1)
+    if (mode == MODE_NEAREST)
         return i < 0 ? 0 : (i >= n ? n - 1 : i);      // clamp(): a library call in PoCL
-    if (mode == 2)
+    if (mode == MODE_WRAP)
         return i < 0 ? i + n : (i >= n ? i - n : i);
-    if (mode == 3)
+    if (mode == MODE_REFLECT)
         return i < 0 ? -1 - i : (i >= n ? 2 * n - 1 - i : i);
     return n == 1 ? 0 : (i < 0 ? -i : (i >= n ? 2 * n - 2 - i : i));
 }
@@ -469,9 +481,9 @@ static inline REAL spline2_near(__global const REAL *src, const long plane, cons
 #define SPLINE_POLAR(src, plane, h, w, py, px, my, mx, cval) spline2(src, plane, h, w, py, px, my, mx, cval)
 #endif
 
-// The coefficients of (h, w) planes extended by mode 0 or 1 (specs_motion.coef_taps, along the rows
-// and the columns) on (h + 2 PAD, w + 2 PAD), one work-item per element: to_polar then reads them
-// clamped (mode 1), which is the extension to z^PAD (below 1e-18).
+// The coefficients of (h, w) planes extended by constant or nearest mode (gfgpu._core.bspline.coef_taps,
+// along the rows and the columns) on (h + 2 PAD, w + 2 PAD), one work-item per element: to_polar then
+// reads them clamped (nearest), which is the extension to z^PAD (below 1e-18).
 __kernel void pad_coef(__global const REAL *src, __global REAL *dst, const int h, const int w, const int planes,
                        const int mode, const REAL cval)
 {
@@ -481,7 +493,7 @@ __kernel void pad_coef(__global const REAL *src, __global REAL *dst, const int h
     POS gy0, gy1, gx0, gx1;
     int ry1, rx1;
     const int ry0 = coef_taps(y - PAD, h, mode, &gy0, &ry1, &gy1), rx0 = coef_taps(x - PAD, w, mode, &gx0, &rx1, &gx1);
-    const REAL base = mode == 0 ? cval : (REAL)0;
+    const REAL base = mode == MODE_CONSTANT ? cval : (REAL)0;
     for (int b = 0; b < planes; ++b) {
         __global const REAL *c = src + (long)b * h * w;
         const REAL r0 = (REAL)gx0 * (c[(long)ry0 * w + rx0] - base) + (REAL)gx1 * (c[(long)ry0 * w + rx1] - base);
@@ -558,7 +570,8 @@ __kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, 
     const GRID ring = inside ? r - (GRID)r0 : (GRID)0;     // outside the band: a valid read, not added
     for (int b = 0; b < planes; ++b) {
         const long pix = ((long)b * h + y) * w + x;
-        const REAL change = SPLINE_POLAR(pcoef, (long)b * n_r * n_phi, n_r, n_phi, ring, jf, 4, 2, (REAL)0);
+        const REAL change = SPLINE_POLAR(pcoef, (long)b * n_r * n_phi, n_r, n_phi, ring, jf, MODE_MIRROR, MODE_WRAP,
+                                         (REAL)0);
         out[out_off + pix] = weight * base[base_off + pix] + (inside ? change : (REAL)0);
     }
 }

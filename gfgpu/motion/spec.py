@@ -1,7 +1,7 @@
 """Executable numpy specifications of the motion-blur fused kernels.
 
 Five kernels, each written here in plain float64 numpy and on every backend as device code
-(``backends/warp/motion.py``, ``backends/opencl/motion.cl``):
+(``_warp.py``, and ``motion.cl`` through ``_opencl.py``, beside this module):
 
 - :func:`box_lines_reference`: the mean of each line's cubic B-spline over a window
   ``[a0 + a1 k, b0 + b1 k]`` at every sample ``k`` (a box exposure; the device kernels slide the
@@ -20,6 +20,11 @@ to the extension's value, not the end coefficient repeated).
 Coordinates are array-axis order: a velocity field is ``(2, H, W)`` = (rows, cols) components,
 a centre ``(row, col)``.  Boundary modes are scipy.ndimage's names, as integer codes
 (:data:`MODE_CODES`).  These functions know nothing about the applications that use them.
+
+The boundary modes (:data:`MODE_CODES`, :func:`extend_index`) and the cubic B-spline
+(:data:`SPLINE_POLE`, :data:`NEAREST_EDGE`, :func:`coef_taps`) are defined once in
+:mod:`gfgpu._core.boundary` and :mod:`gfgpu._core.bspline`, and named here as well; the
+point-spread functions (:func:`psf_cdf`, :func:`psf_density`) are defined here.
 """
 
 from __future__ import annotations
@@ -28,13 +33,20 @@ import math
 
 import numpy as np
 
+from .._core.boundary import MODE_CODES, extend_index, period
+from .._core.bspline import (
+    NEAREST_EDGE,
+    SPLINE_POLE,
+    coef_taps,
+    pole_series,
+    prefix_weights,
+    tap_weights,
+)
+
 __all__ = ["MODE_CODES", "PSF_CODES", "GREEN_TAIL", "NARROW", "SPLINE_POLE", "NEAREST_EDGE", "GAUSS_NODES",
            "GAUSS_WEIGHTS", "PSF_MIN_CELLS", "extend_index", "coef_taps", "psf_support", "psf_cdf", "psf_density",
            "psf_cells", "spline_sample", "box_lines_reference", "field_blur_reference", "to_polar_reference",
            "from_polar_reference", "add_rows_reference"]
-
-#: boundary modes as the device kernels number them
-MODE_CODES = {"constant": 0, "nearest": 1, "wrap": 2, "reflect": 3, "mirror": 4}
 
 #: point-spread functions in ``t`` (fraction of the velocity): box (uniform exposure) and the
 #: chapter's G_u; ``+ 2`` for the centred (displace=False) variants
@@ -47,14 +59,6 @@ GREEN_TAIL = 18.0
 #: windows narrower than this (samples) take the spline's value at their middle
 NARROW = 1.0 / 64.0
 
-#: pole of the cubic B-spline interpolation prefilter
-SPLINE_POLE = math.sqrt(3.0) - 2.0
-
-#: weights of ``c[0]`` and ``c[1]`` in the edge sample ``I[0]`` of a line whose coefficients
-#: continue as ``c[-m] = I[0] + z^m (c[0] - I[0])`` ('nearest', see :func:`coef_taps`): the
-#: interpolation condition ``I[0] = (c[-1] + 4 c[0] + c[1]) / 6`` solved for ``I[0]``
-NEAREST_EDGE = ((4.0 + SPLINE_POLE) / (5.0 + SPLINE_POLE), 1.0 / (5.0 + SPLINE_POLE))
-
 #: 3-point Gauss-Legendre nodes (fractions of a cell) and weights: exact for polynomials of
 #: degree 5, so for the cubic spline along an axis wherever a cell holds no knot
 GAUSS_NODES = (0.5 - 0.5 * math.sqrt(0.6), 0.5, 0.5 + 0.5 * math.sqrt(0.6))
@@ -66,65 +70,14 @@ GAUSS_WEIGHTS = (5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0)
 PSF_MIN_CELLS = (1, int(2 * GREEN_TAIL), 1, int(4 * GREEN_TAIL))
 
 
-def extend_index(i, n, mode):
-    """Index into ``[0, n)`` of the sample ``i`` of a line extended by ``mode`` (-1: cval)."""
-    i = np.asarray(i, np.int64)
-    if mode == "constant":
-        return np.where((i >= 0) & (i < n), i, -1)
-    if mode == "nearest":
-        return np.clip(i, 0, n - 1)
-    if mode == "wrap":
-        return np.mod(i, n)
-    if mode == "reflect":                       # d c b a | a b c d | d c b a
-        q = np.mod(i, 2 * n)
-        return np.where(q < n, q, 2 * n - 1 - q)
-    if n == 1:                                  # mirror: d c b | a b c d | c b a
-        return np.zeros_like(i)
-    q = np.mod(i, 2 * n - 2)
-    return np.where(q < n, q, 2 * n - 2 - q)
-
-
 # --------------------------------------------------------------------------------------
-# the spline's coefficients beyond a line's ends
+# the spline's coefficients beyond a line's ends (coef_taps: gfgpu._core.bspline)
 # --------------------------------------------------------------------------------------
-def coef_taps(i, n, mode):
-    """``(j0, w0, j1, w1)``: the coefficient ``i`` of a line of ``n`` extended by ``mode`` is
-    ``w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval`` (``cval`` only in ``"constant"`` mode).
-
-    The coefficients are those of the line extended by ``mode`` (the prefilter's boundary
-    states make them exact).  ``"wrap"``, ``"reflect"`` and ``"mirror"`` extensions are periodic,
-    so the coefficients extend as the samples do: ``j0 = extend_index(i)``, ``w0 = 1``.  Where the
-    extension is one value ``e`` (``cval``, or the edge sample for ``"nearest"``) the
-    coefficients of the line minus ``e``, zero beyond the edge, continue geometrically,
-    ``c[-m] = e + z^m (c[0] - e)`` (``z`` the prefilter's pole; the same at the right end); for
-    ``"nearest"`` the edge sample is ``e = NEAREST_EDGE · (c[0], c[1])``, so coefficient ``-m``
-    weighs ``c[0]`` and ``c[1]`` (one coefficient: ``e = c[0]``).  Copying the end coefficient
-    instead is the spline of another image: it overshoots the edge by ``|c[0] - e|``.
-    """
-    i = np.asarray(i, np.int64)
-    if mode not in ("constant", "nearest"):
-        j = extend_index(i, n, mode)
-        return j, np.ones(i.shape), j, np.zeros(i.shape)
-    j0 = np.clip(i, 0, n - 1)
-    f = SPLINE_POLE ** np.abs(i - j0).astype(np.float64)         # 1 inside the line
-    if mode == "constant":
-        return j0, f, j0, np.zeros(i.shape)
-    a, b = NEAREST_EDGE
-    j1 = np.where(i < 0, min(1, n - 1), np.where(i >= n, max(n - 2, 0), j0))
-    return j0, f + (1.0 - f) * a, j1, (1.0 - f) * b
-
-
 def _line_coef(x, i, mode, cval):
     """The coefficients ``i`` (integer array) of the lines ``x[..., n]`` extended by ``mode``."""
     j0, w0, j1, w1 = coef_taps(i, x.shape[-1], mode)
     base = cval if mode == "constant" else 0.0
     return base + w0 * (x[..., j0] - base) + w1 * (x[..., j1] - base)
-
-
-def _geometric(m):
-    """``Σ_{k=1}^{m} z^k`` for integers ``m >= 0`` (``z`` the prefilter's pole)."""
-    m = np.asarray(m, np.int64)
-    return SPLINE_POLE * (1.0 - SPLINE_POLE ** m.astype(np.float64)) / (1.0 - SPLINE_POLE)
 
 
 def _coef_prefix(x, j, mode, cval):
@@ -136,12 +89,12 @@ def _coef_prefix(x, j, mode, cval):
     """
     n = x.shape[-1]
     j = np.asarray(j, np.int64)
-    if mode not in ("constant", "nearest"):
-        period = {"wrap": n, "reflect": 2 * n, "mirror": max(2 * n - 2, 1)}[mode]
-        one = x[..., extend_index(np.arange(period), n, mode)]
+    repeat = period(n, mode)
+    if repeat is not None:
+        one = x[..., extend_index(np.arange(repeat), n, mode)]
         cum = np.concatenate([np.zeros(x.shape[:-1] + (1,)), np.cumsum(one, axis=-1)], axis=-1)
-        q, r = np.divmod(j, period)
-        return q * cum[..., period:] + cum[..., r]
+        q, r = np.divmod(j, repeat)
+        return q * cum[..., repeat:] + cum[..., r]
     cum = np.concatenate([np.zeros(x.shape[:-1] + (1,)), np.cumsum(x, axis=-1)], axis=-1)
     if mode == "constant":
         left = right = np.full(x.shape[:-1] + (1,), float(cval))
@@ -150,8 +103,8 @@ def _coef_prefix(x, j, mode, cval):
         left = a * x[..., :1] + b * x[..., min(1, n - 1)][..., None]
         right = a * x[..., -1:] + b * x[..., max(n - 2, 0)][..., None]
     below, above = np.minimum(j, 0), np.maximum(j - n, 0)
-    return (cum[..., np.clip(j, 0, n)] + below * left - (x[..., :1] - left) * _geometric(-below)
-            + above * right + (x[..., -1:] - right) * _geometric(above))
+    return (cum[..., np.clip(j, 0, n)] + below * left - (x[..., :1] - left) * pole_series(-below)
+            + above * right + (x[..., -1:] - right) * pole_series(above))
 
 
 # --------------------------------------------------------------------------------------
@@ -184,8 +137,8 @@ def box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval, less=None):
         difference of integrals would lose more than that to rounding in float32).  Whole cells
         integrate to ``(c[j-1] + 11 c[j] + 11 c[j+1] + c[j+2]) / 24``, whose sum over ``[A, B)``
         telescopes to ``Σ_{A <= j < B} c[j]`` plus three coefficients at each end (the sum in
-        closed form beyond the line, :func:`_coef_prefix`); partial cells by
-        :func:`_bspline_integrals`.  O(n) per line whatever the window's length.
+        closed form beyond the line, :func:`_coef_prefix`); the ends with the partial cells by
+        :func:`gfgpu._core.bspline.prefix_weights`.  O(n) per line whatever the window's length.
     """
     x = np.moveaxis(np.asarray(src, np.float64), axis, -1)
     n = x.shape[-1]
@@ -197,8 +150,8 @@ def box_lines_reference(src, axis, a0, a1, b0, b1, mode, cval, less=None):
         f = p - i
         near = np.stack([_line_coef(x, i + m - 1, mode, cval) for m in range(4)])     # c[i-1 .. i+2]
         lift = (slice(None),) + (None,) * (x.ndim - 1)      # weights (4, n) against (4, ..., n)
-        whole = _coef_prefix(x, i, mode, cval) + (12.0 * near[1] + near[2] - near[0]) / 24.0   # cells < i
-        return whole + (_bspline_integrals(f)[lift] * near).sum(0), (_bspline_weights(f)[lift] * near).sum(0)
+        return (_coef_prefix(x, i, mode, cval) + (prefix_weights(f)[lift] * near).sum(0),
+                (tap_weights(f)[lift] * near).sum(0))
 
     sa, _ = integral(a)
     sb, _ = integral(b)
@@ -261,22 +214,6 @@ def psf_cells(code, length, density):
     return np.where(length > 0, cells, 1).astype(np.int64)
 
 
-def _bspline_weights(f):
-    """Cubic B-spline weights of offsets -1, 0, 1, 2 for the fraction ``f``."""
-    g = 1.0 - f
-    return np.stack([g**3 / 6.0, (3.0 * f**3 - 6.0 * f * f + 4.0) / 6.0,
-                     (3.0 * g**3 - 6.0 * g * g + 4.0) / 6.0, f**3 / 6.0])
-
-
-def _bspline_integrals(f):
-    """``∫_0^f`` of the cubic B-spline weights of offsets -1, 0, 1, 2 (each 1/24, 11/24, 11/24,
-    1/24 at ``f = 1``)."""
-    f2 = f * f
-    f4 = f2 * f2
-    return np.stack([(1.0 - (1.0 - f) ** 4) / 24.0, (0.75 * f4 - 2.0 * f2 * f + 4.0 * f) / 6.0,
-                     (-0.75 * f4 + f2 * f + 1.5 * f2 + f) / 6.0, f4 / 24.0])
-
-
 def spline_sample(coef, py, px, mode, cval, mode_y=None):
     """The cubic B-spline with coefficients ``coef`` (B, H, W) at points ``(py, px)`` (any shape).
 
@@ -289,7 +226,7 @@ def spline_sample(coef, py, px, mode, cval, mode_y=None):
     mode_y = mode if mode_y is None else mode_y
     py, px = np.asarray(py, np.float64), np.asarray(px, np.float64)
     iy, ix = np.floor(py), np.floor(px)
-    wy, wx = _bspline_weights(py - iy), _bspline_weights(px - ix)
+    wy, wx = tap_weights(py - iy), tap_weights(px - ix)
     iy, ix = iy.astype(np.int64), ix.astype(np.int64)
     base = cval if mode == "constant" else 0.0
     out = np.full((coef.shape[0],) + py.shape, base)

@@ -3,23 +3,23 @@
 The fused kernels that sample an image at arbitrary points (per-pixel paths, polar grids)
 evaluate the cubic B-spline ``s(x) = Σ c[k] β3(x - k)`` that interpolates the samples, as
 scipy.ndimage's ``order=3`` does.  The coefficients are ``c = p * I`` with the prefilter
-``p[k] = c0 z^|k|`` (``z = sqrt(3) - 2``, ``c0 = -6z/(1 - z^2)``, unit DC gain): one causal and one
-anticausal first-order recursion per axis, exact (boundary states from the mode), O(1) per pixel.
+``p[k] = c0 z^|k|`` (``z = sqrt(3) - 2``, ``c0 = -6z/(1 - z^2)``, unit DC gain;
+:mod:`gfgpu._core.bspline`): one causal and one anticausal first-order recursion per axis, exact
+(boundary states from the mode), O(1) per pixel.
 """
 
 from __future__ import annotations
 
+from .._core.bspline import PREFILTER_GAIN, SPLINE_POLE
 from .._core.passes import LinePass, Section
 from .._core.program import run_axis_passes
-from .spec import SPLINE_POLE
 
 __all__ = ["prefilter_passes", "line_coefficients", "spline_coefficients"]
 
 
 def prefilter_passes():
     """The causal (with the tap ``c0``) and anticausal passes of the prefilter, summed."""
-    z = SPLINE_POLE
-    c0 = -6.0 * z / (1.0 - z * z)
+    z, c0 = SPLINE_POLE, PREFILTER_GAIN
     section = Section(lam=complex(z), kap=complex(c0 * z))
     return [LinePass((section,), c0, False), LinePass((section,), 0.0, True)]
 

@@ -15,11 +15,11 @@ import numpy as np
 
 from .. import greens
 from .._core import strips
+from .._core.boundary import extend_index
 from .._core.job import copy_of_input
 from .._core.recursion import plan_pass
 from .._core.validation import finite_scalar
 from .params import center_point, zoom_u1
-from .spec import extend_index
 
 __all__ = ["zoom_cell_weights", "ray_zoom_pass", "apply_zoom"]
 

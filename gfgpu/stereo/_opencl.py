@@ -11,21 +11,39 @@ from ..backends.opencl import launch as ocl
 from . import band_plan
 from . import spec as specs
 from .band_plan import padded_samples
-from .spec import COST_MAX
+
+#: largest penalty P1, P2 of the int16 path costs of stereo.cl (with :data:`_PATH_PAD`)
+_PENALTY_MAX = 8191
+
+#: path value of the samples out of view and of the padding lanes in stereo.cl's int16 sweeps
+#: (``PAD_COST``), which cannot hold the specification's int32 ``PATH_UNDEFINED``: above every path
+#: value in view (at most ``COST_MAX + _PENALTY_MAX``), and still an int16 plus a penalty
+_PATH_PAD = 1 << 14
+
+
+def _build(be, name, **defines):
+    """The kernel ``name`` of stereo.cl, built with ``defines`` and the constants it shares with
+    the specification (:mod:`gfgpu.stereo.spec`: ``NO_MATCH``, ``OUT_OF_VIEW``, ``COST_MAX``) and
+    the int16 path value ``PAD_COST`` (:data:`_PATH_PAD`), read at each build: never retyped in
+    the kernels (the same values every call: no build of their own)."""
+    # INT_MIN (NO_MATCH) is no C literal: written as a difference, as limits.h does
+    return ocl.kernel(be, __package__, "stereo.cl", name, np.float32, NO_MATCH=f"({specs.NO_MATCH + 1}-1)",
+                      OUT_OF_VIEW=int(specs.OUT_OF_VIEW), COST_MAX=int(specs.COST_MAX), PAD_COST=_PATH_PAD,
+                      **defines)
 
 
 def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=None):
     """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
     with ``cost_bytes`` for byte costs, with ``padded`` for volumes of :func:`_padded`, the
     selection for its sub-pixel ``steps``)."""
-    defines = {} if n_disp is None else {"N_DISP": int(n_disp), "COST_MAX": COST_MAX}
+    defines = {} if n_disp is None else {"N_DISP": int(n_disp)}
     if steps is not None:
         defines["STEPS"] = int(steps)
     if cost_bytes:
         defines["COST_BYTES"] = 1
     if padded:
         defines["PADDED_PIXELS"] = 1
-    return ocl.kernel(be, __package__, "stereo.cl", name, np.float32, **defines)
+    return _build(be, name, **defines)
 
 
 def _padded(be, rows, w, n, dtype):
@@ -39,7 +57,7 @@ def launch_census(be, image, out, plane, radius):
     image = ocl.plain(be, image, "image", np.float32)
     ocl.plain(be, out, "out", np.uint64, output=True)
     h, w = image.shape
-    knl = ocl.kernel(be, __package__, "stereo.cl", "census", np.float32, CENSUS_RADIUS=int(radius))
+    knl = _build(be, "census", CENSUS_RADIUS=int(radius))
     group = ocl.group_size(be)
     ocl.launch(be, knl, (-(-h // group) * group,), (group,), [image], [out],
                (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w)))
@@ -91,9 +109,8 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, s
     group = ocl.group_size(be)
     gsize = (-(-rows // group) * group,)
     if ham is None:
-        knl = ocl.kernel(be, __package__, "stereo.cl", "block_cost", np.float32, N_DISP=n, COST_MAX=COST_MAX,
-                         BLOCK=int(block), **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}),
-                         **({"PADDED_PIXELS": 1} if padded else {}))
+        knl = _build(be, "block_cost", N_DISP=n, BLOCK=int(block),
+                     **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}), **({"PADDED_PIXELS": 1} if padded else {}))
         splits = _cost_splits(be, w)
         scratch, cols = _block_scratch(be, w, n, block)
         ocl.launch(be, knl, (splits,), (1,), [cl_, ri], [out, scratch],
@@ -120,8 +137,8 @@ def launch_sgm(be, cost, out, p1, p2, paths):
     h, w, n = cost.shape
     if cost.size == 0:
         return out
-    if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
-        raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
+    if not (0 <= p1 <= _PENALTY_MAX and 0 <= p2 <= _PENALTY_MAX):
+        raise ValueError(f"p1 and p2 must be 0..{_PENALTY_MAX} (int16 path costs), got p1={p1}, p2={p2}")
     knl = _stereo_kernel(be, "sgm_line_pair", n)
     group = ocl.group_size(be)   # GPU: a warp's multiple
     # each launch sweeps a direction of gfgpu.stereo.spec.SGM_PATHS and its opposite
@@ -196,8 +213,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         ocl.plain(be, a, name, dt, output=True)
     h, w = disp.shape
     n = int(n_disp)
-    if not (0 <= p1 <= 8191 and 0 <= p2 <= 8191):
-        raise ValueError(f"p1 and p2 must be 0..8191 (int16 path costs), got p1={p1}, p2={p2}")
+    if not (0 <= p1 <= _PENALTY_MAX and 0 <= p2 <= _PENALTY_MAX):
+        raise ValueError(f"p1 and p2 must be 0..{_PENALTY_MAX} (int16 path costs), got p1={p1}, p2={p2}")
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     if be.kind != "cpu":
@@ -279,7 +296,7 @@ def launch_left_right(be, disp, disp_right, margin, steps, tol):
         disp.set(d)
         margin.set(m)
         return disp, margin
-    knl = ocl.kernel(be, __package__, "stereo.cl", "left_right", np.float32, LEFT_RIGHT=1)
+    knl = _build(be, "left_right", LEFT_RIGHT=1)
     ocl.launch(be, knl, (w, h), None, [disp_right], [disp, margin],
                (disp.data, disp_right.data, margin.data, np.int32(h), np.int32(w), np.int32(steps),
                 np.float64(tol)))

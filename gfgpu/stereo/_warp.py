@@ -11,15 +11,16 @@ import numpy as np
 import warp as wp
 
 from ..backends.warp import launch as wpl
-from .spec import COST_MAX, SGM_PATHS
+from .spec import COST_MAX, NO_CANDIDATE, NO_MATCH, OUT_OF_VIEW, PATH_UNDEFINED, SGM_PATHS
 
 wp.set_module_options({"enable_backward": False})
 
+# the specification's constants (gfgpu.stereo.spec), none retyped here
 _COST_MAX = wp.constant(COST_MAX)
-
-NO_MATCH = -2147483647 - 1
-_INT_MAX = 2147483647
-_UNDEF = 16777216       # path value of a sample out of view (specs._UNDEF): never a minimum
+_NO_MATCH = wp.constant(NO_MATCH)
+_OUT_OF_VIEW = wp.constant(OUT_OF_VIEW)
+_UNDEF = wp.constant(PATH_UNDEFINED)         # path value of a sample out of view: never a minimum
+_NO_CANDIDATE = wp.constant(NO_CANDIDATE)    # above every cost and path value (int32's largest)
 
 
 @wp.func
@@ -71,7 +72,7 @@ def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64)
     n = _floor_div(t, steps)
     f = t - n * steps
     if x - n < r or x - n > w - 1 - r:
-        out[y, x, k] = wp.int16(-1)
+        out[y, x, k] = wp.int16(_OUT_OF_VIEW)
         return
     total = int(0)
     for v in range(-r, r + 1):
@@ -86,8 +87,8 @@ def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64)
 def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16),
              scratch: wp.array2d(dtype=wp.int32), dy: int, dx: int, p1: int, p2: int, accumulate: int):
     """One path direction of semi-global aggregation; one thread per line entering the image.
-    Samples out of view (cost < 0) have path value _UNDEF and total -1; one entering the view
-    takes the predecessor's minimum as its own predecessor (L = C)."""
+    Samples out of view (cost < 0) have path value PATH_UNDEFINED and total OUT_OF_VIEW; one
+    entering the view takes the predecessor's minimum as its own predecessor (L = C)."""
     i = wp.tid()
     h = cost.shape[0]
     w = cost.shape[1]
@@ -122,13 +123,13 @@ def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16)
     mprev = int(0)
     first = int(1)
     while x >= 0 and x < w and y >= 0 and y < h:
-        m = int(_INT_MAX)
+        m = int(_NO_CANDIDATE)
         for d in range(nd):
             c = int(cost[y, x, d])
             v = c
             if c < 0:
                 v = _UNDEF
-                total[y, x, d] = wp.int16(-1)
+                total[y, x, d] = wp.int16(_OUT_OF_VIEW)
             else:
                 if first == 0:
                     stay = scratch[i, prev + d]
@@ -164,19 +165,19 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
     y, x = wp.tid()
     w = agg.shape[1]
     nd = agg.shape[2]
-    best = int(_INT_MAX)
+    best = int(_NO_CANDIDATE)
     kb = int(0)
     for k in range(nd):
         v = int(agg[y, x, k])
         if v >= 0 and v < best:
             best = v
             kb = k
-    second = int(_INT_MAX)
+    second = int(_NO_CANDIDATE)
     for k in range(nd):
         v = int(agg[y, x, k])
         if v >= 0 and wp.abs(k - kb) > 1 and v < second:
             second = v
-    unique = best < _INT_MAX and second < _INT_MAX and \
+    unique = best < _NO_CANDIDATE and second < _NO_CANDIDATE and \
         wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
     sm = int(agg[y, x, wp.max(kb - 1, 0)])
     sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
@@ -191,8 +192,8 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
     else:
         disp[y, x] = wp.nan
         margin[y, x] = 0.0
-    best_r = int(_INT_MAX)
-    kr = int(NO_MATCH)
+    best_r = int(_NO_CANDIDATE)
+    kr = int(_NO_MATCH)
     for k in range(nd):
         t = d_min * steps + k
         xl = x + _floor_div(t, steps)
@@ -220,7 +221,7 @@ def left_right(disp: wp.array2d(dtype=wp.float32), right: wp.array2d(dtype=wp.in
         xr = wp.rint(wp.float64(x) - dd)
         if xr >= wp.float64(0.0) and xr <= wp.float64(w - 1):
             back = right[y, int(xr)]
-            if back != NO_MATCH:
+            if back != _NO_MATCH:
                 diff = wp.abs(wp.float64(back) / wp.float64(steps) - dd)
                 ok = diff <= tol
     if ok:

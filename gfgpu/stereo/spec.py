@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = [
-    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "SWEEP_PLANES",
+    "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "PATH_UNDEFINED", "NO_CANDIDATE", "SWEEP_PLANES",
     "census_transform_reference", "in_view_reference", "census_cost_reference", "sgm_aggregate_reference",
     "select_disparity_reference", "left_right_check_reference", "left_right_reference",
     "semi_global_match_reference", "sweep_update_reference",
@@ -23,6 +23,10 @@ SGM_PATHS = ((0, 1), (0, -1), (1, 0), (-1, 0), (1, 1), (1, -1), (-1, 1), (-1, -1
 
 #: right-view disparity (in steps) of a pixel that no left pixel can match
 NO_MATCH = -(2**31)
+
+#: cost of a sample that is no candidate of the disparity selection (out of view, or no left pixel):
+#: int32's largest, above every aggregated cost
+NO_CANDIDATE = 2**31 - 1
 
 
 def census_transform_reference(image, radius):
@@ -129,27 +133,30 @@ def census_cost_reference(census_left, census_right, first_step, n_disp, steps, 
     return ham.astype(np.int16)
 
 
-_UNDEF = np.int32(1 << 24)     # path value of a sample that is not in view (never a minimum)
+#: path value (int32) of a sample that is not in view in the aggregation's recursion: above every
+#: path value in view (a cost plus at most P2), so never a minimum
+PATH_UNDEFINED = 1 << 24
 
 
 def _path_start(cost):
-    return np.where(cost < 0, _UNDEF, cost)
+    return np.where(cost < 0, np.int32(PATH_UNDEFINED), cost)
 
 
 def _path_step(prev, cost, p1, p2):
     """One step of the path recursion, vectorised over lines: prev, cost are (lines, D) int32.
 
-    Samples out of view have cost < 0 and path value ``_UNDEF``; a sample whose predecessor is
-    out of view (it enters the view here) starts afresh: its "stay" term is the predecessor's
-    minimum ``m`` (so ``L = C`` there, no penalty), and a predecessor with nothing in view is
-    no predecessor (``m = _UNDEF`` gives ``L = C``)."""
+    Samples out of view have cost < 0 and path value :data:`PATH_UNDEFINED`; a sample whose
+    predecessor is out of view (it enters the view here) starts afresh: its "stay" term is the
+    predecessor's minimum ``m`` (so ``L = C`` there, no penalty), and a predecessor with nothing in
+    view is no predecessor (``m = PATH_UNDEFINED`` gives ``L = C``)."""
+    undefined = np.int32(PATH_UNDEFINED)
     m = prev.min(axis=1, keepdims=True)
-    pad = np.full((prev.shape[0], 1), _UNDEF, np.int32)
+    pad = np.full((prev.shape[0], 1), undefined, np.int32)
     lower = np.concatenate([pad, prev[:, :-1]], axis=1) + p1
     upper = np.concatenate([prev[:, 1:], pad], axis=1) + p1
-    stay = np.where(prev >= _UNDEF, m, prev)
+    stay = np.where(prev >= undefined, m, prev)
     cur = cost + np.minimum(np.minimum(stay, np.minimum(lower, upper)), m + p2) - m
-    return np.where(cost < 0, _UNDEF, cur)
+    return np.where(cost < 0, undefined, cur)
 
 
 def sgm_aggregate_reference(cost, p1, p2, paths=8):
@@ -237,7 +244,7 @@ def select_disparity_reference(aggregated, d_min, steps, uniqueness):
     """
     s = np.asarray(aggregated).astype(np.int64)
     h, w, n = s.shape
-    big = np.int64(np.iinfo(np.int32).max)
+    big = np.int64(NO_CANDIDATE)
     view = s >= 0
     sv = np.where(view, s, big)
     k = sv.argmin(axis=2)

@@ -1,8 +1,13 @@
 // Stereo kernels of gfgpu.stereo (float32 images; integer costs).
-// Executable specification: the *_reference functions of gfgpu/backends/specs.py.
+// Executable specification: the *_reference functions of gfgpu/stereo/spec.py.
 // size_t indices: cost volumes exceed 2^31 entries on large images.
+// The launcher (gfgpu/stereo/_opencl.py) defines the constants shared with the specification,
+// none retyped here: NO_MATCH, OUT_OF_VIEW, COST_MAX (spec.NO_MATCH, OUT_OF_VIEW, COST_MAX), and
+// PAD_COST, the int16 path value of samples out of view (the int32 spec.PATH_UNDEFINED does not fit).
 
-#define NO_MATCH (-2147483647 - 1)
+#if !defined(NO_MATCH) || !defined(OUT_OF_VIEW) || !defined(COST_MAX) || !defined(PAD_COST)
+#error "stereo.cl is built by gfgpu.stereo._opencl, which defines the constants of the specification"
+#endif
 
 static inline int floor_div(const int a, const int b)
 {
@@ -95,7 +100,7 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 #ifdef N_DISP
 #define NV ((N_DISP + 15) / 16)
 #define TAIL (N_DISP - 16 * (NV - 1))      // lanes of the last vector that are disparities, 1..16
-#define PAD_COST 16384                     // path cost of the padding lanes: never a minimum
+// PAD_COST (a define): path cost of the padding lanes and of samples out of view, never a minimum
 #define NP (16 * NV)                       // padded disparities of a state vector
 // The pixel stride of the volumes: N_DISP (whole volumes, the public kernels), or NP with
 // -D PADDED_PIXELS (the CPU band matcher's own buffers): every pixel then starts on a 32-byte
@@ -213,9 +218,13 @@ TAIL_STORE(store_last_uchar, uchar)
 #define LOAD_UC(p, j) ((j) < NV - 1 ? VLOAD(uchar, 16, (p) + 16 * (j)) : load_last_uchar((p) + 16 * (j)))
 #define STORE_UC(v, p, j) do { if ((j) < NV - 1) VSTORE(uchar, 16, (v), (p) + 16 * (j));             \
                                else store_last_uchar((v), (p) + 16 * (j)); } while (0)
-// Costs: int16 with -1 out of view (whole volumes, GPUs), or with -D COST_BYTES bytes with
-// COST_OUT (255) out of view (the CPU matcher's volume); both saturated at COST_MAX.
-#define COST_OUT 255
+// Costs: int16 with OUT_OF_VIEW (-1) out of view (whole volumes, GPUs), or with -D COST_BYTES bytes
+// with COST_OUT, OUT_OF_VIEW's byte (255), out of view (the CPU matcher's volume); both saturated at
+// COST_MAX, which leaves COST_OUT to the mark.
+#define COST_OUT ((OUT_OF_VIEW) & 0xff)
+#if COST_OUT <= COST_MAX
+#error "the out-of-view byte must lie above COST_MAX"
+#endif
 #ifdef COST_BYTES
 typedef uchar cost_t;
 #define STORE_COST(v, p, j) STORE_UC(TO_UCHAR16((v) < (short16)(0) ? (short16)(COST_OUT) : (v)), p, j)
@@ -272,7 +281,7 @@ __kernel void census_hamming(__global const ulong *cl, __global const ulong *ri,
 // The block sum of the Hamming distances over the block x block window (clamped at the border):
 // one work-item per row, a running sum along the row of the window's column sums (streaming
 // through memory).  Exact integer sums (ushort: at most 15^2 * 48), saturated at COST_MAX.  Samples out of view (the right pixel's block not inside the image:
-// k outside [k_lo, k_hi] at this x) are OUT_OF_VIEW (-1).  Output row i is image row y0 + i; `ham`
+// k outside [k_lo, k_hi] at this x) are OUT_OF_VIEW.  Output row i is image row y0 + i; `ham`
 // holds image rows ham_row0, ... (those of the band and its block margin).
 static inline ushort16 window_column(__global const uchar *ham, const int y, const int x, const int h,
                                      const int w, const int r, const int j, const int ham_row0)
@@ -302,7 +311,7 @@ static inline int all_in_view(const int x, const int r, const int w, const int f
     return x >= 0 && x < w && lo <= 0 && hi >= N_DISP - 1;
 }
 
-// Output pixel x's block sums, saturated at COST_MAX, -1 where the sample is out of view:
+// Output pixel x's block sums, saturated at COST_MAX, OUT_OF_VIEW where the sample is out of view:
 // r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
 static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t *dst, const int x, const int r,
                                             const int w, const int first_step, const int steps)
@@ -322,7 +331,7 @@ static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t
     for (int j = 0; j < NV; ++j) {
         const short16 k = lane + (short16)(16 * j);
         const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
-        STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(-1) : c, dst, j);
+        STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(OUT_OF_VIEW) : c, dst, j);
     }
 }
 
@@ -501,9 +510,10 @@ static inline short hmin16(const short16 v)
 
 // One sweep of the path recursion along a line of `len` pixels starting at element `base`,
 // `stride` elements per pixel; total = L_r (accumulate = 0) or total + L_r.  Samples out of view
-// (cost < 0) have path value PAD_COST (never a minimum, no neighbour) and total -1; a sample
+// (cost < 0) have path value PAD_COST (never a minimum, no neighbour) and total OUT_OF_VIEW; a sample
 // entering the view takes the predecessor's minimum as its own predecessor (L = C).  Path values
-// of samples in view stay below PAD_COST (the host keeps cost + P2 <= 4095).
+// of samples in view stay below PAD_COST (at most COST_MAX + P2: the launcher keeps P1 and P2 within
+// _PENALTY_MAX, gfgpu/stereo/_opencl.py).
 static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *total, long base,
                                      const long stride, const int len, const short p1, const short p2,
                                      const int accumulate)
@@ -539,7 +549,7 @@ static ALWAYS_INLINE void sgm_sweep(__global const short *cost, __global short *
                 cur = is_pad ? pad : cur;
             prev[j] = cur;
             mv = VMIN(mv, cur);
-            STORE_S(out_of_view ? (short16)(-1) : accumulate ? LOAD_S(tot, j) + cur : cur, tot, j);
+            STORE_S(out_of_view ? (short16)(OUT_OF_VIEW) : accumulate ? LOAD_S(tot, j) + cur : cur, tot, j);
         }
         m = hmin16(mv);
     }
@@ -640,7 +650,7 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
                 PATH_STEP(d, j, MASKED, MASKED);                                              \
             }                                                                                 \
             if (WRITE)                                                                        \
-                STORE_S((MASKED) ? (cv < (short16)(0) ? (short16)(-1) : sum) : sum, o, j);      \
+                STORE_S((MASKED) ? (cv < (short16)(0) ? (short16)(OUT_OF_VIEW) : sum) : sum, o, j); \
         }                                                                                     \
     } while (0)
 
@@ -664,7 +674,7 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
 static inline short16 load_cost_bytes(__global const uchar *p, const int j)
 {
     const short16 v = TO_SHORT16(LOAD_UC(p, j));
-    return v == (short16)(COST_OUT) ? (short16)(-1) : v;
+    return v == (short16)(COST_OUT) ? (short16)(OUT_OF_VIEW) : v;
 }
 
 __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __global short *sum_up,

@@ -7,16 +7,15 @@ import numpy as np
 import pytest
 from oracle import NP_PAD, pad_line
 
+from gfgpu._core.boundary import MODES, extend_index
 from gfgpu._core.lines import (
     DELAY_MIN,
-    _extend,
     axis_view_shape,
     direction,
     normalize_axis,
     shear_maps,
     shear_offsets,
 )
-from gfgpu._core.recursion import MODES, extension_index
 
 
 # --------------------------------------------------------------------------------------
@@ -221,24 +220,24 @@ def test_the_transposed_layout_is_the_transpose(angle):
 # --------------------------------------------------------------------------------------
 @pytest.mark.parametrize("n", [1, 2, 3, 5, 8])
 @pytest.mark.parametrize("mode", MODES)
-def test_extension_index_is_numpy_pad(mode, n):
-    """Sample x0 < 0 of the extended line is sample extension_index(x0) of the line (-1: cval)."""
+def test_extend_index_before_and_across_the_line_is_numpy_pad(mode, n):
+    """Sample x0 < 0 of the extended line is sample extend_index(x0) of the line (-1: cval)."""
     line = np.arange(1.0, n + 1)
     k = 4 * n + 3                                   # several periods of every mode
     x0 = np.arange(-k, 0)
-    idx = extension_index(x0, n, mode)
+    idx = extend_index(x0, n, mode)
     assert idx.dtype == np.int64
     cval = -9.0
     got = np.where(idx >= 0, line[np.maximum(idx, 0)], cval)
     np.testing.assert_array_equal(got, pad_line(line, k, mode, cval, "left")[:k])
     # both sides, as the oblique lines extend across the image
     both = np.arange(-k, n + k)
-    ext = _extend(both, n, mode)
+    ext = extend_index(both, n, mode)
     got = np.where(ext >= 0, line[np.maximum(ext, 0)], cval)
     expect = _pad_both(line, k, mode, cval)
     np.testing.assert_array_equal(got, expect)
 
 
-def test_extension_index_rejects_unknown_modes():
+def test_extend_index_rejects_unknown_modes():
     with pytest.raises(ValueError, match="mode must be one of"):
-        extension_index(np.array([-1]), 4, "symmetric")
+        extend_index(np.array([-1]), 4, "symmetric")
