@@ -40,21 +40,30 @@ Usage:  python benchmarks/oblique.py [--size 4096] [--repeat 3] [--backends nump
 from __future__ import annotations
 
 import argparse
+import sys
 import time
 from dataclasses import replace
 from functools import lru_cache
+from pathlib import Path
 
 import numpy as np
 
 import gfgpu
 from gfgpu import greens
 from gfgpu._core import oblique
-from gfgpu._core.lines import _extend, direction, shear_maps
+from gfgpu._core.boundary import extend_index
+from gfgpu._core.lines import direction, shear_maps
 from gfgpu._core.recursion import line_plans, plan_pass
 from gfgpu.backends import get_backend
 from gfgpu.filters import green_filter_program
 from gfgpu.motion import motion_blur, rotation
 from gfgpu.motion.uniform import uniform_motion_program
+
+# The references are the tests' oracles (tests/oracle.py: the operator along the continuous
+# direction by its Fourier transfer function), one definition for both. tests/ is no package:
+# put it on the path, wherever this script is run from.
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from oracle import box_transfer_reference, transfer_reference
 
 VELOCITIES = [(7, 30), (17, 40), (29, -13), (30, 7), (40, 17), (-13, 29)]
 
@@ -84,7 +93,7 @@ def digital_line_maps(height, width, batch, angle, mode, margin=0):
     r = np.floor(gamma * t + 0.5).astype(np.int64)
     first = -int(r.max()) - margin
     lines = across - int(r.min()) - first + margin
-    minor = _extend(first + np.arange(lines)[:, None] + r[None, :], across, mode)
+    minor = extend_index(first + np.arange(lines)[:, None] + r[None, :], across, mode)
     flat = np.where(minor >= 0, (t[None, :] * width + minor) if steep else (minor * width + t[None, :]), -1)
     plane = height * width
     shear = np.where(flat[None] >= 0, flat[None] + np.arange(batch)[:, None, None] * plane, -1)
@@ -147,33 +156,6 @@ def green_shear(image, program, mode="reflect", cval=0.0, backend="numpy"):
         be.gather(be.reshape(rows_out, (-1,)), unshear, 0.0, be.reshape(nxt, (-1,)))
         cur = nxt
     return be.to_host(cur)
-
-
-# --------------------------------------------------------------------------------------
-# the reference: the operator along the continuous direction
-# --------------------------------------------------------------------------------------
-def transfer_reference(image, program):
-    """Each oblique step's taps w[k] along the step d act as Σ_k w[k] I(p - k d): the spectrum is
-    multiplied by the taps' DTFT at ω·d (periodic image)."""
-    img = np.asarray(image, np.float64)
-    h, w = img.shape
-    wy = 2 * np.pi * np.fft.fftfreq(h)[:, None]
-    wx = 2 * np.pi * np.fft.fftfreq(w)[None, :]
-    spec = np.fft.fft2(img)
-    for passes, _, angle in program.steps:
-        steep, reverse, gamma = direction(angle)
-        dy, dx = (1.0, gamma) if steep else (gamma, 1.0)
-        theta = (-1 if reverse else 1) * (wx * dx + wy * dy)
-        total = 0
-        for lp in passes:
-            z = np.exp(-1j * theta * (-1 if lp.reverse else 1))
-            resp = lp.tap + 0j
-            for sec in lp.sections:     # Σ_{k>=1} Re(kap lam^(k-1)) z^k
-                lam, kap = sec.lam, sec.kap
-                resp = resp + 0.5 * (kap * z / (1 - lam * z) + np.conj(kap) * z / (1 - np.conj(lam) * z))
-            total = total + resp
-        spec = spec * total
-    return np.real(np.fft.ifft2(spec))
 
 
 def torus_shape(velocity, b=12):
@@ -420,15 +402,6 @@ def _phase_spread(order, lo, cycles):
     return err.max(axis=0) - err.min(axis=0)
 
 
-def _box_fourier(img, v):
-    wy = 2 * np.pi * np.fft.fftfreq(img.shape[0])[:, None]
-    wx = 2 * np.pi * np.fft.fftfreq(img.shape[1])[None, :]
-    phi = wy * v[0] + wx * v[1]
-    small = np.abs(phi) < 1e-12
-    resp = np.where(small, 1.0, (1 - np.exp(-1j * phi)) / (1j * np.where(small, 1.0, phi)))
-    return np.real(np.fft.ifft2(np.fft.fft2(img) * resp))
-
-
 DESIGN_CASES = [((23, -9), (230, 90)), ((3, 25), (96, 800)), ((9, 23), (90, 230)), ((25, 24), (100, 96)),
                 ((-7, -30), (70, 300))]
 
@@ -452,7 +425,8 @@ def design_table():
                     rng = np.random.default_rng(3)
                     ky, kx = np.fft.fftfreq(shape[0])[:, None], np.fft.fftfreq(shape[1])[None, :]
                     img = np.real(np.fft.ifft2(np.fft.fft2(rng.standard_normal(shape)) * (np.hypot(ky, kx) < cut)))
-                    box = rel(motion_blur(img, v, psf="box", mode="wrap", backend="numpy"), _box_fourier(img, v))
+                    box = rel(motion_blur(img, v, psf="box", mode="wrap", backend="numpy"),
+                              box_transfer_reference(img, v))
                     green = rel(motion_blur(img, v, mode="wrap", backend="numpy"),
                                 transfer_reference(img, uniform_motion_program(2, v)))
                     cells.append(f"{box * 100:.3f} / {green * 100:.3f}")

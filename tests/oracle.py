@@ -1,6 +1,15 @@
-"""float64 direct-summation references. They share no algorithm with the recursions:
-the closed-form kernel is evaluated at every (x, x0) pair and summed over an explicitly
-padded line (numpy.pad), O(n * (n + margin))."""
+"""The oracles shared by the tests and the benchmarks; none reuses the recursions it checks.
+
+* float64 direct-summation references: the closed-form kernel is evaluated at every (x, x0) pair
+  and summed over an explicitly padded line (numpy.pad), O(n * (n + margin));
+* Fourier transfer functions of the operators along a continuous direction, on periodic images
+  (the accuracy of oblique passes: tests/_core/test_oblique.py, benchmarks/oblique.py).
+
+The tests import it as ``oracle`` (pytest puts tests/ on the path: ``pythonpath`` in
+pyproject.toml); a benchmark puts tests/ on ``sys.path`` first (see benchmarks/oblique.py).
+"""
+import math
+
 import numpy as np
 
 from gfgpu import greens
@@ -81,3 +90,50 @@ def relerr(out, ref):
     out = np.asarray(out, np.float64)
     ref = np.asarray(ref, np.float64)
     return np.linalg.norm(out - ref) / np.linalg.norm(ref)
+
+
+# --------------------------------------------------------------------------------------
+# Fourier transfer functions: the operators along the continuous direction, periodic images
+# --------------------------------------------------------------------------------------
+def direction_geometry(angle):
+    """(steep, reverse, gamma), computed here from cos and sin (not with gfgpu._core.lines)."""
+    c, s = math.cos(angle), math.sin(angle)
+    if abs(s) > abs(c) + 1e-12:
+        return True, s < 0, c / s
+    return False, c < 0, s / c
+
+
+def transfer_reference(image, program):
+    """The continuous-direction operator of a uniform-motion program on a periodic image: each
+    pass's taps w[k] along the step vector d (one step of the dominant axis) act as
+    Σ_k w[k] I(p - k d), i.e. multiply the spectrum by W(ω·d) (the taps' DTFT)."""
+    img = np.asarray(image, np.float64)
+    h, w = img.shape
+    wy = 2 * np.pi * np.fft.fftfreq(h)[:, None]
+    wx = 2 * np.pi * np.fft.fftfreq(w)[None, :]
+    spec = np.fft.fft2(img)
+    for passes, _, angle in program.steps:     # oblique steps (an angle each)
+        steep, reverse, gamma = direction_geometry(angle)
+        dy, dx = (1.0, gamma) if steep else (gamma, 1.0)
+        theta = (-1 if reverse else 1) * (wx * dx + wy * dy)
+        total = 0
+        for lp in passes:
+            z = np.exp(-1j * theta * (-1 if lp.reverse else 1))
+            resp = lp.tap + 0j
+            for sec in lp.sections:     # Σ_{k>=1} Re(kap lam^(k-1)) z^k
+                lam, kap = sec.lam, sec.kap
+                resp = resp + 0.5 * (kap * z / (1 - lam * z) + np.conj(kap) * z / (1 - np.conj(lam) * z))
+            total = total + resp
+        spec = spec * total
+    return np.real(np.fft.ifft2(spec))
+
+
+def box_transfer_reference(img, velocity):
+    """The uniform box exposure along the exact direction on a periodic image: the mean of the
+    image translated by t·v, t in [0, 1], i.e. the spectrum times (1 - e^{-iφ}) / (iφ), φ = ω·v."""
+    wy = 2 * np.pi * np.fft.fftfreq(img.shape[0])[:, None]
+    wx = 2 * np.pi * np.fft.fftfreq(img.shape[1])[None, :]
+    phi = wy * velocity[0] + wx * velocity[1]
+    small = np.abs(phi) < 1e-12
+    resp = np.where(small, 1.0, (1 - np.exp(-1j * phi)) / (1j * np.where(small, 1.0, phi)))
+    return np.real(np.fft.ifft2(np.fft.fft2(img) * resp))

@@ -1,7 +1,10 @@
 """``shift`` is a translation: exact integer part at any magnitude, fractional part whose error
 does not depend on the magnitude, boundary modes exact; against independent references
 (index arithmetic on numpy.pad, direct summation of the closed-form taps, the Fourier shift,
-scipy.ndimage.shift)."""
+scipy.ndimage.shift); and host arrays in and out of it (views, byte orders, misaligned and
+aliased outputs, threads), a non-finite input leaving ``output=`` untouched."""
+
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -158,3 +161,132 @@ def test_translated_shift_in_strips_and_dask_equals_one_piece():
             lazy = gd.shift(da.from_array(img, chunks=(37, 25)), s, mode=mode, cval=0.5, backend="numpy")
             np.testing.assert_allclose(strips, ref, atol=2e-6)
             np.testing.assert_allclose(lazy.compute(scheduler="synchronous"), ref, atol=2e-6)
+
+
+# --------------------------------------------------------------------------------------
+# host arrays in and out: integer shifts against exact index arithmetic, views, outputs,
+# aliasing, threads; a non-finite input leaves output= untouched
+# --------------------------------------------------------------------------------------
+#: every mode, in the order the thread test deals them out
+HOST_MODES = ("constant", "nearest", "reflect", "mirror", "wrap")
+
+
+# ---- exact integer translation by index arithmetic (the reference) ---------------------------
+def _source_index(n, k, mode):
+    idx = np.arange(n) - k
+    if mode == "constant":
+        return np.where((idx >= 0) & (idx < n), idx, -1)
+    if mode == "nearest":
+        return np.clip(idx, 0, n - 1)
+    if mode == "wrap":
+        return idx % n
+    if mode == "reflect":                 # half-sample symmetric, period 2n
+        p = idx % (2 * n)
+        return np.where(p < n, p, 2 * n - 1 - p)
+    if n == 1:                            # mirror: whole-sample symmetric, period 2n - 2
+        return np.zeros_like(idx)
+    p = idx % (2 * n - 2)
+    return np.where(p < n, p, 2 * n - 2 - p)
+
+
+def _exact_shift(a, shifts, mode):
+    out = np.asarray(a)
+    for ax, k in enumerate(shifts):
+        idx = _source_index(out.shape[ax], k, mode)
+        out = np.take(out, np.maximum(idx, 0), axis=ax)
+        if mode == "constant":
+            sl = [slice(None)] * out.ndim
+            sl[ax] = idx < 0
+            out[tuple(sl)] = 0
+    return out
+
+
+# ---- a non-finite host input must leave output= untouched ------------------------------------
+@pytest.mark.parametrize("shape, shift", [((48, 400), (1, -2)), ((48, 400), (0, 3)), ((8, 48, 48), (1, 1, 1)),
+                                          ((3, 40, 200), (0.5, 1, 3))],
+                         ids=["2d-two-steps", "2d-one-step", "3d-three-steps", "3d-frac-first"])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_shift_nonfinite_input_leaves_output_untouched(backend, shape, shift, dtype):
+    # arrays of >= 64 KiB so that OpenCL (CPU) writes the caller's output in place
+    for value in (np.nan, np.inf, -np.inf):
+        for pos in (0, -1, int(np.prod(shape)) // 2 + 7):
+            a = np.ones(shape, dtype)
+            a.reshape(-1)[pos] = value
+            out = np.full(shape, 7, dtype)
+            with pytest.raises(ValueError, match="input"):
+                gfgpu.shift(a, shift, output=out, mode="constant", backend=backend.name)
+            assert (out == 7).all(), f"output written before the non-finite error ({value}, element {pos})"
+
+
+# ---- integer shifts against exact index arithmetic ----------------------------------------
+def test_shift_integer_exact_every_mode(backend):
+    rng = np.random.default_rng(0)
+    for shape in [(1, 1), (1, 7), (6, 1), (5, 6), (3, 2100)]:
+        a = rng.standard_normal(shape).astype(np.float32)
+        h, w = shape
+        for mode in HOST_MODES:
+            for dy, dx in [(0, 1), (1, -1), (h - 1, -(w - 1)), (-h, w), (10**6, -10**6), (-(10**6) - 3, 2 * w - 1),
+                           (0, w // 2 + 5)]:
+                got = gfgpu.shift(a, (dy, dx), mode=mode, backend=backend.name)
+                np.testing.assert_array_equal(got, _exact_shift(a, (dy, dx), mode),
+                                              err_msg=f"{shape} {mode} {(dy, dx)}")
+
+
+def _views(base):
+    yield "strided", base[::2, 1::3]
+    yield "negative-stride", base[::-1, ::-1]
+    yield "big-endian", base.astype(">f4")
+    ro = base.copy()
+    ro.setflags(write=False)
+    yield "read-only", ro
+    yield "misaligned-4", np.frombuffer(b"\0" * 4 + base.tobytes(), np.float32, offset=4).reshape(base.shape)
+    yield "misaligned-2", np.frombuffer(bytearray(b"\0" * 2 + base.tobytes()), np.float32, offset=2).reshape(base.shape)
+    yield "offset-view", base[37:, 5:]
+    yield "uint16", (np.abs(base) * 1000).astype(np.uint16)
+
+
+def test_shift_host_views(backend):
+    base = np.random.default_rng(1).standard_normal((150, 160)).astype(np.float32)
+    for name, a in _views(base):
+        want = _exact_shift(np.asarray(a, np.float32), (3, -7), "wrap")
+        got = gfgpu.shift(a, (3, -7), mode="wrap", backend=backend.name)
+        np.testing.assert_array_equal(got, want, err_msg=name)
+
+
+def test_shift_outputs_and_aliasing(backend):
+    a = np.random.default_rng(2).standard_normal((150, 160)).astype(np.float32)
+    want = _exact_shift(a, (3, -7), "wrap")
+    outs = {"f64": np.zeros(a.shape), "big-endian": np.zeros(a.shape, ">f4"),
+            "strided": np.zeros((150, 320), np.float32)[:, ::2], "negative-stride": np.zeros(a.shape, np.float32)[::-1],
+            "misaligned": np.frombuffer(bytearray(a.nbytes + 8), np.float32, a.size, offset=2).reshape(a.shape),
+            "offset-64": np.frombuffer(bytearray(a.nbytes + 128), np.float32, a.size, offset=64).reshape(a.shape)}
+    for name, out in outs.items():
+        r = gfgpu.shift(a, (3, -7), mode="wrap", backend=backend.name, output=out)
+        assert r is out, name
+        np.testing.assert_array_equal(np.asarray(out, np.float32), want, err_msg=name)
+    x = a.copy()
+    gfgpu.shift(x, (3, -7), mode="wrap", backend=backend.name, output=x)
+    np.testing.assert_array_equal(x, want)
+    buf = np.zeros((151, 160), np.float32)
+    buf[:-1] = a
+    gfgpu.shift(buf[:-1], (3, -7), mode="wrap", backend=backend.name, output=buf[1:])
+    np.testing.assert_array_equal(buf[1:], want)
+
+
+def test_shift_channel_axis(backend):
+    a = np.random.default_rng(5).standard_normal((40, 50, 3)).astype(np.float32)
+    for mode in HOST_MODES:
+        got = gfgpu.shift(a, (4, -9), channel_axis=-1, mode=mode, backend=backend.name)
+        np.testing.assert_array_equal(got, _exact_shift(a, (4, -9, 0), mode), err_msg=mode)
+
+
+def test_shift_threads_match_serial(backend):
+    rng = np.random.default_rng(7)
+    imgs = [rng.standard_normal((120 + i, 200 - i)).astype(np.float32) for i in range(8)]
+    calls = [(im, (i - 3 + 0.25 * (i % 2), 2 * i - 7), HOST_MODES[i % 5]) for i, im in enumerate(imgs)]
+    serial = [gfgpu.shift(im, s, mode=m, backend=backend.name) for im, s, m in calls]
+    with ThreadPoolExecutor(4) as ex:
+        futs = [ex.submit(gfgpu.shift, im, s, mode=m, backend=backend.name) for im, s, m in calls * 3]
+        res = [f.result() for f in futs]
+    for i, r in enumerate(res):
+        np.testing.assert_array_equal(r, serial[i % 8])

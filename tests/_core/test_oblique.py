@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from oracle import NP_PAD, direct_line, relerr
+from oracle import NP_PAD, box_transfer_reference, direct_line, direction_geometry, relerr, transfer_reference
 from scipy.signal import lfilter
 
 import gfgpu
@@ -30,14 +30,6 @@ def _dtypes(backend):
 # --------------------------------------------------------------------------------------
 # independent references
 # --------------------------------------------------------------------------------------
-def _geometry(angle):
-    """(steep, reverse, gamma), computed here from cos and sin (not with gfgpu._core.lines)."""
-    c, s = math.cos(angle), math.sin(angle)
-    if abs(s) > abs(c) + 1e-12:
-        return True, s < 0, c / s
-    return False, c < 0, s / c
-
-
 def _thiran3(d):
     """Denominator (1, a1, a2, a3) of Thiran's third-order allpass of delay d, in closed form."""
     return [1.0, -3 * (d - 3) / (d + 1), 3 * (d - 3) * (d - 2) / ((d + 1) * (d + 2)),
@@ -72,7 +64,7 @@ def sheared_reference(image, kernels, angle, mode, cval=0.0, anticausal=False):
     at ``m - r[t]``.
     """
     img = np.asarray(image, np.float64)
-    steep, reverse, gamma = _geometry(angle)
+    steep, reverse, gamma = direction_geometry(angle)
     plane = img.T if steep else img                      # (minor, dominant)
     across, steps = plane.shape
     t = np.arange(steps)
@@ -112,31 +104,6 @@ def sheared_reference(image, kernels, angle, mode, cval=0.0, anticausal=False):
     return out.T if steep else out
 
 
-def transfer_reference(image, program):
-    """The continuous-direction operator of a uniform-motion program on a periodic image: each
-    pass's taps w[k] along the step vector d (one step of the dominant axis) act as
-    Σ_k w[k] I(p - k d), i.e. multiply the spectrum by W(ω·d) (the taps' DTFT)."""
-    img = np.asarray(image, np.float64)
-    h, w = img.shape
-    wy = 2 * np.pi * np.fft.fftfreq(h)[:, None]
-    wx = 2 * np.pi * np.fft.fftfreq(w)[None, :]
-    spec = np.fft.fft2(img)
-    for passes, _, angle in program.steps:     # oblique steps (an angle each)
-        steep, reverse, gamma = _geometry(angle)
-        dy, dx = (1.0, gamma) if steep else (gamma, 1.0)
-        theta = (-1 if reverse else 1) * (wx * dx + wy * dy)
-        total = 0
-        for lp in passes:
-            z = np.exp(-1j * theta * (-1 if lp.reverse else 1))
-            resp = lp.tap + 0j
-            for sec in lp.sections:     # Σ_{k>=1} Re(kap lam^(k-1)) z^k
-                lam, kap = sec.lam, sec.kap
-                resp = resp + 0.5 * (kap * z / (1 - lam * z) + np.conj(kap) * z / (1 - np.conj(lam) * z))
-            total = total + resp
-        spec = spec * total
-    return np.real(np.fft.ifft2(spec))
-
-
 def _kernel(name, n, reverse):
     far = -3.5 if not reverse else n - 1 + 3.5
     return {
@@ -168,7 +135,7 @@ def _reference_case(kname, mode, direction, anticausal):
     if key not in _REFERENCES:
         angle = ANGLES[direction]
         img = _image(np.random.default_rng(12345))
-        steep, reverse, _ = _geometry(angle)
+        steep, reverse, _ = direction_geometry(angle)
         kernel = _kernel(kname, img.shape[0] if steep else img.shape[1], reverse != anticausal)
         _REFERENCES[key] = img, kernel, sheared_reference(img, [kernel], angle, mode, 0.5, anticausal)
     return _REFERENCES[key]
@@ -295,17 +262,6 @@ def test_smooth_images_are_nearly_exact(backend):
 TORUS_CASES = [((23, -9), (230, 90)), ((3, 25), (96, 800)), ((25, 24), (100, 96)), ((-7, -30), (70, 300))]
 
 
-def _box_reference(img, velocity):
-    """The uniform box exposure along the exact direction on a periodic image: the mean of the
-    image translated by t·v, t in [0, 1], i.e. the spectrum times (1 - e^{-iφ}) / (iφ), φ = ω·v."""
-    wy = 2 * np.pi * np.fft.fftfreq(img.shape[0])[:, None]
-    wx = 2 * np.pi * np.fft.fftfreq(img.shape[1])[None, :]
-    phi = wy * velocity[0] + wx * velocity[1]
-    small = np.abs(phi) < 1e-12
-    resp = np.where(small, 1.0, (1 - np.exp(-1j * phi)) / (1j * np.where(small, 1.0, phi)))
-    return np.real(np.fft.ifft2(np.fft.fft2(img) * resp))
-
-
 @pytest.mark.parametrize("case", TORUS_CASES, ids=lambda c: str(c[0]))
 def test_oblique_box_and_green_blur_at_a_quarter_cycle_per_pixel(backend, case):
     """Band-limited noise up to 0.25 cycles/px (a disc), mode 'wrap' on a shape whose lines close:
@@ -316,7 +272,7 @@ def test_oblique_box_and_green_blur_at_a_quarter_cycle_per_pixel(backend, case):
     wy, wx = np.fft.fftfreq(shape[0])[:, None], np.fft.fftfreq(shape[1])[None, :]
     img = np.real(np.fft.ifft2(np.fft.fft2(rng.standard_normal(shape)) * (np.hypot(wy, wx) < 0.25)))
     img /= img.std()
-    refs = {"box": _box_reference(img, velocity),
+    refs = {"box": box_transfer_reference(img, velocity),
             "green": transfer_reference(img, uniform_motion_program(2, velocity))}
     for dtype in _dtypes(backend):
         for psf, ref in refs.items():
@@ -385,7 +341,7 @@ def test_linear_content_is_moved_exactly(backend, angle):
     u = 1.5
     taps = greens.g_uniform(np.arange(120.0), u)          # point samples, offset 0 ... 119
     dc, first = taps.sum(), (np.arange(120) * taps).sum()
-    steep, reverse, gamma = _geometry(angle)
+    steep, reverse, gamma = direction_geometry(angle)
     sign = -1 if reverse else 1
     dy, dx = (sign * 1.0, sign * gamma) if steep else (sign * gamma, sign * 1.0)
     expect = dc * ramp - (a[0] * dy + a[1] * dx) * first

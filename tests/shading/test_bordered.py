@@ -1,11 +1,12 @@
-"""GSFS on objects that the image border cuts (issue 18): scene tests, line-end fit, mask, u range."""
-import math
+"""GSFS on objects that the image border cuts (issue 18): scene tests, mask = object, u range."""
 
 import numpy as np
 import pytest
 
 from gfgpu import shading
-from gfgpu.shading import line_fit
+from gfgpu.shading import lambertian_shading, shape_from_shading
+
+from .surfaces import gauss_bump
 
 SIZE = 128
 
@@ -90,6 +91,9 @@ def test_quiet_sides_name_where_the_border_cuts_the_object(scene, quiet):
         assert shading.quiet_sides(_render(SCENES[scene], light, "gradient")) == quiet
 
 
+# --------------------------------------------------------------------------------------
+# the object mask
+# --------------------------------------------------------------------------------------
 @pytest.mark.parametrize("light", [(1, 0, 1), (5, 5, 7)])
 def test_object_mask_fixes_the_depth_at_its_boundary(light):
     truth = _bust(*_grid(SIZE))
@@ -103,6 +107,32 @@ def test_object_mask_fixes_the_depth_at_its_boundary(light):
     assert _fit_error(est, truth) < min(1.15 * _fit_error(auto, truth), pent)
 
 
+def test_sfs_mask_is_the_object():
+    z = gauss_bump()
+    img = lambertian_shading(z, (1, 0, 1))
+    m = z > 0.5
+    for mask in (m, m.astype(np.uint8), m.tolist()):
+        est = shape_from_shading(img, light=(1, 0, 1), mask=mask, backend="numpy")
+        assert (est[~m] == 0).all()
+        assert np.corrcoef(est.ravel(), z.ravel())[0, 1] > 0.99
+    full = shape_from_shading(img, light=(1, 0, 1), mask=np.ones(z.shape, bool), backend="numpy")
+    np.testing.assert_array_equal(full, shape_from_shading(img, light=(1, 0, 1), backend="numpy"))
+
+
+@pytest.mark.parametrize("mask, match", [(np.zeros((64, 64), bool), "mask"), (np.ones((64, 63), bool), "mask"),
+                                         (np.ones(64 * 64, bool), "mask")], ids=["empty", "wrong-shape", "1-d"])
+def test_sfs_bad_mask_raises(mask, match):
+    with pytest.raises(ValueError, match=match):
+        shape_from_shading(lambertian_shading(gauss_bump(), (1, 0, 1)), light=(1, 0, 1), mask=mask, backend="numpy")
+
+
+@pytest.mark.parametrize("mask", [np.full((64, 64), np.nan), np.full((64, 64), 0.5)], ids=["nan", "fractional"])
+def test_sfs_non_boolean_mask_is_refused(mask):
+    # docstring: "mask : (H, W) bool array_like"; a NaN or fractional mask is silently all True today
+    with pytest.raises((TypeError, ValueError), match="mask"):
+        shape_from_shading(lambertian_shading(gauss_bump(), (1, 0, 1)), light=(1, 0, 1), mask=mask, backend="numpy")
+
+
 def test_bordered_scene_backends_agree(backend):
     img = _render(_bust, (5, 5, 7), "gradient").astype(np.float32)
     ref = shading.shape_from_shading(img, light=(5, 5, 7), k1=1.0, backend="numpy")
@@ -110,9 +140,9 @@ def test_bordered_scene_backends_agree(backend):
     np.testing.assert_allclose(out, ref, rtol=0, atol=2e-5 * np.abs(ref).max())
 
 
-# ----------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------
 # u: the working range and the error for the rest
-# ----------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------
 def test_explicit_u_in_the_documented_range_integrates_and_below_it_raises():
     y, x = _grid(64)
     truth = 8 * np.exp(-((x - 32) ** 2 + (y - 30) ** 2) / 150)
@@ -127,58 +157,13 @@ def test_explicit_u_in_the_documented_range_integrates_and_below_it_raises():
         shading.shape_from_shading(img, light=(1, 0, 1), u=-1)
 
 
+def test_sfs_quarter_line_u_is_accepted():
+    z = gauss_bump()
+    est = shape_from_shading(lambertian_shading(z, (1, 0, 1)), light=(1, 0, 1), u=16, backend="numpy")
+    assert np.corrcoef(est.ravel(), z.ravel())[0, 1] > 0.9
+
+
 def test_bad_k1_raises_before_any_work():
     img = _render(_sphere_cut, (1, 0, 1), "gradient")
     with pytest.raises(ValueError, match="k1 must be 'render', 'linear'"):
         shading.shape_from_shading(img, light=(1, 0, 1), k1="auto")
-
-
-# ----------------------------------------------------------------------------------------
-# the line fit, against walks along the digital lines
-# ----------------------------------------------------------------------------------------
-def _walk_neighbours(shape, angle):
-    """Previous and next pixel of every pixel along its line, from (line, t) by a dictionary."""
-    line, t = line_fit.line_coordinates(shape, angle)
-    where = {(int(ln), int(tt)): (i, j) for (i, j), ln, tt in zip(np.ndindex(shape), line.ravel(), t.ravel())}
-    return line, t, where
-
-
-@pytest.mark.parametrize("angle", [0.0, math.pi / 4, 0.3, 1.9, -2.5])
-def test_boundary_anchors_are_the_pixels_next_to_the_object_along_each_line(rng, angle):
-    obj = rng.random((23, 31)) < 0.3
-    line, t, where = _walk_neighbours(obj.shape, angle)
-    expected = np.zeros_like(obj)
-    for (i, j), ln, tt in zip(np.ndindex(obj.shape), line.ravel(), t.ravel()):
-        if obj[i, j]:
-            continue
-        near = [where.get((int(ln), int(tt) + d)) for d in (-1, 1)]
-        expected[i, j] = any(p is not None and obj[p] for p in near)
-    np.testing.assert_array_equal(line_fit.boundary_anchors(obj, angle), expected)
-
-
-@pytest.mark.parametrize("angle", [0.0, 0.7, 2.0])
-def test_lines_without_anchors_take_their_constants_from_their_neighbours(rng, angle):
-    shape = (20, 26)
-    line, t = line_fit.line_coordinates(shape, angle)
-    truth = np.sin(t / 4.0)                         # constant across lines: neighbours agree
-    n = int(line.max()) + 1
-    fixed = np.zeros(n, bool)
-    fixed[::5] = True
-    offsets = np.where(fixed, 0.0, rng.standard_normal(n) * 3)
-    out = line_fit.fix_from_neighbours(truth + offsets[line], angle, line, fixed)
-    np.testing.assert_allclose(out, truth, atol=1e-9)
-
-
-def test_object_fit_puts_both_ends_of_a_bracketed_run_at_zero():
-    z = np.cumsum(np.ones((3, 12)), axis=1) + 5.0   # a ramp plus a constant on every row
-    obj = np.zeros(z.shape, bool)
-    obj[:, 3:8] = True
-    line, t = line_fit.line_coordinates(z.shape, 0.0)
-    anchors = line_fit.boundary_anchors(obj, 0.0)
-    out, anchored = line_fit.fix_object(z, line, t, obj, anchors)
-    assert anchored.all()
-    np.testing.assert_allclose(out[:, [2, 8]], 0, atol=1e-12)     # two-sided: c and a fitted
-    obj[:, :3] = True                               # now cut by the left border: c only
-    out, _ = line_fit.fix_object(z, line, t, obj, line_fit.boundary_anchors(obj, 0.0))
-    np.testing.assert_allclose(out[:, 8], 0, atol=1e-12)
-    np.testing.assert_allclose(np.diff(out, axis=1), 1.0)          # the ramp is kept

@@ -1,3 +1,6 @@
+"""The edge operator's criteria (gfgpu.edges.criteria): the chapter's index 3.547 and its optimum
+(a, η) = (1.1, 3.5), the reference filters (Deriche, Gaussian derivative), closed forms against
+quadrature."""
 import numpy as np
 import pytest
 from scipy import integrate

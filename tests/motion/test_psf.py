@@ -212,6 +212,21 @@ def test_anisotropic_box_zoom_is_the_affine_field():
 # --------------------------------------------------------------------------------------
 # properties
 # --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("kind,v", [("uniform", (1.5, -2.25)), ("zoom", 0.3), ("zoom", -0.2),
+                                    ("zoom", (0.1, 0.3)), ("rotation", 25.0), ("field", None)])
+def test_backends_agree_with_numpy(backend, kind, v):
+    rng = np.random.default_rng(3)
+    img = rng.random((13, 17))
+    vel = rng.uniform(-2, 2, (2, 13, 17)) if kind == "field" else v
+    k = "uniform" if kind == "field" else kind
+    for mode in ("constant", "nearest", "wrap"):
+        for psf in ("green", "box"):
+            args = dict(kind=k, psf=psf, mode=mode, cval=0.4, displace=(mode != "wrap"))
+            ref = motion_blur(img, vel, backend="numpy", **args)
+            out = motion_blur(img, vel, backend=backend.name, **args)
+            np.testing.assert_allclose(out, ref, rtol=0, atol=1e-10, err_msg=f"{mode} {psf}")
+
+
 def test_box_is_exact_for_fractional_lengths(backend):
     """A box of length L along x on a ramp: the mean of x over [x - L, x] is x - L/2; unit gain."""
     x = np.arange(200.0)
@@ -275,25 +290,6 @@ def test_depth_is_kept():
     for dtype in (np.float32, np.float64):
         assert motion_blur(img16.astype(dtype), (2, 3), psf="box", backend="numpy").dtype == dtype
         assert motion_blur(img16.astype(dtype), np.ones((2, 20, 30)), psf="box", backend="numpy").dtype == dtype
-
-
-@pytest.mark.parametrize("kwargs, exc, match", [
-    (dict(velocity=(1.0, 1.0), psf="gauss"), ValueError, "psf must be one of"),
-    (dict(velocity=np.zeros((2, 20, 31))), ValueError, r"shape \(2, H, W\) = \(2, 20, 30\)"),
-    (dict(velocity=np.zeros((3, 20, 30))), ValueError, r"\(2, H, W\)"),
-    (dict(velocity=np.full((2, 20, 30), np.nan)), ValueError, "field must be finite"),
-    (dict(velocity=np.full((2, 20, 30), 5000.0)), ValueError, "within ±4096"),
-    (dict(velocity=np.zeros((2, 20, 30), bool)), TypeError, "real float or integer"),
-    (dict(velocity=np.zeros((2, 20, 30), complex)), TypeError, "real float or integer"),
-    (dict(velocity=np.zeros((2, 20, 30)), kind="zoom"), ValueError, "goes with kind='uniform'"),
-    (dict(velocity=400.0, kind="rotation"), ValueError, r"\[-360, 360\]"),
-    (dict(velocity=10.0, kind="rotation", center=(500.0, 20.0)), ValueError, "within"),
-    (dict(velocity=0.2, kind="zoom", psf="box", center=(-1.0, 5.0)), ValueError, "inside the image"),
-    (dict(velocity=(1.0, 1.0), psf="box", displace="yes"), TypeError, "displace"),
-])
-def test_bad_inputs_are_refused_before_work(kwargs, exc, match):
-    with pytest.raises(exc, match=match):
-        motion_blur(np.zeros((20, 30)), backend="numpy", **kwargs)
 
 
 # --------------------------------------------------------------------------------------

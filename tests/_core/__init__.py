@@ -1,0 +1,1 @@
+"""The engine's core (gfgpu._core): recursions, lines, oblique passes."""

@@ -1,0 +1,4 @@
+"""The edge detector and its criteria (gfgpu.edges)."""
+
+
+

@@ -1,0 +1,4 @@
+"""Motion blur, zoom, spin and frames (gfgpu.motion)."""
+
+
+

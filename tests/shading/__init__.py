@@ -1,0 +1,4 @@
+"""Shape from shading and photometric motion (gfgpu.shading)."""
+
+
+

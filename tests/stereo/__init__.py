@@ -1,0 +1,4 @@
+"""Stereo matching (gfgpu.stereo)."""
+
+
+
