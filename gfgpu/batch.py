@@ -47,8 +47,9 @@ from .io import (
     write_image,
 )
 from .motion import motion_blur
+from .motion.kinds import KINDS, MOTIONS
 
-__all__ = ["IMAGE_EXTENSIONS", "FORMATS", "OPS", "PARAMETERS", "Job", "Result", "discover_inputs",
+__all__ = ["IMAGE_EXTENSIONS", "FORMATS", "OPS", "PARAMETERS", "BLUR_MOTIONS", "Job", "Result", "discover_inputs",
            "check_parameters", "plan_jobs", "process_file", "run_batch", "summarize"]
 
 #: extensions of the image files taken from a directory (compared case-insensitively)
@@ -57,9 +58,12 @@ IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".bmp")
 FORMATS = {"png": ".png", "tiff": ".tiff", "npy": ".npy"}
 #: operators (see :func:`process_file` for their parameters)
 OPS = ("shift", "gradient", "canny", "blur")
+#: blur's motion parameter of each kind of :data:`gfgpu.motion.kinds.KINDS` (exactly one is given):
+#: ``velocity=(vy, vx)`` for uniform motion, else the kind's name (``zoom=u1``, ``rotation=degrees``)
+BLUR_MOTIONS = {kind: "velocity" if kind == "uniform" else kind for kind in KINDS}
 #: the parameters each operator takes; pairs are in array-axis order (rows, cols)
 PARAMETERS = {"shift": ("shift",), "gradient": ("u",), "canny": ("u", "low", "high"),
-              "blur": ("velocity", "keep_position", "zoom", "center")}
+              "blur": (*BLUR_MOTIONS.values(), "keep_position", "center", "psf")}
 _MODES = ("reflect", "constant", "nearest", "mirror", "wrap")
 
 
@@ -208,11 +212,25 @@ def _check_keys(op, params):
                          f"center=(row, col) are in array-axis order, rows then columns)")
     if op == "shift" and "shift" not in params:
         raise ValueError("shift needs shift=(dy, dx): pixels down the rows and right along the columns")
-    if op == "blur" and (params.get("velocity") is None) == (params.get("zoom") is None):
-        raise ValueError("blur needs exactly one of velocity=(vy, vx) (uniform motion, pixels: rows, cols) "
-                         "and zoom=u1")
-    if op == "blur" and params.get("center") is not None and params.get("zoom") is None:
-        raise ValueError("center=(row, col) applies to zoom only")
+    if op == "blur":
+        _blur_kind(params)
+
+
+def _blur_kind(params):
+    """The kind of motion of blur's ``params``: the one motion parameter given (ValueError else)."""
+    given = [kind for kind, key in BLUR_MOTIONS.items() if params.get(key) is not None]
+    if len(given) != 1:
+        forms = ", ".join(f"{key}={MOTIONS[kind].form}" for kind, key in BLUR_MOTIONS.items())
+        got = f"; got {' and '.join(BLUR_MOTIONS[k] for k in given)}" if given else ""
+        raise ValueError(f"blur needs exactly one of {forms}{got}")
+    kind = given[0]
+    if params.get("center") is not None and not MOTIONS[kind].uses_center:
+        centred = sorted(key for k, key in BLUR_MOTIONS.items() if MOTIONS[k].uses_center)
+        raise ValueError(f"center=(row, col) applies to {' and '.join(centred)} only")
+    if np.ndim(params[BLUR_MOTIONS[kind]]) == 3:
+        raise ValueError("a velocity field (2, H, W) belongs to one image: blur takes velocity=(vy, vx), the same "
+                         "for every file (use gfgpu.motion_blur for a field)")
+    return kind
 
 
 def _center(center, img):
@@ -233,7 +251,8 @@ def check_parameters(op, params, mode="reflect"):
     Runs ``op`` on a 24 x 24 test image with the numpy backend (a few milliseconds), so a bad
     value (``u <= 0``, a zoom rate outside its range, ``low > high``, ...) is reported once with
     the message of the function that rejects it, instead of once per file.  A zoom ``center``
-    is checked for its form here and for its position per image (it must lie inside each one).
+    or rotation ``center`` is checked for its form here and for its position per image (a zoom's
+    must lie inside each one).
 
     Parameters
     ----------
@@ -402,12 +421,13 @@ def _op_canny(img, p, kw):
 
 def _op_blur(img, p, kw):
     _check_keys("blur", p)
-    if p.get("zoom") is not None:
-        how = dict(kind="zoom", center=_center(p.get("center"), img))   # (row, col)
-        velocity = p["zoom"]
-    else:
-        how = dict(kind="uniform", displace=not p.get("keep_position", False))
-        velocity = tuple(p["velocity"])                                  # (vy, vx)
+    kind = _blur_kind(p)
+    velocity = p[BLUR_MOTIONS[kind]]                         # (vy, vx), u1 or (u1_y, u1_x), degrees
+    how = dict(kind=kind, displace=not p.get("keep_position", False))
+    if p.get("psf") is not None:
+        how["psf"] = p["psf"]                                # checked by motion_blur against the table
+    if MOTIONS[kind].uses_center:
+        how["center"] = _center(p.get("center"), img)        # (row, col)
     raw = _colour_filter(img, lambda work: motion_blur(work, velocity, channel_axis=_channel_axis(img), **how,
                                                        **kw))
     return raw, lambda: to_output(raw, img, "x.png")
@@ -445,10 +465,13 @@ def process_file(job):
     - ``canny``: ``u``, ``low``, ``high`` (quantiles of the gradient magnitude in [0, 1];
       ``None`` = :func:`gfgpu.canny`'s absolute defaults); grey image, integers scaled to
       [0, 1].  Raw output the boolean edge map; PNG 0/255.
-    - ``blur``: ``velocity=(vy, vx)`` pixels (rows, cols) [``keep_position``] or ``zoom=u1``
-      (one rate or ``(u1_y, u1_x)``) [``center=(row, col)``, default each image's centre; a
-      ``None`` coordinate is the middle of that axis]; :func:`gfgpu.motion_blur`, colour
-      images per channel.
+    - ``blur``: exactly one motion of :data:`BLUR_MOTIONS` (the kinds of
+      :mod:`gfgpu.motion.kinds`): ``velocity=(vy, vx)`` pixels (rows, cols), ``zoom=u1`` (one
+      rate or ``(u1_y, u1_x)``) or ``rotation=degrees`` (counter-clockwise on screen);
+      [``center=(row, col)`` for a zoom or rotation, default each image's centre; a ``None``
+      coordinate is the middle of that axis]; [``keep_position``: blur in place, as
+      ``displace=False``]; [``psf``: ``'green'`` (default) or ``'box'``];
+      :func:`gfgpu.motion_blur`, colour images per channel.
 
     Any other key (such as the ``by`` of earlier versions) fails the file with a
     ``ValueError``; :func:`check_parameters` reports it once before a batch.

@@ -49,6 +49,7 @@ import numpy as np
 
 from . import filters, greens
 from ._core import carry
+from ._core.docstrings import docfiller
 from ._core.lines import normalize_axis
 from ._core.program import is_axis_angle, run_steps
 from ._core.recursion import check_mode, plan_pass
@@ -57,12 +58,58 @@ from ._core.validation import finite_cval, flag, work_dtype
 from .backends import Backend, backend_request, check_backend_name, resolve_backend
 from .edges import canny as canny_2d
 from .motion import motion_blur as motion_blur_2d
-from .motion import uniform_motion_program
-from .motion.params import KINDS, zoom_factors
-from .motion.rotation import rotation_angle
+from .motion.kinds import motion_kind, psf_name
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "motion_blur", "canny",
            "run_program"]
+
+
+#: the parameter texts the wrappers share, each written once (``%(name)s`` in their docstrings)
+_DOCS = {
+    "x": """
+        x : dask.array.Array
+            The input, in any chunking (chunk sizes must be known: ``x.compute_chunk_sizes()``
+            first); float32 and float64 kept, integers -> float32.
+        """,
+    "channel_axis": """
+        channel_axis : int, optional
+            Axis of colour channels, each filtered on its own (never an axis operated on).
+        """,
+    "mode_cval": """
+        mode : {'reflect', 'constant', 'nearest', 'mirror', 'wrap'}, optional
+            How the image continues beyond its border (scipy.ndimage's names; default
+            ``'reflect'``), see :func:`gfgpu.green_filter`.
+        cval : float, optional
+            The value beyond the border for ``mode='constant'`` (default 0).
+        """,
+    "differentiator": """
+        a, eta, single_scale : optional
+            The differentiator's parameters, as in :func:`gfgpu.derivative`: the weight ``a``
+            and scale ratio ``eta`` of the two-scale D (eq. 25-26; defaults 1.1 and 3.5), or
+            the one-scale D_u (eq. 19) with ``single_scale=True``.
+        """,
+    "backend_device": """
+        backend : str or Backend, optional
+            ``'numpy'``, ``'warp'`` or ``'opencl'`` (default: the resolution rule of
+            :mod:`gfgpu.backends`).  Tasks carry its name: each worker process builds its own
+            backend, device context and kernel caches (a Backend object travels as its name and
+            device).
+        device : str, optional
+            Its device (``'cuda:0'``, ``'0'``, ...); needs ``backend``.
+        """,
+    "result": """
+        dask.array.Array
+            Lazy (nothing runs before it is computed); float32 or float64; the chunks of ``x``,
+            or of ``x`` rechunked where a step needs whole image planes (see the module notes).
+        """,
+    "raises": """
+        TypeError, ValueError
+            As the function this wraps, and for an ``x`` that is not a dask array, is empty or
+            has unknown chunk sizes.  The parameters are checked here, before any task is built;
+            NaN or infinite samples are found by the tasks, when the result is computed.
+        """,
+}
+_docfiller = docfiller(_DOCS)
 
 
 # --------------------------------------------------------------------------------------
@@ -213,27 +260,29 @@ def _carried_step(x, passes, axis, mode, cval, spec, dtype):
     return da.block(out.tolist())
 
 
+@_docfiller
 def run_program(x, program, *, mode="reflect", cval=0.0, backend=None, device=None):
     """Run a :class:`~gfgpu._core.program.Program` on a dask array (the wrappers' common engine).
 
     Parameters
     ----------
-    x : dask.array.Array
+    %(x)s
     program : Program
         E.g. from :func:`gfgpu.filters.shift_program`.
-    mode, cval, backend, device : optional
-        As in :func:`gfgpu.green_filter`.
+    %(mode_cval)s
+    %(backend_device)s
 
     Returns
     -------
-    dask.array.Array
+    %(result)s
 
     Raises
     ------
     TypeError
         ``x`` not a dask array, unsupported dtype.
     ValueError
-        Empty input, unknown chunk sizes, bad ``mode``/``cval``/backend.
+        Empty input, unknown chunk sizes, bad ``mode``/``cval``/backend; checked before any task
+        is built.
     """
     dtype = _check_array(x)
     check_mode(mode)
@@ -291,28 +340,30 @@ def _whole_planes(x):
 # --------------------------------------------------------------------------------------
 # public wrappers
 # --------------------------------------------------------------------------------------
+@_docfiller
 def green_filter(x, kernel, *, axis=None, angle=None, axes=None, channel_axis=None, anticausal=False,
                  mode="reflect", cval=0.0, backend=None, device=None):
     """:func:`gfgpu.green_filter` on a dask array; exact across chunks along ``axis``.
 
     Parameters
     ----------
-    x : dask.array.Array
-    kernel, axis, angle, axes, channel_axis, anticausal, mode, cval, backend, device
+    %(x)s
+    kernel, axis, angle, axes, anticausal
         As in :func:`gfgpu.green_filter` (no ``output``: the result is lazy).  An oblique
         ``angle`` (radians from +x, the columns, toward +y, the rows) rechunks the image plane
         whole; a plane that is not on the last two axes (e.g. ``channel_axis=-1``) is moved
         there lazily and back.
+    %(channel_axis)s
+    %(mode_cval)s
+    %(backend_device)s
 
     Returns
     -------
-    dask.array.Array
-        float32 or float64, the chunks of ``x`` (of the rechunked ``x`` for ``angle``).
+    %(result)s
 
     Raises
     ------
-    TypeError, ValueError
-        As :func:`gfgpu.green_filter`, and for a ``x`` that is not a dask array.
+    %(raises)s
     """
     _check_array(x)
     if angle is not None and not is_axis_angle(angle):
@@ -328,27 +379,30 @@ def green_filter(x, kernel, *, axis=None, angle=None, axes=None, channel_axis=No
     return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
+@_docfiller
 def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, interpolation="green",
           backend=None, device=None):
     """:func:`gfgpu.shift` on a dask array; exact across chunks along every axis.
 
     Parameters
     ----------
-    x : dask.array.Array
+    %(x)s
     shift : float or sequence of float
         Displacement along each axis operated on, array-axis order: ``(dy, dx)`` (rows, cols)
         for an image.
-    mode, cval, axes, channel_axis, interpolation, backend, device
+    axes, interpolation
         As in :func:`gfgpu.shift`.
+    %(channel_axis)s
+    %(mode_cval)s
+    %(backend_device)s
 
     Returns
     -------
-    dask.array.Array
+    %(result)s
 
     Raises
     ------
-    TypeError, ValueError
-        As :func:`gfgpu.shift`, and for a ``x`` that is not a dask array.
+    %(raises)s
     """
     _check_array(x)
     program = filters.shift_program(x.ndim, shift, axes=axes, channel_axis=channel_axis,
@@ -356,24 +410,31 @@ def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, i
     return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
+@_docfiller
 def derivative(x, u, *, axis=None, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
                eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0, backend=None, device=None):
     """:func:`gfgpu.derivative` on a dask array; exact across chunks.
 
     Parameters
     ----------
-    x : dask.array.Array
-    u, axis, axes, channel_axis, mode, cval, a, eta, single_scale, projection_scale, backend, device
+    %(x)s
+    u, axis, axes
+        As in :func:`gfgpu.derivative`: the scale of D(x) (pixels, > 0) and the axis it
+        differentiates along.
+    %(differentiator)s
+    projection_scale : float, optional
         As in :func:`gfgpu.derivative`.
+    %(channel_axis)s
+    %(mode_cval)s
+    %(backend_device)s
 
     Returns
     -------
-    dask.array.Array
+    %(result)s
 
     Raises
     ------
-    TypeError, ValueError
-        As :func:`gfgpu.derivative`, and for a ``x`` that is not a dask array.
+    %(raises)s
     """
     _check_array(x)
     program = filters.derivative_program(x.ndim, u, axis=axis, axes=axes, channel_axis=channel_axis, a=a,
@@ -381,24 +442,28 @@ def derivative(x, u, *, axis=None, axes=None, channel_axis=None, mode="reflect",
     return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
+@_docfiller
 def projection(x, u, *, axis=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
                eta=greens.EDGE_ETA, single_scale=False, backend=None, device=None):
     """:func:`gfgpu.projection` on a dask array; exact across chunks.
 
     Parameters
     ----------
-    x : dask.array.Array
-    u, axis, channel_axis, mode, cval, a, eta, single_scale, backend, device
+    %(x)s
+    u, axis
         As in :func:`gfgpu.projection`.
+    %(differentiator)s
+    %(channel_axis)s
+    %(mode_cval)s
+    %(backend_device)s
 
     Returns
     -------
-    dask.array.Array
+    %(result)s
 
     Raises
     ------
-    TypeError, ValueError
-        As :func:`gfgpu.projection`, and for a ``x`` that is not a dask array.
+    %(raises)s
     """
     _check_array(x)
     program = filters.projection_program(x.ndim, u, axis=axis, channel_axis=channel_axis, a=a, eta=eta,
@@ -406,25 +471,32 @@ def projection(x, u, *, axis=None, channel_axis=None, mode="reflect", cval=0.0, 
     return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
 
 
+@_docfiller
 def gradient(x, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
              eta=greens.EDGE_ETA, single_scale=False, projection_scale=1.0, backend=None, device=None):
     """:func:`gfgpu.gradient` on a dask array: one lazy derivative per axis operated on.
 
     Parameters
     ----------
-    x : dask.array.Array
-    u, axes, channel_axis, mode, cval, a, eta, single_scale, projection_scale, backend, device
+    %(x)s
+    u, axes
         As in :func:`gfgpu.gradient`.
+    %(differentiator)s
+    projection_scale : float, optional
+        As in :func:`gfgpu.derivative`.
+    %(channel_axis)s
+    %(mode_cval)s
+    %(backend_device)s
 
     Returns
     -------
     tuple of dask.array.Array
-        In array-axis order (``(d/dy, d/dx)`` for an image).
+        In array-axis order (``(d/dy, d/dx)`` for an image), each as described for
+        :func:`derivative`.
 
     Raises
     ------
-    TypeError, ValueError
-        As :func:`gfgpu.gradient`, and for a ``x`` that is not a dask array.
+    %(raises)s
     """
     _check_array(x)
     ax = filters.operated_axes(x.ndim, axes, channel_axis)
@@ -432,58 +504,85 @@ def gradient(x, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=
                             projection_scale=projection_scale, backend=backend, device=device) for d in ax)
 
 
-def motion_blur(x, velocity, *, kind="uniform", center=None, displace=True, mode="reflect", cval=0.0,
+@_docfiller
+def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displace=True, mode="reflect", cval=0.0,
                 channel_axis=None, backend=None, device=None):
-    """:func:`gfgpu.motion_blur` on a dask array of images ``(..., H, W)``.
+    """:func:`gfgpu.motion_blur` on a dask array of images ``(..., H, W)``: every kind, every PSF.
 
-    Uniform motion along an axis is exact across chunks; an oblique direction, a zoom or a
-    rotation rechunks the image plane whole (stacks stay chunked along their leading axes).
+    Each kind says what a chunk must hold (:mod:`gfgpu.motion.kinds`): uniform motion along an
+    axis (``vy == 0`` or ``vx == 0``) with the G_u PSF (``psf='green'``) is exact across chunks
+    (the recursion state carried between them); with the box PSF it rechunks that axis whole
+    (its lines).  An oblique direction, a velocity field, a zoom or a rotation rechunk the image
+    plane whole (stacks stay chunked along their leading axes).
 
     Parameters
     ----------
     x : dask.array.Array
         Images ``(..., H, W)``, or colour images with ``channel_axis``.
-    velocity : pair of float, or float
+    velocity : pair of float, numpy array (2, H, W), or float
         As in :func:`gfgpu.motion_blur`: ``(vy, vx)`` pixels in array-axis order (rows, cols)
-        for uniform motion, ``u1`` or ``(u1_y, u1_x)`` for a zoom, degrees for a rotation.
-    kind, center, displace, mode, cval, backend, device
-        As in :func:`gfgpu.motion_blur` (``center`` is ``(row, col)``).
+        for uniform motion, ``u1`` or ``(u1_y, u1_x)`` for a zoom, degrees for a rotation.  A
+        **velocity field** is a numpy array ``(2, H, W)`` (rows, cols components) of the image
+        plane's shape, the same for every image of the stack: it needs the whole plane (each
+        chunk holds it, and every task gets the field).
+    kind, psf, center, displace
+        As in :func:`gfgpu.motion_blur` (``kind`` one of ``'uniform'``, ``'zoom'``,
+        ``'rotation'``; ``psf`` ``'green'`` or ``'box'``; ``center`` is ``(row, col)``).
+    %(mode_cval)s
     channel_axis : int, optional
         Axis of colour channels, blurred each on its own (moved first lazily, and back).
+    %(backend_device)s
 
     Returns
     -------
-    dask.array.Array
+    %(result)s
 
     Raises
     ------
-    TypeError, ValueError
-        As :func:`gfgpu.motion_blur`, checked before any task is built.
+    %(raises)s
+        Among them: an unknown ``kind`` or ``psf`` (the message lists the names), a bad velocity, a
+        field whose shape is not ``(2, H, W)`` of the image plane, a ``center`` outside its range.
+
+    Examples
+    --------
+    >>> import numpy as np, dask.array as da, gfgpu, gfgpu.dask
+    >>> img = np.random.default_rng(1).random((2, 40, 60))
+    >>> field = np.zeros((2, 40, 60)); field[1, :, 30:] = 4.0          # right half moves 4 px right
+    >>> lazy = gfgpu.dask.motion_blur(da.from_array(img, chunks=(1, 20, 30)), field, psf="box",
+    ...                               backend="numpy")
+    >>> lazy.chunks                                                    # the plane is whole
+    ((1, 1), (40,), (60,))
+    >>> ref = gfgpu.motion_blur(img, field, psf="box", backend="numpy")
+    >>> bool(np.abs(lazy.compute(scheduler="synchronous") - ref).max() < 1e-12)
+    True
     """
     dtype = _check_array(x)
+    motion = motion_kind(kind, velocity)
+    psf = psf_name(psf)
+    displace = flag("displace", displace)
+    check_mode(mode)
+    cval = finite_cval(cval)
+    spec = _backend_spec(backend, device)
     if channel_axis is not None:
         if x.ndim < 3:
             raise ValueError(f"channel_axis={channel_axis} needs a colour image of 3 dimensions or more, got "
                              f"shape {x.shape}")
         ch = normalize_axis(channel_axis, x.ndim, "channel_axis")
-        out = motion_blur(da.moveaxis(x, ch, 0), velocity, kind=kind, center=center, displace=displace,
+        out = motion_blur(da.moveaxis(x, ch, 0), velocity, kind=kind, psf=psf, center=center, displace=displace,
                           mode=mode, cval=cval, backend=backend, device=device)
         return da.moveaxis(out, 0, ch)
-    if kind == "uniform":
-        program = uniform_motion_program(x.ndim, velocity, flag("displace", displace))
-        return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
-    if kind not in KINDS:
-        raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
-    # validate here, before any task is built (the workers would raise the same error later)
-    if kind == "zoom":
-        zoom_factors(velocity)
-    else:
-        rotation_angle(velocity)
-    spec = _backend_spec(backend, device)
-    kw = dict(velocity=velocity, kind=kind, center=center, mode=mode, cval=cval)
-    if kind == "rotation":
-        kw["displace"] = flag("displace", displace)
-    return _whole_planes(x).map_blocks(_plane_task, motion_blur_2d, spec, dtype, kw, dtype=dtype)
+    if x.ndim < 2:
+        raise ValueError(f"motion blur needs an image (at least 2 dimensions), got shape {x.shape}")
+    # every check before any task is built (the workers would raise the same errors later)
+    params = motion.fit(motion.parse(velocity), x.shape)
+    fixed = motion.center(center, x.shape[-2], x.shape[-1])
+    whole = motion.whole_axes(params, psf)
+    if not whole:
+        return run_program(x, motion.program(x.ndim, params, displace), mode=mode, cval=cval, backend=backend,
+                           device=device)
+    x = x.rechunk({x.ndim + axis: -1 for axis in whole})
+    kw = dict(velocity=params, kind=kind, psf=psf, center=fixed, displace=displace, mode=mode, cval=cval)
+    return x.map_blocks(_plane_task, motion_blur_2d, spec, dtype, kw, dtype=dtype)
 
 
 def _plane_task(block, function, spec, dtype, kwargs):
@@ -500,17 +599,34 @@ def _canny_task(block, spec, kwargs):
     return out.reshape(block.shape)
 
 
+@_docfiller
 def canny(x, u=1.0, low_threshold=None, high_threshold=None, *, use_quantiles=False, backend=None,
           device=None, **kwargs):
     """:func:`gfgpu.canny` on each image of a dask stack ``(..., H, W)``.
 
     Hysteresis joins edge pixels across the whole image, so each image plane is one chunk (the
     plane is rechunked whole); stacks are processed in parallel along their leading axes.
-    Other keyword arguments are :func:`gfgpu.canny`'s.
+
+    Parameters
+    ----------
+    %(x)s
+    u, low_threshold, high_threshold, use_quantiles
+        As in :func:`gfgpu.canny`.
+    %(backend_device)s
+    **kwargs
+        :func:`gfgpu.canny`'s other keyword arguments (``mode``, ``cval``, ``a``, ``eta``, ...).
 
     Returns
     -------
     dask.array.Array of bool
+        The edge maps, the image plane in one chunk.
+
+    Raises
+    ------
+    TypeError, ValueError
+        For an ``x`` that is not a dask array, is empty, has unknown chunk sizes or fewer than
+        2 dimensions, and a bad backend name, before any task is built; :func:`gfgpu.canny`
+        checks its own parameters in the tasks, when the result is computed.
     """
     _check_array(x)
     if x.ndim < 2:

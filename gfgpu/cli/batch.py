@@ -7,6 +7,7 @@ Examples::
     gfgpu batch canny a.png b.png -o edges/ -u 1 --low 0.8 --high 0.95
     gfgpu batch blur frames/ -o blurred/ --dx 25 --dy -10 --scheduler tcp://head:8786
     gfgpu batch blur frames/ -o zoomed/ --zoom 0.1 --center-x 300 --center-y 200
+    gfgpu batch blur frames/ -o spun/ --rotate 12 --psf box
 
 The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` column,
 ``--center-y`` row); :func:`_params` maps them onto the library's array-axis order
@@ -20,9 +21,11 @@ import os
 import sys
 import time
 
-from ..batch import FORMATS, Result, check_parameters, discover_inputs, plan_jobs, run_batch, summarize
+from ..batch import BLUR_MOTIONS, FORMATS, Result, check_parameters, discover_inputs, plan_jobs, run_batch, summarize
 from ..io import remove_stale_temporaries
+from ..motion.kinds import MOTIONS, PSFS
 from .common import CommandError, announce_backend, backend_args
+from .motion_args import MOTION_OPTIONS, check_motion, psf_help
 
 _EPILOG = """\
 Outputs are OUTDIR/<input stem>.<format>, written atomically (temporary file + rename), so an
@@ -89,17 +92,23 @@ def add_parser(subparsers):
                         "(default: gfgpu.canny's absolute default)")
     p.add_argument("--high", type=float, metavar="Q", help="high threshold, a quantile in [0, 1]")
 
-    p = op_parser("blur", "motion blur (--dx/--dy) or zoom blur (--zoom U1), colour per channel")
+    p = op_parser("blur", "motion blur (--dx/--dy), zoom blur (--zoom U1) or rotation blur (--rotate DEGREES), "
+                          "colour per channel")
     p.add_argument("--dx", type=float, metavar="DX", help="uniform motion toward the right (columns), pixels")
     p.add_argument("--dy", type=float, metavar="DY", help="uniform motion downward (rows), pixels")
     p.add_argument("--zoom", type=float, metavar="U1",
                    help="zoom rate u1 in (-0.828, 2): a point at x moves to c + (x - c)(1 + u1)")
+    p.add_argument("--rotate", type=float, metavar="DEGREES",
+                   help="rotation during the exposure, in [-360, 360] degrees, counter-clockwise on screen "
+                        "for > 0 (blurred along the arcs)")
     p.add_argument("--center-x", type=float, metavar="X",
-                   help="column of the zoom's fixed point (default: each image's middle)")
+                   help="column of the zoom's or rotation's fixed point (default: each image's middle)")
     p.add_argument("--center-y", type=float, metavar="Y",
-                   help="row of the zoom's fixed point (default: each image's middle)")
+                   help="row of the zoom's or rotation's fixed point (default: each image's middle)")
+    p.add_argument("--psf", choices=tuple(PSFS), default=next(iter(PSFS)), help=psf_help())
     p.add_argument("--keep-position", action="store_true",
-                   help="uniform motion: blur in place instead of displacing the content")
+                   help="blur in place instead of displacing the content (uniform motion, rotation and the "
+                        "box zoom; the green zoom always displaces)")
     return subparsers
 
 
@@ -113,15 +122,13 @@ def _params(args):
         return {"u": args.u}
     if args.op == "canny":
         return {"u": args.u, "low": args.low, "high": args.high}
-    uniform = args.dx is not None or args.dy is not None
-    if uniform == (args.zoom is not None):
-        raise CommandError("give one motion: --dx/--dy (uniform, pixels) or --zoom U1")
-    centre = (args.center_y, args.center_x)                                # (row, col)
-    if args.zoom is not None:
-        return {"zoom": args.zoom, "center": None if centre == (None, None) else centre}
-    if centre != (None, None):
-        raise CommandError("--center-x/--center-y apply to --zoom only")
-    return {"velocity": (args.dy or 0.0, args.dx or 0.0), "keep_position": args.keep_position}   # (vy, vx)
+    kind = check_motion(args)                      # one kind of gfgpu.motion.kinds, as gfgpu blur
+    params = {BLUR_MOTIONS[kind]: MOTION_OPTIONS[kind][2](args),           # velocity=(vy, vx), zoom, rotation
+              "keep_position": args.keep_position, "psf": args.psf}
+    if MOTIONS[kind].uses_center:
+        centre = (args.center_y, args.center_x)                            # (row, col)
+        params["center"] = None if centre == (None, None) else centre
+    return params
 
 
 def run(args):

@@ -5,6 +5,7 @@ Examples::
     gfgpu blur photo.png -o blurred.png --dx 25 --dy -10     # motion_blur(img, (-10, 25))
     gfgpu blur --example camera -o zoom.png --zoom 0.3 --center-x 256 --center-y 200   # center=(200, 256)
     gfgpu blur --example camera -o spin.png --rotate 10 --keep-position
+    gfgpu blur photo.png -o box.png --dx 25 --psf box            # a uniform exposure (box PSF)
     gfgpu blur scan.tif -o blurred.tif --dx 8     # float or 16-bit input: a float32 or 16-bit TIFF
 
 The output is written at the input's depth in the format of its extension (see
@@ -27,10 +28,7 @@ from .motion_args import check_motion, motion_args, motion_input
 def add_parser(subparsers):
     p = subparsers.add_parser("blur", help="motion blur (--dx right, --dy down), zoom blur (--zoom U1) or "
                                            "rotation blur (--rotate DEGREES)")
-    motion_args(p)
-    p.add_argument("--psf", choices=("green", "box"), default="green",
-                   help="green: the chapter's G_u, a comet-like smear (default); box: a uniform exposure "
-                        "over the whole path (the open shutter of a camera)")
+    motion_args(p)          # the kinds of motion, --psf (the table of gfgpu.motion.kinds), --mode, backend
     p.add_argument("-o", "--output", required=True,
                    help="output image (.png, .tif, .jpg, .bmp: the format of the extension), at the input's depth")
     p.set_defaults(func=run)
@@ -44,11 +42,11 @@ def run(args):
     velocity = kw.pop("velocity")
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu blur", unit="image", disable=None, leave=False) as bar:
-        out = motion_blur(img, velocity, psf=args.psf, backend=be, **kw)
+        out = motion_blur(img, velocity, backend=be, **kw)
         bar.update(1)
     elapsed = time.perf_counter() - t0
     io.save_image(args.output, join_alpha(out, image, alpha), image)
-    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({kw['kind']}, psf {args.psf}, "
+    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({kw['kind']}, psf {kw['psf']}, "
           f"{elapsed * 1e3:.0f} ms "
           f"including device start-up)")
     return 0

@@ -3,6 +3,7 @@
 Example::
 
     gfgpu frames photo.png -o frames/ --dx 40 -n 12
+    gfgpu frames photo.png -o spin/ --rotate 30 --psf box -n 8    # any kind of motion, either PSF
 
 The PNG frames are written at the input's depth (16-bit input gives 16-bit PNGs, float input
 the 8-bit display conversion) and keep an alpha channel (filtered premultiplied); the GIF is

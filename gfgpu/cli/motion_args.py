@@ -1,16 +1,42 @@
-"""Options shared by ``gfgpu blur`` and ``gfgpu frames``: the kind of motion and its parameters.
+"""Options shared by ``gfgpu blur`` and ``gfgpu frames``: the kind of motion, its parameters, the PSF.
 
-The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` column,
-``--center-y`` row) and :func:`motion_input` maps them onto the library's array-axis order:
-``velocity=(dy, dx)`` and ``center=(row, col)``.
+The kinds of motion and the point-spread functions are the table of :mod:`gfgpu.motion.kinds`:
+``--psf`` offers its PSF names, and each kind the table offers has its options here
+(:data:`MOTION_OPTIONS`; a velocity field, an array per image, has none).  The options name
+their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` column, ``--center-y`` row) and
+:func:`motion_input` maps them onto the library's array-axis order: ``velocity=(dy, dx)`` and
+``center=(row, col)``.
 """
 
 from __future__ import annotations
 
+from ..motion.kinds import KINDS, MOTIONS, PSFS
 from .common import MODE_HELP, MODES, CommandError, backend_args, finite_float, image_args, read_input, split_alpha_work
+
+#: per kind of :data:`gfgpu.motion.kinds.KINDS`: its options, their usage in messages, and its
+#: ``velocity`` from the parsed options (None where they are not given)
+MOTION_OPTIONS = {
+    "uniform": ("--dx/--dy", "--dx/--dy (uniform, pixels)",
+                lambda a: None if a.dx is None and a.dy is None else (a.dy or 0.0, a.dx or 0.0)),   # (vy, vx)
+    "zoom": ("--zoom", "--zoom U1", lambda a: a.zoom),
+    "rotation": ("--rotate", "--rotate DEGREES", lambda a: a.rotate),
+}
+
+
+def _options_of(kind):
+    if kind not in MOTION_OPTIONS:     # a kind added to the table needs its options here
+        raise RuntimeError(f"gfgpu.cli.motion_args has no options for the motion kind {kind!r}")
+    return MOTION_OPTIONS[kind]
+
+
+def psf_help():
+    """The help of ``--psf``: the table's PSFs and what each is."""
+    return "point-spread function along the path: " + "; ".join(f"{p.name}: {p.summary}" for p in PSFS.values())
 
 
 def motion_args(p):
+    for kind in KINDS:
+        _options_of(kind)
     image_args(p)
     p.add_argument("--dx", type=finite_float, metavar="DX",
                    help="uniform motion toward the right (columns), pixels during the exposure")
@@ -26,22 +52,31 @@ def motion_args(p):
                    help="column of the zoom/rotation centre (default: middle)")
     p.add_argument("--center-y", type=finite_float, metavar="Y",
                    help="row of the zoom/rotation centre (default: middle)")
+    p.add_argument("--psf", choices=tuple(PSFS), default=next(iter(PSFS)), help=psf_help())
     p.add_argument("--keep-position", action="store_true",
-                   help="uniform motion or rotation: blur in place instead of displacing the content")
+                   help="blur in place instead of displacing the content (uniform motion, rotation and "
+                        "the box zoom; the green zoom always displaces)")
     p.add_argument("--mode", default="reflect", choices=MODES, help=MODE_HELP)
     backend_args(p)
 
 
+def motion_kind_of(args):
+    """The kind of motion the options give (CommandError unless exactly one is given)."""
+    given = [kind for kind in KINDS if _options_of(kind)[2](args) is not None]
+    if len(given) != 1:
+        got = f"; got {' and '.join(_options_of(k)[0] for k in given)}" if given else ""
+        usage = [_options_of(k)[1] for k in KINDS]
+        raise CommandError(f"give one motion: {', '.join(usage[:-1])} or {usage[-1]}{got}")
+    return given[0]
+
+
 def check_motion(args):
     """The options' consistency (CommandError), before reading anything."""
-    uniform = args.dx is not None or args.dy is not None
-    kinds = [name for name, given in (("--dx/--dy", uniform), ("--zoom", args.zoom is not None),
-                                      ("--rotate", args.rotate is not None)) if given]
-    if len(kinds) != 1:
-        got = f"; got {' and '.join(kinds)}" if kinds else ""
-        raise CommandError(f"give one motion: --dx/--dy (uniform, pixels), --zoom U1 or --rotate DEGREES{got}")
-    if uniform and (args.center_x, args.center_y) != (None, None):
-        raise CommandError("--center-x/--center-y apply to --zoom and --rotate only")
+    kind = motion_kind_of(args)
+    if (args.center_x, args.center_y) != (None, None) and not MOTIONS[kind].uses_center:
+        centred = " and ".join(_options_of(k)[0] for k in KINDS if MOTIONS[k].uses_center)
+        raise CommandError(f"--center-x/--center-y apply to {centred} only")
+    return kind
 
 
 def motion_input(args):
@@ -52,24 +87,15 @@ def motion_input(args):
     ``velocity=(dy, dx)`` (rows, cols; a missing one is 0), and ``--center-x``/``--center-y``
     become ``center=(row, col)`` (a missing one is the middle).
     """
-    check_motion(args)
-    uniform = args.dx is not None or args.dy is not None
+    kind = check_motion(args)
     image, label = read_input(args)
     img, alpha = split_alpha_work(image)
     if img.ndim not in (2, 3):
         raise CommandError(f"{label}: expected a grey or colour image, got shape {img.shape}")
-    given = (args.center_x, args.center_y) != (None, None)
-    center = None
-    if given:
+    kw = dict(kind=kind, velocity=_options_of(kind)[2](args), psf=args.psf, displace=not args.keep_position)
+    if MOTIONS[kind].uses_center and (args.center_x, args.center_y) != (None, None):
         h, w = img.shape[:2]
-        center = (args.center_y if args.center_y is not None else (h - 1) / 2.0,    # (row, col)
-                  args.center_x if args.center_x is not None else (w - 1) / 2.0)
-    if uniform:
-        kw = dict(kind="uniform", velocity=(args.dy or 0.0, args.dx or 0.0),       # (vy, vx)
-                  displace=not args.keep_position)
-    elif args.rotate is not None:
-        kw = dict(kind="rotation", velocity=args.rotate, center=center, displace=not args.keep_position)
-    else:
-        kw = dict(kind="zoom", velocity=args.zoom, center=center)
+        kw["center"] = (args.center_y if args.center_y is not None else (h - 1) / 2.0,    # (row, col)
+                        args.center_x if args.center_x is not None else (w - 1) / 2.0)
     kw.update(mode=args.mode, channel_axis=-1 if img.ndim == 3 else None)
     return image, img, alpha, label, kw

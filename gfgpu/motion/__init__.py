@@ -13,7 +13,10 @@ counter-clockwise on screen; colour images take ``channel_axis``.  ``docs/motion
 method and its measured accuracy.
 
 Modules: ``blur`` (:func:`motion_blur`), ``uniform``, ``zoom`` and ``rotation`` (one kind of
-motion each), ``frames`` (sequences and in-between frames), ``params`` (argument parsing).
+motion each), ``kinds`` (the table of the kinds of motion and the PSFs, which every entry point
+dispatches through: :func:`motion_blur`, :func:`synthesize_motion`, :func:`gfgpu.dask.motion_blur`,
+``gfgpu batch blur``, ``gfgpu blur``/``gfgpu frames``), ``frames`` (sequences and in-between
+frames), ``params`` (argument parsing).
 
 References
 ----------

@@ -1,22 +1,16 @@
 """``motion_blur``: uniform motion, per-pixel velocity fields, zoom and spin, with the chapter's
-Green's function or a box exposure as the point-spread function."""
+Green's function or a box exposure as the point-spread function.
+
+The kinds and the point-spread functions are the table of :mod:`gfgpu.motion.kinds`; this is the
+reference entry point that the others (frames, Dask, batch, the commands) agree with."""
 
 from __future__ import annotations
 
-import numpy as np
-
-from .._core.job import apply_program, copy_of_input
 from .._core.recursion import check_mode
 from .._core.validation import finite_cval, flag
 from ..filters import make_job
-from .box import apply_uniform_box
-from .field import apply_field, check_field, is_field
-from .params import KINDS, center_point, move_channels, psf_name, velocity_pair, zoom_factors
-from .polar import apply_radial_green_zoom, apply_radial_zoom, apply_spin
-from .rotation import rotation_angle
-from .spec import PSF_CODES
-from .uniform import uniform_motion_program
-from .zoom import apply_zoom
+from .kinds import motion_kind, psf_name
+from .params import move_channels
 
 __all__ = ["motion_blur"]
 
@@ -165,8 +159,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     >>> bool(np.abs(s - rings)[(r > 3) & (r < 45)].max() < 2e-3)   # content moves along its circle
     True
     """
-    if kind not in KINDS:
-        raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    motion = motion_kind(kind, velocity)
     psf = psf_name(psf)
     check_mode(mode)
     cval = finite_cval(cval)
@@ -177,45 +170,8 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
         moved, undo = move_channels(image, channel_axis)
         return undo(motion_blur(moved, velocity, kind=kind, psf=psf, center=center, displace=displace,
                                 mode=mode, cval=cval, backend=backend, device=device))
-    if is_field(velocity):
-        if kind != "uniform":
-            raise ValueError(f"a velocity field (2, H, W) goes with kind='uniform', got kind={kind!r}")
-        job = make_job(image, output, backend, device, min_ndim=2)
-        field = check_field(velocity, job.shape)
-        return apply_field(job, field, PSF_CODES[psf, displace], mode, cval)
-    if kind == "uniform":
-        vy, vx = velocity_pair(velocity)
-        moving = bool(uniform_motion_program(2, (vy, vx), displace).steps)   # checks the length first
-        job = make_job(image, output, backend, device, min_ndim=2)
-        if psf == "box" and moving:
-            return apply_uniform_box(job, vy, vx, displace, mode, cval)
-        return apply_program(job, uniform_motion_program(job.ndim, (vy, vx), displace), mode, cval)
-    if kind == "rotation":
-        degrees = rotation_angle(velocity)
-        job = make_job(image, output, backend, device, min_ndim=2)
-        cy, cx = center_point(center, job.shape[-2], job.shape[-1])
-        return apply_spin(job, degrees, cy, cx, psf, displace, mode, cval)
-    u1y, u1x = zoom_factors(velocity)
+    params = motion.parse(velocity)               # checked before the image is read or uploaded
     job = make_job(image, output, backend, device, min_ndim=2)
-    if psf == "green" and u1y != u1x:
-        return apply_zoom(job, u1y, u1x, center, mode, cval)
-    return _polar_zoom(job, u1y, u1x, center, psf, displace, mode, cval)
-
-
-def _polar_zoom(job, u1y, u1x, center, psf, displace, mode, cval):
-    """Zoom along the rays on the polar grid (G_U^(1) or box), or the box's affine field for
-    unequal rates."""
-    height, width = job.shape[-2], job.shape[-1]
-    cy, cx = center_point(center, height, width)
-    if not (0.0 <= cy <= height - 1 and 0.0 <= cx <= width - 1):
-        raise ValueError(f"center (row, col) = ({cy:g}, {cx:g}) must lie inside the image, "
-                         f"0 <= row <= {height - 1} and 0 <= col <= {width - 1}")
-    if u1x == 0.0 and u1y == 0.0:
-        return job.finish(copy_of_input(job))
-    if psf == "green":
-        return apply_radial_green_zoom(job, u1x, cy, cx, mode, cval)
-    if u1y == u1x:
-        return apply_radial_zoom(job, u1x, cy, cx, displace, mode, cval)
-    yy, xx = np.mgrid[:height, :width].astype(np.float64)
-    field = np.stack([(u1y / (1.0 + u1y)) * (yy - cy), (u1x / (1.0 + u1x)) * (xx - cx)])
-    return apply_field(job, check_field(field, job.shape), PSF_CODES["box", displace], mode, cval)
+    params = motion.fit(params, job.shape)
+    fixed = motion.center(center, job.shape[-2], job.shape[-1])
+    return motion.run(job, params, psf, fixed, displace, mode, cval)

@@ -6,54 +6,48 @@ import numpy as np
 
 from ..filters import shift as g_shift
 from .blur import motion_blur
-from .params import KINDS, move_channels, velocity_pair, zoom_factors
-from .rotation import rotation_angle
+from .kinds import motion_kind, psf_name
+from .params import move_channels, velocity_pair
 
 __all__ = ["synthesize_motion", "estimate_translation", "interpolate_frames"]
 
 
-def _frame_parameters(velocity, kind, n_frames):
+def _frame_fractions(n_frames):
+    """``t = k / (n - 1)``, ``k = 0 .. n - 1``: the fraction of the motion each frame shows."""
     try:
         n = int(n_frames)
     except (TypeError, ValueError):
         raise TypeError(f"n_frames must be an integer, got {n_frames!r}") from None
     if n != n_frames or n < 2:
         raise ValueError(f"n_frames must be an integer >= 2, got {n_frames!r}")
-    t = np.arange(n) / (n - 1)
-    if kind == "uniform":
-        vy, vx = velocity_pair(velocity)
-        return [(float(vy * f), float(vx * f)) for f in t]
-    if kind == "zoom":
-        u1y, u1x = zoom_factors(velocity)
-        # constant zoom rate: the scale grows geometrically, (1 + u1)^t
-        return [((1 + u1y) ** f - 1, (1 + u1x) ** f - 1) for f in t]
-    if kind == "rotation":
-        return [float(rotation_angle(velocity) * f) for f in t]
-    raise ValueError(f"kind must be one of {', '.join(KINDS)}; got {kind!r}")
+    return np.arange(n) / (n - 1)
 
 
-def synthesize_motion(image, velocity, n_frames, *, kind="uniform", center=None, displace=True,
+def synthesize_motion(image, velocity, n_frames, *, kind="uniform", psf="green", center=None, displace=True,
                       mode="reflect", cval=0.0, channel_axis=None, backend=None, device=None,
                       progress=None):
     """A sequence of frames moving ``image`` progressively (motion synthesis, chapter §1).
 
     Frame ``k`` (``k = 0 .. n_frames - 1``) is :func:`motion_blur` at the fraction
-    ``t = k / (n_frames - 1)`` of the motion: displacement ``t * velocity`` for uniform motion,
-    scale ``(1 + u1)^t`` (``u1_k = (1 + u1)^t - 1``, a constant zoom rate) for a zoom.  Frame 0
-    is the input itself.
+    ``t = k / (n_frames - 1)`` of the motion: displacement ``t * velocity`` for uniform motion
+    (and for a velocity field, every pixel's velocity scaled by ``t``), scale ``(1 + u1)^t``
+    (``u1_k = (1 + u1)^t - 1``, a constant zoom rate) for a zoom, the angle ``t * velocity`` for
+    a rotation (the kinds' table, :mod:`gfgpu.motion.kinds`).  Frame 0 is the input itself (for
+    a velocity field, to the rounding of the spline resampling, which the zero field still runs).
 
     Parameters
     ----------
     image : array_like or device array
         As in :func:`motion_blur`.
-    velocity : pair of float, or float
-        The whole motion, as in :func:`motion_blur`: ``(vy, vx)`` pixels (rows, cols) for
-        ``kind="uniform"``, the rate ``u1`` or ``(u1_y, u1_x)`` for a zoom, degrees for a
-        rotation.
+    velocity : pair of float, array (2, H, W), or float
+        The whole motion, as in :func:`motion_blur`: ``(vy, vx)`` pixels (rows, cols) or a
+        velocity field ``(2, H, W)`` for ``kind="uniform"``, the rate ``u1`` or
+        ``(u1_y, u1_x)`` for a zoom, degrees for a rotation.
     n_frames : int
         Number of frames, >= 2.
-    kind, center, displace, mode, cval, channel_axis, backend, device
-        As in :func:`motion_blur` (``center`` is ``(row, col)``).
+    kind, psf, center, displace, mode, cval, channel_axis, backend, device
+        As in :func:`motion_blur` (``center`` is ``(row, col)``; ``psf`` ``'green'`` or
+        ``'box'``).
     progress : callable, optional
         Called with no argument after each frame (e.g. a tqdm bar's ``update``).
 
@@ -64,7 +58,8 @@ def synthesize_motion(image, velocity, n_frames, *, kind="uniform", center=None,
     Raises
     ------
     ValueError
-        ``n_frames`` < 2 or not an integer, and every error of :func:`motion_blur`.
+        ``n_frames`` < 2 or not an integer, and every error of :func:`motion_blur` (the
+        velocity, a field's shape and the centre are checked before the first frame).
     TypeError
         A non-integer ``n_frames``, non-numeric parameters, an unsupported dtype.
 
@@ -76,12 +71,24 @@ def synthesize_motion(image, velocity, n_frames, *, kind="uniform", center=None,
     >>> frames = synthesize_motion(img, (0, 30), 4, mode="constant", backend="numpy")   # (vy, vx)
     >>> [round(float((f[8] * np.arange(512)).sum()), 3) for f in frames]
     [4.0, 14.0, 24.0, 34.0]
+    >>> box = synthesize_motion(img, (0, 30), 4, psf="box", mode="constant", backend="numpy")
+    >>> [round(float((f[8] * np.arange(512)).sum()), 3) for f in box]   # the box's mean: half the path
+    [4.0, 9.0, 14.0, 19.0]
     """
-    params = _frame_parameters(velocity, kind, n_frames)
+    fractions = _frame_fractions(n_frames)
+    motion = motion_kind(kind, velocity)
+    psf = psf_name(psf)
+    params = motion.parse(velocity)
+    moved, undo = move_channels(image, channel_axis)      # once, not per frame
+    shape = np.shape(moved)
+    if len(shape) >= 2:                    # else motion_blur refuses the image at the first frame
+        params = motion.fit(params, shape)
+        motion.center(center, shape[-2], shape[-1])
     frames = []
-    for p in params:
-        frames.append(motion_blur(image, p, kind=kind, center=center, displace=displace, mode=mode,
-                                  cval=cval, channel_axis=channel_axis, backend=backend, device=device))
+    for t in fractions:
+        frames.append(undo(motion_blur(moved, motion.at(params, t), kind=kind, psf=psf, center=center,
+                                       displace=displace, mode=mode, cval=cval, backend=backend,
+                                       device=device)))
         if progress is not None:
             progress()
     if all(isinstance(f, np.ndarray) for f in frames):

@@ -1,7 +1,8 @@
 """Argument parsing shared by the motion operators (velocities, zoom rates, centres, colour axes).
 
 Every pair is in array-axis order, rows then columns: velocities ``(vy, vx)``, zoom rates
-``(u1_y, u1_x)``, centres ``(row, col)``.
+``(u1_y, u1_x)``, centres ``(row, col)``.  The kinds of motion and the point-spread functions
+that use them are the table of :mod:`gfgpu.motion.kinds`.
 """
 
 from __future__ import annotations
@@ -12,20 +13,7 @@ import numpy as np
 
 from .._core.validation import finite_scalar
 
-__all__ = ["KINDS", "PSFS", "U1_MIN", "psf_name", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "center_point",
-           "move_channels"]
-
-KINDS = ("uniform", "zoom", "rotation")
-
-#: point-spread functions: the chapter's G_u, and the box of a uniform exposure
-PSFS = ("green", "box")
-
-
-def psf_name(psf):
-    """``psf`` checked against :data:`PSFS`."""
-    if not isinstance(psf, str) or psf not in PSFS:
-        raise ValueError(f"psf must be one of {', '.join(map(repr, PSFS))}, got {psf!r}")
-    return psf
+__all__ = ["U1_MIN", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "center_point", "move_channels"]
 
 
 def pair(value, name):
