@@ -326,6 +326,34 @@ def test_the_backends_hold_only_the_engine():
     assert engine <= 0.2 * total, f"gfgpu/backends holds {engine} of {total} lines (at most 20 %)"
 
 
+def documented_paths(text):
+    """Paths of the repository that a page names in backticks (``gfgpu/...``, ``tests/...``),
+    placeholders like ``gfgpu/<feature>/`` left out."""
+    found = re.findall(r"`((?:gfgpu|tests|benchmarks|docs)/[^`\s]*)`", text)
+    return sorted({p.rstrip("/") for p in found if "<" not in p and "*" not in p})
+
+
+def test_the_architecture_page_names_what_exists():
+    text = (ROOT / "docs" / "architecture.md").read_text(encoding="utf-8")
+    missing = [p for p in documented_paths(text) if not (ROOT / p).exists()]
+    assert not missing, f"docs/architecture.md names paths that do not exist: {missing}"
+    # importing a feature's kernels.py registers its kernels
+    import gfgpu.edges.kernels
+    import gfgpu.motion.kernels
+    import gfgpu.stereo.kernels  # noqa: F401
+    from gfgpu.backends import fused
+    # the rows of the fused-kernel table: | `feature.name` | feature | ... |
+    table = {name for name, feature in re.findall(r"^\| `((\w+)\.\w+)` \| \2 \|", text, re.MULTILINE)}
+    assert table == set(fused.registered()), (f"fused-kernel table of docs/architecture.md: missing "
+                                             f"{sorted(set(fused.registered()) - table)}, "
+                                             f"not registered {sorted(table - set(fused.registered()))}")
+
+
+def test_documented_paths_are_found():
+    text = "see `gfgpu/stereo/spec.py` and `tests/stereo/`, not `gfgpu/<feature>/` or `x/y`"
+    assert documented_paths(text) == ["gfgpu/stereo/spec.py", "tests/stereo"]
+
+
 def test_no_references_to_files_outside_the_repository():
     hits = outside_references(ROOT)
     assert not hits, f"{len(hits)} line(s) cite files that are not in the repository:\n" + "\n".join(hits)
