@@ -41,8 +41,8 @@ from .._core.job import apply_program, copy_of_input
 from .box import apply_uniform_box
 from .field import apply_field, check_field, is_field
 from .params import center_point, velocity_pair, zoom_factors
-from .polar import _check_center as check_polar_center
 from .polar import apply_radial_green_zoom, apply_radial_zoom, apply_spin
+from .polar import check_center as check_polar_center
 from .rotation import rotation_angle
 from .spec import PSF_CODES
 from .uniform import uniform_motion_program

@@ -51,7 +51,7 @@ from .kernels import add_rows, box_lines, from_polar, to_polar
 from .spline import line_coefficients, spline_coefficients
 from .zoom import ray_zoom_pass
 
-__all__ = ["polar_bands", "polar_grid", "apply_spin", "apply_radial_zoom", "apply_radial_green_zoom"]
+__all__ = ["polar_bands", "polar_grid", "check_center", "apply_spin", "apply_radial_zoom", "apply_radial_green_zoom"]
 
 #: rings beyond the farthest pixel (the spline's support reaches two samples outward)
 _EXTRA_RINGS = 4
@@ -109,7 +109,7 @@ def polar_grid(height, width, cy, cx, reach=1.0):
     return polar_bands(height, width, cy, cx, reach)[0][1:3]
 
 
-def _check_center(cy, cx, height, width):
+def check_center(cy, cx, height, width):
     # the grid's size grows with the centre's distance: keep it within a few image sizes
     reach = 2.0 * math.hypot(height, width)
     if math.hypot(cy - (height - 1) / 2.0, cx - (width - 1) / 2.0) > reach:
@@ -138,7 +138,7 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
     """
     be, dtype, shape = job.backend, job.dtype, job.shape
     height, width = shape[-2], shape[-1]
-    _check_center(cy, cx, height, width)
+    check_center(cy, cx, height, width)
     strips.require_whole_image(job, what)
     planes = (math.prod(shape[:-2]), height, width)
     data = be.reshape(job.data, planes)
