@@ -34,21 +34,29 @@ typedef ulong8 ulong8_u __attribute__((aligned(8)));
 #define CENSUS_WIDEN(v) convert_ulong8(v)
 #endif
 
+// The neighbourhood in bit order, written once for the per-pixel and the 8-pixel transforms (a
+// census variant changes it here): BODY runs for window row v (0..2r), column offset u (-r..r)
+// and bit position bit, row-major with the centre skipped (census_transform_reference).
+#define CENSUS_NEIGHBOURS(BODY)                                 \
+    {                                                           \
+        int bit = 0;                                            \
+        _Pragma("unroll")                                       \
+        for (int v = 0; v < 2 * R_ + 1; ++v) {                  \
+            _Pragma("unroll")                                   \
+            for (int u = -R_; u <= R_; ++u) {                   \
+                if (v == R_ && u == 0)                          \
+                    continue;                                   \
+                BODY                                            \
+                ++bit;                                          \
+            }                                                   \
+        }                                                       \
+    }
+
 static inline ulong census_pixel(__global const float *const *rows, const int x, const int w)
 {
     const float c = rows[R_][x];
     ulong code = 0;
-    int bit = 0;
-    #pragma unroll
-    for (int v = 0; v < 2 * R_ + 1; ++v) {
-        #pragma unroll
-        for (int u = -R_; u <= R_; ++u) {
-            if (v == R_ && u == 0)
-                continue;
-            code |= (ulong)(rows[v][CLAMPI(x + u, 0, w - 1)] < c) << bit;
-            ++bit;
-        }
-    }
+    CENSUS_NEIGHBOURS(code |= (ulong)(rows[v][CLAMPI(x + u, 0, w - 1)] < c) << bit;)
     return code;
 }
 
@@ -70,26 +78,19 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
         // bits 0..31 and 32..63 as 32-bit lanes (the compare's own width: no widening per bit)
         const float8 c = CENSUS_LOAD8(rows[R_] + x);
         uint8 lo = (uint8)(0), hi = (uint8)(0);
-        int bit = 0;
-        #pragma unroll
-        for (int v = 0; v < 2 * R_ + 1; ++v) {
-            #pragma unroll
-            for (int u = -R_; u <= R_; ++u) {
-                if (v == R_ && u == 0)
-                    continue;
-                const uint8 m = as_uint8(CENSUS_LOAD8(rows[v] + x + u) < c);
-                if (bit < 32)
-                    lo |= m & (uint8)(1U << bit);
-                else
-                    hi |= m & (uint8)(1U << (bit - 32));
-                ++bit;
-            }
-        }
+        CENSUS_NEIGHBOURS(
+            const uint8 m = as_uint8(CENSUS_LOAD8(rows[v] + x + u) < c);
+            if (bit < 32)
+                lo |= m & (uint8)(1U << bit);
+            else
+                hi |= m & (uint8)(1U << (bit - 32));
+        )
         CENSUS_STORE8(CENSUS_WIDEN(lo) | (CENSUS_WIDEN(hi) << 32), o + x);
     }
     for (; x < w; ++x)
         o[x] = census_pixel(rows, x, w);
 }
+#undef CENSUS_NEIGHBOURS
 #undef R_
 #endif  // CENSUS_RADIUS
 
