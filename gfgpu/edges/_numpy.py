@@ -6,6 +6,6 @@ from __future__ import annotations
 from .spec import suppress_nonmaxima_reference
 
 
-def launch_suppress_nonmaxima(be, gy, gx, out):
+def launch_nms(be, gy, gx, out):
     out[...] = suppress_nonmaxima_reference(gy, gx)
     return out

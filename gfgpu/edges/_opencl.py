@@ -10,7 +10,7 @@ from ..backends.opencl import launch as ocl
 from .spec import TIE_RTOL
 
 
-def launch_suppress_nonmaxima(be, gy, gx, out):
+def launch_nms(be, gy, gx, out):
     """Launcher of ``edges.nms`` (spec: gfgpu.edges.spec.suppress_nonmaxima_reference)."""
     for arg, a in (("gy", gy), ("gx", gx), ("out", out)):
         if not be.owns(a):

@@ -68,7 +68,7 @@ for _real in (wp.float32, wp.float64):
                                      "out": wp.array2d(dtype=_real)})
 
 
-def launch_suppress_nonmaxima(be, gy, gx, out):
+def launch_nms(be, gy, gx, out):
     """Launcher of the fused kernel ``edges.nms`` (spec: gfgpu.edges.spec.suppress_nonmaxima_reference)."""
     if not (gy.shape == gx.shape == out.shape) or len(out.shape) != 2:
         raise ValueError(f"gy, gx and out must be 2-D arrays of one shape, got {gy.shape}, "

@@ -2,7 +2,7 @@
 
 ``nms(be, gy, gx, out)``: interpolated non-maximum suppression of the gradient ``(gy, gx)``
 (2-D device arrays), specification :func:`gfgpu.edges.spec.suppress_nonmaxima_reference`;
-launchers ``launch_suppress_nonmaxima`` in this package's ``_numpy.py``, ``_warp.py`` and
+launchers ``launch_nms`` in this package's ``_numpy.py``, ``_warp.py`` and
 ``_opencl.py`` (with ``edges.cl``), imported on first use.
 """
 
@@ -14,5 +14,5 @@ from .spec import suppress_nonmaxima_reference
 __all__ = ["nms"]
 
 nms = register("edges.nms", suppress_nonmaxima_reference,
-               **{backend: f"{__package__}._{backend}:launch_suppress_nonmaxima"
+               **{backend: f"{__package__}._{backend}:launch_nms"
                   for backend in ("numpy", "warp", "opencl")})

@@ -355,3 +355,17 @@ def test_entry_points_agree_on_every_backend(backend, case):
         _close(lazy.compute(scheduler="synchronous"), ref, tol)
         frames = synthesize_motion(img, velocity, 2, backend=backend.name, **kw)
         _close(frames[1], ref, tol)
+
+
+def test_a_kind_without_command_line_options_leaves_the_commands_working(monkeypatch, capsys):
+    """A kind the table gains before the command line maps it is not offered there, and every
+    command still starts (the test above, that every kind has options, is what asks for them)."""
+    from gfgpu.cli import motion_args
+    monkeypatch.setattr(motion_args, "KINDS", (*KINDS, "shake"))
+    assert main(["devices"]) == 0
+    capsys.readouterr()
+    args = build_parser().parse_args(["blur", "x.png", "-o", "y.png", "--dx", "1"])
+    assert motion_args.motion_kind_of(args) == "uniform"
+    with pytest.raises(motion_args.CommandError, match="give one motion") as err:
+        motion_args.motion_kind_of(build_parser().parse_args(["blur", "x.png", "-o", "y.png"]))
+    assert "shake" not in str(err.value)
