@@ -88,6 +88,10 @@ _DOCS = {
             and scale ratio ``eta`` of the two-scale D (eq. 25-26; defaults 1.1 and 3.5), or
             the one-scale D_u (eq. 19) with ``single_scale=True``.
         """,
+    "projection_scale": """
+        projection_scale : float, optional
+            As in :func:`gfgpu.derivative`.
+        """,
     "backend_device": """
         backend : str or Backend, optional
             ``'numpy'``, ``'warp'`` or ``'opencl'`` (default: the resolution rule of
@@ -422,8 +426,7 @@ def derivative(x, u, *, axis=None, axes=None, channel_axis=None, mode="reflect",
         As in :func:`gfgpu.derivative`: the scale of D(x) (pixels, > 0) and the axis it
         differentiates along.
     %(differentiator)s
-    projection_scale : float, optional
-        As in :func:`gfgpu.derivative`.
+    %(projection_scale)s
     %(channel_axis)s
     %(mode_cval)s
     %(backend_device)s
@@ -482,8 +485,7 @@ def gradient(x, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=
     u, axes
         As in :func:`gfgpu.gradient`.
     %(differentiator)s
-    projection_scale : float, optional
-        As in :func:`gfgpu.derivative`.
+    %(projection_scale)s
     %(channel_axis)s
     %(mode_cval)s
     %(backend_device)s
