@@ -23,6 +23,13 @@ def test_version_and_python_dash_m():
     assert gfgpu.__version__.count(".") == 2
 
 
+@pytest.mark.parametrize("argv", [["--version"], ["--help"], ["blur", "--help"], ["devices"]])
+def test_the_command_runs_without_docstrings(argv):
+    """``python -OO`` drops every docstring: the command line must not read one."""
+    res = subprocess.run([sys.executable, "-OO", "-m", "gfgpu", *argv], capture_output=True, text=True)
+    assert res.returncode == 0 and "Traceback" not in res.stderr, res.stderr[-2000:]
+
+
 @pytest.mark.parametrize("backend", ["numpy", "opencl", "warp"])
 def test_every_command_says_which_backend_ran(tmp_path, capsys, require_backend, backend):
     be = require_backend(backend)

@@ -40,6 +40,9 @@ __all__ = ["main", "build_parser"]
 
 COMMANDS = (disparity, gradient, shift, blur, frames, depth, batch, devices)
 
+#: the command's one-line description (not read from the docstring, which ``python -OO`` drops)
+DESCRIPTION = "The gfgpu command: Green's-function filters on image files."
+
 
 class _Parser(argparse.ArgumentParser):
     """Usage errors as one line, ``gfgpu COMMAND: message`` (exit status 2), like every other error."""
@@ -49,7 +52,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser():
-    parser = _Parser(prog="gfgpu", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="gfgpu", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"gfgpu {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
