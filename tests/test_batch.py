@@ -185,10 +185,10 @@ def test_resume_skips_and_overwrite_recomputes(images, tmp_path, capsys):
 @pytest.mark.parametrize("fmt", ["npy", "png"])
 def test_interrupted_write_leaves_no_partial_output(images, tmp_path, monkeypatch, capsys, fmt):
     """A writer that dies half-way through the second file: no partial output, no temp file."""
-    import imageio.v3
+    import gfgpu.io
 
     calls = []
-    real = np.save if fmt == "npy" else imageio.v3.imwrite
+    real = np.save if fmt == "npy" else gfgpu.io._write_bytes
 
     def dying_writer(target, *args, **kwargs):
         calls.append(target)
@@ -204,7 +204,7 @@ def test_interrupted_write_leaves_no_partial_output(images, tmp_path, monkeypatc
     if fmt == "npy":
         monkeypatch.setattr(np, "save", dying_writer)
     else:
-        monkeypatch.setattr(imageio.v3, "imwrite", dying_writer)
+        monkeypatch.setattr(gfgpu.io, "_write_bytes", dying_writer)
     out = tmp_path / "out"
     before = tree_digest(images)
     assert run_cli("shift", images, "-o", out, "--dx", 1, "--format", fmt, "--backend", "numpy") == 1

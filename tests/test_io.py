@@ -3,13 +3,16 @@ one image per file, regular files only), what is written (format from the extens
 depth, alpha), the output checks made before any work, atomic writes and their leftovers."""
 
 import errno
+import importlib.util
 import os
 import signal
+import struct
 import subprocess
 import sys
 import textwrap
 import threading
 import time
+import zlib
 
 import imageio.v3 as iio
 import numpy as np
@@ -59,9 +62,49 @@ def test_sixteen_bit_colour_png(tmp_path, rng, monkeypatch):
         io.write_image(tmp_path / "again.png", rgb16)
 
 
+def png_bytes(samples, colour_type, bit_depth, trns=None, plte=None):
+    """A PNG written here byte by byte (no encoder in between): ``samples`` (H, W[, C]) at
+    ``bit_depth``, optional ``tRNS`` and ``PLTE`` chunk contents, no filtering, not interlaced."""
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+    a = np.asarray(samples)
+    h, w = a.shape[:2]
+    flat = a.reshape(h, -1)
+    if bit_depth == 16:
+        rows = flat.astype(">u2").view(np.uint8).reshape(h, -1)
+    elif bit_depth == 8:
+        rows = flat.astype(np.uint8)
+    else:
+        bits = np.unpackbits(flat.astype(np.uint8)[..., None], axis=-1)[..., 8 - bit_depth:]
+        rows = np.packbits(bits.reshape(h, -1), axis=-1)
+    raw = b"".join(b"\0" + r.tobytes() for r in rows)
+    out = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, bit_depth, colour_type, 0, 0, 0))
+    if plte is not None:
+        out += chunk(b"PLTE", bytes(np.asarray(plte, np.uint8).ravel()))
+    if trns is not None:
+        out += chunk(b"tRNS", trns)
+    return out + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+
+
+#: EXIF/TIFF orientation -> where the stored image's rows and columns go (TIFF 6.0, tag 274), written
+#: out per value: 1 as stored, 2 mirrored left-right, 3 turned 180 degrees, 4 mirrored top-bottom,
+#: 5 transposed (row r -> column r), 6 turned 90 degrees clockwise, 7 transverse (row r -> column
+#: W-1-r, column c -> row H-1-c), 8 turned 90 degrees counter-clockwise
+def upright_of(a, tag):
+    h, w = a.shape
+    out = np.empty((h, w) if tag <= 4 else (w, h), a.dtype)
+    for r in range(h):
+        for c in range(w):
+            rr, cc = {1: (r, c), 2: (r, w - 1 - c), 3: (h - 1 - r, w - 1 - c), 4: (h - 1 - r, c),
+                      5: (c, r), 6: (c, h - 1 - r), 7: (w - 1 - c, h - 1 - r), 8: (w - 1 - c, r)}[tag]
+            out[rr, cc] = a[r, c]
+    return out
+
+
 def test_exif_and_tiff_orientation_are_applied(tmp_path):
     a = np.arange(48, dtype=np.uint8).reshape(6, 8)
-    upright = {1: a, 3: a[::-1, ::-1], 6: np.rot90(a, -1), 8: np.rot90(a, 1)}
+    upright = {tag: upright_of(a, tag) for tag in range(1, 9)}
+    assert np.array_equal(upright[7], a[::-1, ::-1].T) and not np.array_equal(upright[7], upright[5])
     for tag, expect in upright.items():
         im = Image.fromarray(a)
         exif = im.getexif()
@@ -70,6 +113,54 @@ def test_exif_and_tiff_orientation_are_applied(tmp_path):
         np.testing.assert_array_equal(io.read_image(tmp_path / f"o{tag}.png"), expect)
         tifffile.imwrite(tmp_path / f"o{tag}.tif", a, extratags=[(274, "H", 1, tag, True)])
         np.testing.assert_array_equal(io.read_image(tmp_path / f"o{tag}.tif"), expect)
+
+
+def test_png_transparency_chunk_becomes_alpha(tmp_path):
+    """tRNS (a palette's transparent entries, one transparent grey or RGB colour) is read as an alpha
+    channel at the image's depth, not dropped."""
+    palette = [(0, 0, 0), (255, 0, 0), (0, 255, 0)]
+    index = np.array([[0, 1, 2], [2, 1, 0]], np.uint8)
+    cases = {
+        "palette": (png_bytes(index, 3, 8, plte=palette, trns=bytes([0, 128])),      # entry 2: opaque
+                    np.concatenate([np.array(palette, np.uint8)[index], np.array([0, 128, 255], np.uint8)[index,
+                                    None]], axis=-1)),
+        "grey8": (png_bytes(np.array([[7, 9], [9, 7]]), 0, 8, trns=struct.pack(">H", 7)),
+                  np.array([[[7, 0], [9, 255]], [[9, 255], [7, 0]]], np.uint8)),
+        "grey16": (png_bytes(np.array([[1000, 9]]), 0, 16, trns=struct.pack(">H", 1000)),
+                   np.array([[[1000, 0], [9, 65535]]], np.uint16)),
+        "grey2": (png_bytes(np.array([[0, 1, 2, 3]]), 0, 2, trns=struct.pack(">H", 1)),   # samples x 85
+                  np.array([[[0, 255], [85, 0], [170, 255], [255, 255]]], np.uint8)),
+        "grey1": (png_bytes(np.array([[0, 1, 1]]), 0, 1, trns=struct.pack(">H", 1)),
+                  np.array([[[0, 255], [255, 0], [255, 0]]], np.uint8)),
+        "rgb8": (png_bytes(np.array([[[1, 2, 3], [1, 2, 4]]]), 2, 8, trns=struct.pack(">HHH", 1, 2, 3)),
+                 np.array([[[1, 2, 3, 0], [1, 2, 4, 255]]], np.uint8)),
+    }
+    if importlib.util.find_spec("cv2") is not None:
+        cases["rgb16"] = (png_bytes(np.array([[[1000, 2, 3], [1000, 2, 4]]]), 2, 16,
+                                    trns=struct.pack(">HHH", 1000, 2, 3)),
+                          np.array([[[1000, 2, 3, 0], [1000, 2, 4, 65535]]], np.uint16))
+    for name, (data, expect) in cases.items():
+        (tmp_path / f"{name}.png").write_bytes(data)
+        got = io.read_image(tmp_path / f"{name}.png")
+        assert got.dtype == expect.dtype, name
+        np.testing.assert_array_equal(got, expect, err_msg=name)
+
+
+def test_truncated_16_bit_colour_png_is_one_line_from_gfgpu(tmp_path, rng):
+    """OpenCV decodes 16-bit colour PNGs: a damaged one must not reach libpng (which prints its own
+    line on stderr) and must not say "Could not read index"."""
+    pytest.importorskip("cv2")
+    data = png_bytes((rng.random((40, 40, 3)) * 65535).astype(np.uint16), 2, 16)
+    cut = data[: len(data) // 2]
+    damaged = data[:100] + bytes([data[100] ^ 0xFF]) + data[101:]
+    for name, content, why in (("cut.png", cut, "truncated PNG: the file ends inside its IDAT chunk"),
+                               ("crc.png", damaged, "corrupt PNG: the checksum of its IDAT chunk is wrong")):
+        (tmp_path / name).write_bytes(content)
+        code = f"from gfgpu import io\ntry:\n    io.read_image({str(tmp_path / name)!r})\n" \
+               f"except ValueError as e:\n    print(e)\n"
+        res = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+        assert res.stdout.strip() == f"cannot read image {str(tmp_path / name)!r}: {why}", res
+        assert res.stderr == "", res.stderr
 
 
 def test_cmyk_jpeg_is_read_as_rgb(tmp_path):
@@ -166,10 +257,15 @@ def test_alpha_is_kept_where_the_format_has_it(tmp_path, rng):
     for name in ("a.png", "a.tif"):
         io.write_image(tmp_path / name, rgba)
         np.testing.assert_array_equal(io.read_image(tmp_path / name), rgba)
-    io.write_image(tmp_path / "a.bmp", rgba)                      # BMP and JPEG: no alpha
-    np.testing.assert_array_equal(io.read_image(tmp_path / "a.bmp"), rgba[..., :3])
-    io.write_image(tmp_path / "la.jpg", rgba[..., [0, 3]])
-    assert io.read_image(tmp_path / "la.jpg").shape == (8, 9)
+    for name, image in (("a.bmp", rgba), ("la.jpg", rgba[..., [0, 3]]), ("a.jpeg", rgba)):   # no alpha there:
+        with pytest.raises(ValueError, match=r"holds no alpha channel; write a \.png or \.tif to keep it"):
+            io.write_image(tmp_path / name, image)                 # refused, never dropped
+        with pytest.raises(ValueError, match=r"-o .*: (JPEG|BMP) holds 8-bit samples without alpha and the "
+                                             r"input has an alpha channel; write a \.png or \.tif"):
+            io.check_keeps(image, tmp_path / name, "-o")
+        with pytest.raises(ValueError, match="alpha"):
+            io.save_image(tmp_path / name, image.astype(np.float32), image)
+    assert sorted(os.listdir(tmp_path)) == ["a.png", "a.tif"]
 
 
 def test_to_output_writes_what_was_read_at_its_depth():
@@ -180,7 +276,10 @@ def test_to_output_writes_what_was_read_at_its_depth():
     out = io.to_output(res, u16, "o.png")
     assert out.dtype == np.uint16 and out.tolist() == [[0, 0], [101, 65535]]
     assert io.to_output(res, u16, "o.tiff").dtype == np.uint16
-    assert io.to_output(res * 257, u16, "o.jpg").tolist() == [[0, 0], [101, 255]]     # v / 257
+    for name in ("o.jpg", "o.bmp"):                                                 # 16 bits: refused
+        with pytest.raises(ValueError, match=r"16-bit samples; write a \.png or \.tif to keep it"):
+            io.to_output(res * 257, u16, name)
+    assert io.to_display_8bit(res * 257, u16).tolist() == [[0, 0], [101, 255]]       # v / 257 (GIF, display)
     assert io.to_output(res, f32, "o.tif").dtype == np.float32
     assert io.to_output(res, f64, "o.tif").dtype == np.float64
     np.testing.assert_array_equal(io.to_output(res, f32, "o.tif"), res.astype(np.float32))
@@ -188,6 +287,26 @@ def test_to_output_writes_what_was_read_at_its_depth():
     grad = np.array([[0.0, 0.5], [1.0, 2.0]])
     np.testing.assert_array_equal(io.to_output(grad, grad, "o.png"), io.to_display_8bit(grad, grad))
     assert io.to_output(grad, grad, "o.png").tolist() == [[0, 64], [128, 255]]
+
+
+def test_float_into_8_bit_formats_follows_a_stated_rule(tmp_path):
+    """Float input in [0, 1] is v * 255 (0.031..0.973 stays 8..248, not stretched to 0..255); any other
+    range is stretched, and conversion_note says which, with the numbers."""
+    unit = np.array([[0.031, 0.5], [0.973, 0.25]], np.float32)
+    for name in ("o.png", "o.jpg", "o.bmp"):
+        assert io.to_output(unit, unit, name).tolist() == [[8, 128], [248, 64]]
+        note = io.conversion_note(unit, name)
+        assert "float32 input in [0, 1] (here 0.031..0.973)" in note and "round(v * 255)" in note
+        assert "write a .tif to keep the float32 values" in note
+    wide = np.array([[-2.0, 0.0], [2.0, 1.0]])
+    assert io.to_output(wide, wide, "o.png").tolist() == [[0, 128], [255, 191]]
+    assert "stretched from its range -2..2 to 0..255" in io.conversion_note(wide, "o.png")
+    i16 = np.array([[-100, 100]], np.int16)
+    assert "int16 input written as 8-bit PNG stretched" in io.conversion_note(i16, "o.png")
+    for img, name in ((unit, "o.tif"), (unit.astype(np.uint8), "o.jpg"), (unit.astype(np.uint16), "o.png")):
+        assert io.conversion_note(img, name) is None             # written as they are
+    nan = np.array([[np.nan, 0.5]])
+    assert io.to_display_8bit(nan, nan).tolist() == [[0, 128]]
 
 
 def test_a_flat_16_bit_image_is_not_black(tmp_path):
@@ -249,9 +368,9 @@ def test_a_full_disk_names_the_output_not_the_temporary(tmp_path, monkeypatch):
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(iio, "imwrite", full)
+    monkeypatch.setattr(io, "_write_bytes", full)        # the one write of every encoded PNG, JPEG, BMP
     monkeypatch.setattr(tifffile, "imwrite", full)
-    for name in ("a.png", "a.tif"):
+    for name in ("a.png", "a.jpg", "a.bmp", "a.tif"):
         with pytest.raises(io.OutputError) as info:
             io.write_image(tmp_path / name, np.zeros((4, 4), np.uint8))
         assert str(info.value) == f"cannot write {tmp_path / name}: No space left on device"

@@ -17,6 +17,8 @@ The options name their axis (``--dx`` columns, ``--dy`` rows, ``--center-x`` col
 from __future__ import annotations
 
 import argparse
+import contextlib
+import logging
 import os
 import sys
 import time
@@ -25,7 +27,11 @@ from ..batch import BLUR_MOTIONS, FORMATS, Result, check_parameters, discover_in
 from ..io import remove_stale_temporaries
 from ..motion.kinds import MOTIONS, PSFS
 from .common import CommandError, announce_backend, backend_args
+from .motion_args import CLI_TERMS as _MOTION_TERMS
 from .motion_args import MOTION_OPTIONS, check_motion, psf_help
+
+#: the library's argument names in its messages -> the options of ``gfgpu batch``
+CLI_TERMS = _MOTION_TERMS
 
 _EPILOG = """\
 Outputs are OUTDIR/<input stem>.<format>, written atomically (temporary file + rename), so an
@@ -131,6 +137,28 @@ def _params(args):
     return params
 
 
+@contextlib.contextmanager
+def _quiet_dask(on):
+    """Dask's own log lines (workers started and killed, connections closed at shutdown) are not
+    the command's output: only errors, here and (through the environment, read when they start)
+    in the worker processes.  A file's failure is reported in the summary either way."""
+    if not on:
+        yield
+        return
+    key = "DASK_LOGGING__DISTRIBUTED"
+    before, level = os.environ.get(key), logging.getLogger("distributed").level
+    os.environ[key] = "critical"
+    logging.getLogger("distributed").setLevel(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.getLogger("distributed").setLevel(level)
+        if before is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = before
+
+
 def run(args):
     """Handler of ``gfgpu batch``: plan (errors before any work), run, summarise; 1 if a file failed."""
     if args.workers is not None and args.workers < 1:
@@ -152,7 +180,9 @@ def run(args):
     if in_outdir:
         print(f"left out {in_outdir} file(s) inside the output folder {args.output_dir} (this batch's outputs)")
     t0 = time.perf_counter()
-    results = run_batch(jobs, workers=args.workers, scheduler=args.scheduler, description=f"gfgpu batch {args.op}")
+    with _quiet_dask(args.workers is not None or args.scheduler is not None):
+        results = run_batch(jobs, workers=args.workers, scheduler=args.scheduler,
+                            description=f"gfgpu batch {args.op}")
     results += [Result(path, "", "skipped", reason) for path, reason in left_out
                 if reason != "inside the output folder"]
     text, code = summarize(results, time.perf_counter() - t0)

@@ -21,8 +21,10 @@ from tqdm import tqdm
 
 from .. import io
 from ..motion import motion_blur
-from .common import IMAGE_OUTPUT, announce_backend, check_outputs, join_alpha
-from .motion_args import check_motion, motion_args, motion_input
+from .common import IMAGE_OUTPUT, announce_backend, check_image_output, check_outputs, join_alpha, note, size_text
+from .motion_args import CLI_TERMS, check_motion, motion_args, motion_input
+
+__all__ = ["CLI_TERMS", "add_parser", "run"]
 
 
 def add_parser(subparsers):
@@ -39,6 +41,7 @@ def run(args):
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT)])
     be = announce_backend(args)
     image, img, alpha, label, kw = motion_input(args)
+    conversion = check_image_output("-o", args.output, image)
     velocity = kw.pop("velocity")
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu blur", unit="image", disable=None, leave=False) as bar:
@@ -46,7 +49,8 @@ def run(args):
         bar.update(1)
     elapsed = time.perf_counter() - t0
     io.save_image(args.output, join_alpha(out, image, alpha), image)
-    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({kw['kind']}, psf {kw['psf']}, "
+    note(args, conversion)
+    print(f"{label}: {size_text(img.shape)} -> {args.output} ({kw['kind']}, psf {kw['psf']}, "
           f"{elapsed * 1e3:.0f} ms "
           f"including device start-up)")
     return 0

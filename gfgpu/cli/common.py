@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 
 import numpy as np
 
@@ -26,6 +27,15 @@ MODE_HELP = "how the image continues beyond its border (scipy.ndimage's modes; d
 
 class CommandError(Exception):
     """A usage problem of one command; printed as ``gfgpu COMMAND: message``."""
+
+
+def in_cli_terms(message, terms):
+    """A library message in the command line's terms: each ``(api, cli)`` of ``terms`` replaced,
+    in order (a command's ``CLI_TERMS``, e.g. ``("max_disparity", "--max-disparity")``), so that
+    errors name the option and its unit, not the function argument."""
+    for api, cli in terms:
+        message = message.replace(api, cli)
+    return message
 
 
 def finite_float(text):
@@ -71,13 +81,60 @@ def image_args(p, examples=io.EXAMPLES):
     p.add_argument("--example", choices=examples, help="use a bundled example image instead")
 
 
+#: the positional input arguments a command may have, in the order they are named in messages
+INPUT_ARGUMENTS = ("image", "left", "right")
+
+
+def check_source(args):
+    """An input file and ``--example`` together are an error (the file would be ignored).
+
+    :func:`gfgpu.cli.main` calls it for every command before anything runs; CommandError names both."""
+    example = getattr(args, "example", None)
+    files = [getattr(args, name) for name in INPUT_ARGUMENTS if getattr(args, name, None)]
+    if example and files:
+        raise CommandError(f"give input file(s) or --example {example}, not both (got {' '.join(files)} and "
+                           f"--example {example})")
+
+
 def read_input(args):
-    """``(array, label)`` of the command's IMAGE or ``--example``."""
+    """``(array, label)`` of the command's IMAGE or ``--example`` (never both: :func:`check_source`)."""
+    check_source(args)
     if getattr(args, "example", None):
         return io.example_image(args.example), f"{args.example} (bundled)"
     if args.image is None:
         raise CommandError(f"give an IMAGE path or --example {io.EXAMPLES[0]}")
     return io.read_image(args.image), args.image
+
+
+def size_text(shape):
+    """An image's size as every message gives it, the library's order: ``"480 x 640 (rows x cols)"``."""
+    return f"{shape[0]} x {shape[1]} (rows x cols)"
+
+
+def check_image_output(option, path, image):
+    """Before any work: refuse an output format that would lose the input's depth or alpha
+    (:func:`gfgpu.io.check_keeps`, a CommandError naming ``option``); returns the one-line note of
+    any stated conversion (:func:`gfgpu.io.conversion_note`), or None."""
+    if not path:
+        return None
+    try:
+        io.check_keeps(image, path, option)
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    return io.conversion_note(image, path)
+
+
+def note(args, text):
+    """Print a conversion note (``gfgpu COMMAND: note: ...``) on stderr (also with ``--quiet``, which
+    silences the backend line only: what was done to the values is never silent)."""
+    if text:
+        print(f"gfgpu {args.command}: note: {text}", file=sys.stderr)
+
+
+def working_dtype(image):
+    """The float type a command filters ``image`` in: float64 stays float64 (never cast down: a
+    float64 TIFF beyond float32's range must not overflow), everything else float32."""
+    return np.float64 if np.asarray(image).dtype == np.float64 else np.float32
 
 
 #: extensions an image output (``-o``) may have; its format follows the extension
@@ -148,15 +205,15 @@ def announce_backend(args):
 
 
 def split_alpha_work(image):
-    """``(work, has_alpha)``: the float32 array a colour filter runs on.  With alpha, colour x
+    """``(work, has_alpha)``: the float array a colour filter runs on (:func:`working_dtype`).  With alpha, colour x
     alpha and alpha (premultiplied, :func:`gfgpu.io.premultiply`), all filtered alike, so edges
     get no dark fringes; :func:`join_alpha` undoes it."""
     img = np.asarray(image)
     if io.has_alpha(img):
-        return io.premultiply(img), True
+        return io.premultiply(img, working_dtype(img)), True
     if img.ndim == 3 and img.shape[-1] == 1:
         img = img[..., 0]
-    return img.astype(np.float32), False
+    return img.astype(working_dtype(img)), False
 
 
 def join_alpha(result, image, has_alpha):

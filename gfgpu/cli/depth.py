@@ -25,6 +25,15 @@ from .common import (
     check_outputs,
     finite_float,
     positive_float,
+    size_text,
+    working_dtype,
+)
+
+#: the library's argument names in its messages -> this command's options and units
+CLI_TERMS = (
+    ("Pass direction= (radians)", "Pass --direction DEGREES"),
+    ("or use photometric_motion", "or use --method photometric-motion"),
+    ("direction= (radians)", "--direction (degrees)"),
 )
 
 
@@ -76,7 +85,7 @@ def run(args):
     img = np.asarray(image)
     if img.ndim == 3:
         img = img[..., :3].mean(axis=-1) if img.shape[-1] >= 3 else img[..., 0]
-    img = img.astype(np.float32)
+    img = img.astype(working_dtype(image))
     if image.dtype == np.uint8:
         img /= 255.0
     elif image.dtype == np.uint16:
@@ -99,6 +108,6 @@ def run(args):
             io.save_npy(args.npy, depth)
         bar.update(1)
     written = ", ".join(p for p in (args.output, args.relief, args.npy) if p)
-    print(f"{args.image}: {img.shape[1]}x{img.shape[0]} -> {written} ({args.method}, "
+    print(f"{args.image}: {size_text(img.shape)} -> {written} ({args.method}, "
           f"{(time.perf_counter() - t0) * 1e3:.0f} ms)")
     return 0

@@ -6,23 +6,39 @@ Example::
     gfgpu frames photo.png -o spin/ --rotate 30 --psf box -n 8    # any kind of motion, either PSF
 
 The PNG frames are written at the input's depth (16-bit input gives 16-bit PNGs, float input
-the 8-bit display conversion) and keep an alpha channel (filtered premultiplied); the GIF is
-8-bit without alpha.  The output folder is created if its parent exists.
+the 8-bit conversion of :func:`gfgpu.io.to_display_8bit`, stated in a note) and keep an alpha
+channel (filtered premultiplied); the GIF is 8-bit without alpha.  The output folder is created
+if its parent exists.  The folder is the command's own: frames of an earlier run that this run
+does not write (``frame_<digits>.png``, e.g. of a longer run) are removed once the new frames are
+written, and the command says how many; nothing else in the folder is touched.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import time
 
-import imageio.v3 as iio
 import numpy as np
 from tqdm import tqdm
 
 from .. import io
 from ..motion import synthesize_motion
-from .common import CommandError, announce_backend, check_outputs, join_alpha, positive_float, positive_int, same_file
-from .motion_args import check_motion, motion_args, motion_input
+from .common import (
+    CommandError,
+    announce_backend,
+    check_image_output,
+    check_outputs,
+    join_alpha,
+    note,
+    positive_float,
+    positive_int,
+    same_file,
+    size_text,
+)
+from .motion_args import CLI_TERMS, check_motion, motion_args, motion_input
+
+__all__ = ["CLI_TERMS", "add_parser", "run"]
 
 
 def add_parser(subparsers):
@@ -59,6 +75,7 @@ def run(args):
                                f"folder")
     be = announce_backend(args)
     image, img, alpha, label, kw = motion_input(args)
+    conversion = check_image_output("-o", paths[0], image)
     velocity = kw.pop("velocity")
     t0 = time.perf_counter()
     with tqdm(total=args.frames, desc="gfgpu frames", unit="frame", disable=None, leave=False) as bar:
@@ -67,12 +84,33 @@ def run(args):
     os.makedirs(folder, exist_ok=True)
     for path, frame in zip(paths, frames):
         io.save_image(path, frame, image)
+    note(args, conversion)
     colour = image[..., :-1] if alpha else image      # GIF: no alpha channel
     gifs = np.stack([io.to_display_8bit(f[..., :-1] if alpha else f, colour) for f in frames])
     if gifs.ndim == 4 and gifs.shape[-1] == 1:
         gifs = gifs[..., 0]
-    io.write_atomic(gif, lambda tmp: iio.imwrite(tmp, gifs, extension=".gif",
-                                                  duration=1000.0 / args.fps, loop=0))
-    print(f"{label}: {args.frames} frames {img.shape[1]}x{img.shape[0]} -> {folder}/frame_*.png and {gif} "
+    io.save_gif(gif, gifs, args.fps)
+    stale = _remove_stale_frames(folder, paths)
+    if stale:
+        print(f"removed {len(stale)} frame(s) of an earlier run from {folder} ({', '.join(stale[:3])}"
+              f"{', ...' if len(stale) > 3 else ''})")
+    print(f"{label}: {args.frames} frames {size_text(img.shape)} -> {folder}/frame_*.png and {gif} "
           f"({time.perf_counter() - t0:.1f} s)")
     return 0
+
+
+#: the names of the frames this command writes (any number of digits: earlier runs may have had more)
+_FRAME_NAME = re.compile(r"^frame_\d+\.png$")
+
+
+def _remove_stale_frames(folder, written):
+    """Remove the frames of earlier runs (``frame_<digits>.png`` regular files this run did not
+    write); their names, sorted.  Nothing else is touched."""
+    keep = {os.path.basename(p) for p in written}
+    removed = []
+    for name in sorted(os.listdir(folder)):
+        path = os.path.join(folder, name)
+        if _FRAME_NAME.match(name) and name not in keep and os.path.isfile(path) and not os.path.islink(path):
+            os.unlink(path)
+            removed.append(name)
+    return removed

@@ -26,6 +26,8 @@ from .common import (
     image_args,
     positive_float,
     read_input,
+    size_text,
+    working_dtype,
 )
 
 
@@ -34,7 +36,8 @@ def add_parser(subparsers):
     image_args(p)
     p.add_argument("-o", "--output", required=True, help="output image, 8-bit colour (hue = orientation, value = "
                    "magnitude); .png, .tif, .jpg or .bmp")
-    p.add_argument("--npy", help="also save the raw float32 (gy, gx) as .npy")
+    p.add_argument("--npy", help="also save the raw (gy, gx) as .npy, shape (2, rows, cols) (float32; "
+                   "float64 for float64 input)")
     p.add_argument("--mode", default="reflect", choices=MODES, help=MODE_HELP)
     p.add_argument("-u", type=positive_float, default=1.0, help="scale u of D (pixels, > 0), default 1.0")
     backend_args(p)
@@ -45,7 +48,7 @@ def run(args):
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
     be = announce_backend(args)
     image, label = read_input(args)
-    img = drop_alpha(image).astype(np.float32)
+    img = drop_alpha(image).astype(working_dtype(image))
     if img.ndim == 3:
         img = img.mean(axis=-1)   # luminance-like average: one gradient per pixel
     t0 = time.perf_counter()
@@ -56,6 +59,6 @@ def run(args):
     io.write_image(args.output, io.gradient_to_rgb(gy, gx))
     if args.npy:
         io.save_npy(args.npy, np.stack([gy, gx]))
-    print(f"{label}: {img.shape[1]}x{img.shape[0]} -> {args.output} ({elapsed * 1e3:.0f} ms including "
+    print(f"{label}: {size_text(img.shape)} -> {args.output} ({elapsed * 1e3:.0f} ms including "
           f"device start-up)")
     return 0

@@ -25,6 +25,15 @@ MOTION_OPTIONS = {
 }
 
 
+#: the library's argument names in its messages -> the options of the command line (in this order)
+CLI_TERMS = (
+    ("velocity (zoom u1)", "--zoom"),
+    ("velocity (rotation angle in degrees)", "--rotate (degrees)"),
+    ("velocity (rotation angle)", "--rotate"),
+    ("center (row, col)", "the centre (--center-y, --center-x)"),
+)
+
+
 def _offered():
     """The kinds of the table that have options here, in table order."""
     return [kind for kind in KINDS if kind in MOTION_OPTIONS]
@@ -79,6 +88,10 @@ def check_motion(args):
     if (args.center_x, args.center_y) != (None, None) and not MOTIONS[kind].uses_center:
         centred = " and ".join(_options_of(k)[0] for k in _offered() if MOTIONS[k].uses_center)
         raise CommandError(f"--center-x/--center-y apply to {centred} only")
+    if kind == "zoom" and getattr(args, "keep_position", False) and args.psf == "green":
+        # gfgpu.motion_blur ignores displace=False for the Green zoom (its kernel is one-sided)
+        raise CommandError("--keep-position does not apply to --zoom with --psf green (the Green zoom always "
+                           "displaces the content); use --psf box for an in-place zoom blur")
     return kind
 
 

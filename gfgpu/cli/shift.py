@@ -24,11 +24,14 @@ from .common import (
     CommandError,
     announce_backend,
     backend_args,
+    check_image_output,
     check_outputs,
     finite_float,
     image_args,
     join_alpha,
+    note,
     read_input,
+    size_text,
     split_alpha_work,
 )
 
@@ -38,7 +41,7 @@ def add_parser(subparsers):
     image_args(p)
     p.add_argument("-o", "--output", required=True,
                    help="output image (.png, .tif, .jpg, .bmp: the format of the extension), at the input's depth")
-    p.add_argument("--npy", help="also save the raw float32 result as .npy")
+    p.add_argument("--npy", help="also save the raw result as .npy (float32; float64 for float64 input)")
     p.add_argument("--mode", default="reflect", choices=MODES, help=MODE_HELP)
     p.add_argument("--dx", type=finite_float, default=None, help="displacement toward the right (columns), pixels")
     p.add_argument("--dy", type=finite_float, default=None, help="displacement downward (rows), pixels")
@@ -55,6 +58,7 @@ def run(args):
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
     be = announce_backend(args)
     image, label = read_input(args)
+    conversion = check_image_output("-o", args.output, image)
     work, alpha = split_alpha_work(image)
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu shift", unit="image", disable=None, leave=False) as bar:
@@ -65,8 +69,9 @@ def run(args):
     raw = join_alpha(raw, image, alpha)
     elapsed = time.perf_counter() - t0
     io.save_image(args.output, raw, image)
+    note(args, conversion)
     if args.npy:
         io.save_npy(args.npy, raw)
-    print(f"{label}: {work.shape[1]}x{work.shape[0]} -> {args.output} ({elapsed * 1e3:.0f} ms including "
+    print(f"{label}: {size_text(work.shape)} -> {args.output} ({elapsed * 1e3:.0f} ms including "
           f"device start-up)")
     return 0
