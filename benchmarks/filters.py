@@ -116,6 +116,70 @@ def bench_backend(be, img, repeat, record):
             repeat), "translation: gathers + fractional passes")
 
 
+def acceptance(be, img, repeat, copy_seconds):
+    """Markdown rows of the engine's targets: public calls, numpy in and numpy out, as ratios to
+    ``numpy.copyto`` of the same array measured in the same run (above 1: faster than a copy)."""
+    g = greens.UniformGreen(U)
+    out = np.empty_like(img)
+    n = img.shape[0]
+    dev = be.asarray(img)
+    tmp = be.empty(img.shape, np.float32)
+    src3, dst3 = be.reshape(dev, (1, n, n)), be.reshape(tmp, (1, n, n))
+    plan = recursion.plan_pass(g.line_pass(), n, "reflect", np.float32)
+    long = np.random.default_rng(1).random((4, n * n // 4), dtype=np.float32)
+    long_copy = best_time(lambda: np.copyto(np.empty_like(long), long), repeat)
+    cases = [
+        ("green_filter(img, UniformGreen(3), axis=1)", lambda: gfgpu.green_filter(img, g, axis=1, backend=be), 0.6),
+        ("  into output=", lambda: gfgpu.green_filter(img, g, axis=1, output=out, backend=be), 0.6),
+        ("green_filter(img, UniformGreen(3), axis=0)", lambda: gfgpu.green_filter(img, g, axis=0, backend=be), 0.6),
+        ("  into output=", lambda: gfgpu.green_filter(img, g, axis=0, output=out, backend=be), 0.6),
+        ("shift(img, (0, 2.5))", lambda: gfgpu.shift(img, (0, 2.5), output=out, backend=be), 0.5),
+        ("shift(img, (2.5, 0))", lambda: gfgpu.shift(img, (2.5, 0), output=out, backend=be), 0.5),
+        ("shift(img, (0, 3)) (integer: a gather)", lambda: gfgpu.shift(img, (0, 3), output=out, backend=be), None),
+        ("derivative(img, 1, axis=1) (P on columns, D on rows)",
+         lambda: gfgpu.derivative(img, 1.0, axis=1, output=out, backend=be), 0.5),
+        ("gradient(img, 1) (two outputs)", lambda: gfgpu.gradient(img, 1.0, backend=be), 0.25),
+        ("one row pass, device arrays (primitive)", lambda: be.recurse(src3, dst3, 2, plan), 0.9),
+        ("one column pass, device arrays (primitive)", lambda: be.recurse(src3, dst3, 1, plan), 0.9),
+    ]
+    lines = [f"| call ({be.name}, {n}²) | ms | × copy | target |", "|---|---:|---:|---:|"]
+    for name, fn, target in cases:
+        t = best_time(fn, repeat, be.synchronize)
+        lines.append(f"| {name} | {t * 1e3:.1f} | {copy_seconds / t:.2f} | {f'≥ {target:.2f}' if target else '—'} |")
+    t = best_time(lambda: gfgpu.green_filter(long, g, axis=1, backend=be), repeat)
+    lines.append(f"| green_filter of a (4, {n * n // 4}) array, axis=1 (long lines) | {t * 1e3:.1f} | "
+                 f"{long_copy / t:.2f} | ≥ 0.50 |")
+    return lines
+
+
+def first_calls(be, repeat):
+    """Markdown rows: the first call at a new shape, in a process that has run the operator at
+    another shape, beside the steady time at the new shape (target ≤ 1.5×)."""
+    rng = np.random.default_rng(2)
+    a = rng.random((1000, 1200), dtype=np.float32)
+    b = rng.random((1100, 1300), dtype=np.float32)
+    g = greens.UniformGreen(U)
+    ops = [
+        ("shift (2.5, -1.5)", lambda x: gfgpu.shift(x, (2.5, -1.5), backend=be)),
+        ("green_filter axis=1", lambda x: gfgpu.green_filter(x, g, axis=1, backend=be)),
+        ("green_filter angle=0.3", lambda x: gfgpu.green_filter(x, g, angle=0.3, backend=be)),
+        ("derivative u=1", lambda x: gfgpu.derivative(x, 1.0, backend=be)),
+        ("canny u=1", lambda x: gfgpu.canny(x, 1.0, backend=be)),
+    ]
+    lines = ["| operator (first call at 1100×1300 after 1000×1200) | first (ms) | steady (ms) | ratio |",
+             "|---|---:|---:|---:|"]
+    for name, fn in ops:
+        fn(a)
+        be.synchronize()
+        t0 = time.perf_counter()
+        fn(b)
+        be.synchronize()
+        first = time.perf_counter() - t0
+        steady = best_time(lambda fn=fn: fn(b), repeat, be.synchronize)
+        lines.append(f"| {name} | {first * 1e3:.1f} | {steady * 1e3:.1f} | {first / steady:.2f} |")
+    return lines
+
+
 SHIFT = (3.25, -7.5)
 ACCURACY_SHIFTS = ((0, 10), (0, -7), (3.25, -7.5), (0, 12.5), (-20.75, 0.4), (0.5, 0.5))
 
@@ -157,6 +221,7 @@ def main(argv=None):
     ap.add_argument("--backends", default="numpy,warp,opencl")
     ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile measurement")
     ap.add_argument("--no-accuracy", action="store_true", help="skip the shift accuracy table")
+    ap.add_argument("--no-first", action="store_true", help="skip the first-call-at-a-new-shape table")
     args = ap.parse_args(argv)
 
     n = args.size
@@ -217,6 +282,15 @@ def main(argv=None):
             cold[spec] = cold_compile(name, device or None)
 
     copy = rows["numpy.copyto (memory bound)"][0]
+    copy_seconds = mpix / copy
+    for be in used:
+        if be.name == "numpy":
+            continue
+        print(f"\n### Targets of the engine: {be.name} ({be.device}), numpy in / numpy out unless noted\n")
+        print("\n".join(acceptance(be, img, args.repeat, copy_seconds)))
+        if not args.no_first:
+            print()
+            print("\n".join(first_calls(be, max(2, args.repeat // 2))))
     lfilter_rows = rows["scipy.signal.lfilter, rows"][0]
     print(f"\n{n}x{n} float32, u = {U}, best of {args.repeat}; machine: {os.cpu_count()} cores\n")
     print("| operation | Mpix/s | × copyto | × lfilter (rows) | note |")

@@ -152,3 +152,26 @@ def pytest_report_header(config):
 @pytest.fixture
 def rng():
     return np.random.default_rng(12345)
+
+
+def gpu_shaped_backend(name):
+    """A new backend of ``name`` on its CPU device whose launches take the GPU shapes (``kind``
+    "gpu": one line per work-item, block-parallel lines, GPU group sizes, device-side finite
+    checks and copies), so the branches a GPU takes run, forced, on the CPU devices."""
+    be = use_backend_or_skip(name)
+    if be.kind != "cpu":
+        return be     # a real GPU: its own shapes are the GPU shapes
+    if name == "opencl":
+        from gfgpu.backends.opencl.backend import OpenCLBackend
+        forced = OpenCLBackend(be.queue)
+    else:
+        from gfgpu.backends.warp.backend import WarpBackend
+        forced = WarpBackend(be.wp_device.alias)
+    forced.kind = "gpu"
+    return forced
+
+
+@pytest.fixture(params=["warp", "opencl"])
+def gpu_shaped(request):
+    """Each device backend forced into its GPU launch shapes (:func:`gpu_shaped_backend`)."""
+    return gpu_shaped_backend(request.param)

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import strips
-from .program import is_translation, run_passes, run_translation_checked
+from .program import is_checkable, is_translation, run_passes, run_passes_checked, run_translation_checked
 from .validation import host_all_finite, work_dtype
 
 NONFINITE = "input contains NaN or infinite values"
@@ -194,16 +194,24 @@ def apply_program(job, program, mode, cval):
     bufs[(len(steps) - 1) % 2] = job.result_buffer()
     done = 0
     passes, axis, angle = steps[0]
-    # the finite check fused into a first translation, unless that pass writes the caller's own
-    # output array (which a non-finite input must leave untouched): the first pass writes bufs[0],
-    # the result buffer whenever the number of steps is odd
+    # the finite check fused into the first pass (a translation, or a recursion along an axis),
+    # unless that pass writes the caller's own output array (which a non-finite input must leave
+    # untouched): the first pass writes bufs[0], the result buffer whenever the number of steps is odd
     first_writes_result = (len(steps) - 1) % 2 == 0
-    if job.check_pending and is_translation(passes, angle) and not (first_writes_result and job.output is not None):
-        if not run_translation_checked(job.backend, job.unchecked_data(), bufs[0], passes, mode, cval, axis,
-                                       job.shape):
-            raise ValueError(NONFINITE)
-        job.check_pending = False
-        done = 1
+    if job.check_pending and not (first_writes_result and job.output is not None):
+        if is_translation(passes, angle):
+            finite = run_translation_checked(job.backend, job.unchecked_data(), bufs[0], passes, mode, cval, axis,
+                                             job.shape)
+        elif is_checkable(passes, angle):
+            finite = run_passes_checked(job.backend, job.unchecked_data(), bufs[0], job.dtype, passes, mode, cval,
+                                        axis, job.shape)
+        else:
+            finite = None
+        if finite is not None:
+            if not finite:
+                raise ValueError(NONFINITE)
+            job.check_pending = False
+            done = 1
     cur = bufs[0] if done else job.data
     for i, (passes, axis, angle) in enumerate(steps[done:], start=done):
         nxt = bufs[i % 2]

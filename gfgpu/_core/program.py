@@ -28,8 +28,8 @@ from .translation import (
 )
 from .validation import finite_scalar
 
-__all__ = ["Program", "run_passes", "run_translation_checked", "run_steps", "direction_steps", "plane_axes",
-           "axes_list", "per_axis", "is_axis_angle", "is_translation", "line_index"]
+__all__ = ["Program", "run_passes", "run_translation_checked", "is_checkable", "run_passes_checked", "run_steps",
+           "direction_steps", "plane_axes", "axes_list", "per_axis", "is_axis_angle", "is_translation", "line_index"]
 
 
 class Program(NamedTuple):
@@ -80,6 +80,15 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
         be.translate(s3, d3, line_axis, line_index(n, offset, mode), cval)
         return dst
     pad = decay_length(passes, dtype)
+    if be.recurses_windows:
+        # one pass: the recursion reads the translated, extended line through the window index
+        # and writes only the samples on the line (whole 16-sample tiles: pad rounded up)
+        pad = -(-pad // _TILE) * _TILE
+        index = line_window(n, offset, pad, mode)
+        for i, lp in enumerate(passes):
+            plan = plan_pass(without_offset(lp), n + 2 * pad, "nearest", dtype)
+            be.recurse(s3, d3, line_axis, plan, cval, accumulate=i > 0, window=(index, pad))
+        return dst
     view, line_axis, padded = padded_view(shape, axis, pad)
     window = be.empty(padded, dtype)
     result = be.empty(padded, dtype)
@@ -94,6 +103,18 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
     return dst
 
 
+_TILE = 16     # samples of a CPU tile: windowed passes pad to whole tiles
+
+
+@lru_cache(maxsize=32)
+def line_window(n, offset, pad, mode):
+    """The window index of a translated pass (:func:`~gfgpu._core.translation.window_index`),
+    int32 and read-only: backends cache its upload by identity."""
+    index = np.ascontiguousarray(window_index(n, offset, pad, mode), np.int32 if n < 2**31 else np.int64)
+    index.setflags(write=False)
+    return index
+
+
 @lru_cache(maxsize=32)
 def line_index(n, offset, mode):
     """The source index of each sample of a line of ``n`` translated by ``offset`` (-1: cval),
@@ -106,6 +127,28 @@ def line_index(n, offset, mode):
 def is_translation(passes, angle):
     """True when a step is a pure integer translation along an axis (one :meth:`translate`)."""
     return angle is None and len(passes) == 1 and passes[0].is_identity and passes[0].offset != 0
+
+
+def is_checkable(passes, angle):
+    """True when a step's first pass reads every input sample in one recursion along an axis
+    (no translation), so the finite check can ride along (:func:`run_passes_checked`)."""
+    return (angle is None and bool(passes) and step_offset(passes) == 0
+            and not any(lp.is_identity for lp in passes))
+
+
+def run_passes_checked(be, src, dst, dtype, passes, mode, cval, axis, shape):
+    """Run a step for which :func:`is_checkable` holds and test, in its first pass's read of
+    ``src``, that ``src`` is finite; returns that bool (``dst`` is written either way, the
+    later passes are skipped when the input is not finite)."""
+    view, line_axis = axis_view_shape(tuple(shape), axis)
+    n = view[line_axis]
+    s3, d3 = be.reshape(src, view), be.reshape(dst, view)
+    for i, lp in enumerate(passes):
+        finite = be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0,
+                            check=i == 0)
+        if i == 0 and not finite:
+            return False
+    return True
 
 
 def run_translation_checked(be, src, dst, passes, mode, cval, axis, shape):

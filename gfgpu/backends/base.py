@@ -52,6 +52,16 @@ class Backend:
     #: whether float64 arrays can be processed
     supports_float64 = True
 
+    #: whether :meth:`recurse` takes ``window=(index, first)``: an integer translation fused into
+    #: the pass (the line is read through ``index``, output sample ``x`` is window position
+    #: ``first + x``); backends without it get the translation as gathers around the pass
+    recurses_windows = False
+
+    #: the launch shapes the backend uses: "cpu" (few work-items, vector lanes, bands of columns)
+    #: or "gpu" (one line per work-item, block-parallel lines); a test may set "gpu" on a CPU
+    #: device so that the branches a GPU takes run there
+    kind = "cpu"
+
     #: whether :meth:`copy` writes into non-contiguous views of device arrays
     writes_views = True
 
@@ -128,14 +138,20 @@ class Backend:
         return None
 
     # ---- the primitive --------------------------------------------------------------
-    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False, check=False):
         """Run one pass of :func:`gfgpu._core.recursion.run_reference` on every line.
 
         ``src`` and ``dst`` are C-contiguous device arrays of shape ``(B, N, M)`` and the
         same dtype; ``axis`` is 1 (lines along N: ``B*M`` lines, lanes contiguous) or 2 (lines
         along M: ``B*N`` contiguous lines).  ``plan`` is a :class:`gfgpu._core.recursion.PassPlan`
         with ``plan.n`` equal to the line length.  ``dst`` may be ``src`` unless
-        ``accumulate`` is true.
+        ``accumulate`` is true.  Returns ``dst``; with ``check=True`` the pass also tests, in the
+        same read of ``src``, that every element of ``src`` is finite and returns that bool
+        (``dst`` is written either way).
+
+        Lines too few to fill the device may be cut into blocks whose states are carried
+        exactly (:func:`gfgpu._core.recursion.run_reference_blocks` is the specification):
+        the result equals :func:`~gfgpu._core.recursion.run_reference` within float rounding.
         """
         raise NotImplementedError
 

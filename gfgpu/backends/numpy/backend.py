@@ -167,9 +167,13 @@ class NumpyBackend(Backend):
                 dst[i] = res.T
         return dst
 
-    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False, check=False):
         if axis not in (1, 2):
             raise ValueError(f"axis must be 1 or 2, got {axis}")
+        if check:
+            finite = self.all_finite(src)
+            self.recurse(src, dst, axis, plan, cval, accumulate)
+            return finite
         b, n, m = src.shape
         if axis == 2:
             # rows: one row per line, streamed block by block (no transposed copies)

@@ -19,9 +19,11 @@ import shutil
 import tempfile
 import warnings
 from collections import OrderedDict
+from typing import NamedTuple
 
 import numpy as np
 
+from ..._core.recursion import block_powers
 from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 from . import launch
@@ -29,6 +31,11 @@ from . import launch
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
+_BAND = 64                 # most vectors (cache lines) of adjacent columns per CPU work-item
+_STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU)
+_MIN_BLOCK = 1024          # shortest block of a block-parallel line on a CPU (steps)
+_MIN_GPU_BLOCK = 64        # ... and on a GPU
+_GPU_ITEMS_PER_UNIT = 1024  # work-items per compute unit a GPU pass should have in flight
 
 _queue_backends = {}       # command queue -> OpenCLBackend (arrays found on that queue)
 
@@ -215,6 +222,78 @@ def _interior(index):
     return int(same[starts[longest]]), int(same[ends[longest] - 1]) + 1, shift
 
 
+class RecurseShape(NamedTuple):
+    """The launch of one :meth:`OpenCLBackend.recurse` pass (:meth:`OpenCLBackend.recurse_shape`)."""
+
+    lanes: int       # lines per vector (a work-item's SIMD width; 1 on a GPU)
+    vectors: int     # vectors of adjacent columns per work-item (columns on a CPU; else 1)
+    block: int       # steps per block of a line (n: whole lines)
+    blocks: int      # blocks per line (1: whole lines, no carries)
+    gsize: tuple     # global size of the pass kernel
+    lsize: tuple     # local size
+
+
+def recurse_launch(shape, axis, itemsize, units, kind, group, length=None):
+    """The launch of one recursion pass over a ``(B, N, M)`` array along ``axis`` (1 or 2).
+
+    Parameters
+    ----------
+    shape : tuple of int
+        ``(B, N, M)``.
+    axis : int
+        1: lines along N (columns), 2: lines along M (rows).
+    itemsize : int
+        Bytes per sample (4 or 8).
+    units : int
+        The device's compute units (cores of a CPU, multiprocessors of a GPU).
+    kind : str
+        "cpu" or "gpu" (the backend's ``kind``).
+    group : int
+        Work-items per work-group.
+    length : int, optional
+        Steps per line when they differ from the line's samples (a windowed pass): such lines
+        are never cut into blocks.
+
+    Returns
+    -------
+    RecurseShape
+        A CPU work-item runs ``LANES = 64 / itemsize`` lines in vector lanes (one cache line per
+        step), columns in bands of up to ``_BAND`` vectors (every core still gets two
+        work-items); a GPU work-item runs one line.  Lines too few for the device (fewer
+        work-items than cores on a CPU, than ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a
+        GPU) are cut into blocks of at least ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried
+        exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).
+    """
+    b, n, m = (int(x) for x in shape)
+    cpu = kind == "cpu"
+    lanes = _CACHE_LINE // itemsize if cpu else 1
+    if axis == 1:   # columns: B*M lines, LANES x nv adjacent ones per work-item
+        vecs = -(-m // lanes)
+        nv = max(1, min(_BAND, (b * vecs) // (2 * units))) if cpu else 1
+        items, outer = -(-vecs // nv), b
+    else:           # rows: B*N lines, LANES per work-item
+        nv, items, outer = 1, -(-(b * n) // lanes), 1
+    windowed = length is not None
+    length = (n if axis == 1 else m) if length is None else int(length)
+    want = units if cpu else units * _GPU_ITEMS_PER_UNIT
+    have = items * outer
+    shortest = _MIN_BLOCK if cpu else _MIN_GPU_BLOCK
+    nblocks = 1
+    if have < want and length >= 2 * shortest and not windowed:
+        nblocks = min(-(-want // have), length // shortest)
+    block = length
+    if nblocks > 1:
+        per_block = -(-length // nblocks)
+        block = -(-per_block // lanes) * lanes      # whole tiles of LANES steps
+        nblocks = -(-length // block)
+    group = min(group, items)    # fewer lines than a group: no idle work-items
+    if axis == 1:
+        gsize, lsize = (-(-items // group) * group, b, nblocks), (group, 1, 1)
+    else:
+        gsize, lsize = (-(-items // group) * group, nblocks), (group, 1)
+    return RecurseShape(lanes, nv, block, nblocks, gsize, lsize)
+
+
 class OpenCLBackend(Backend):
     """Run the recursion primitive with OpenCL kernels on ``pyopencl.array.Array`` data.
 
@@ -283,6 +362,7 @@ class OpenCLBackend(Backend):
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
         self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
         self._in_flight = []           # host arrays wrapped for the device, kept until the queue drains
+        self._spare = None             # placeholder buffer (_dummy)
 
     def _find_device(self, device):
         devs = opencl_devices()
@@ -531,7 +611,32 @@ class OpenCLBackend(Backend):
         return self._plans[key][1]
 
     # ---- the primitive --------------------------------------------------------------
-    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+    def recurse_shape(self, shape, axis, dtype, length=None):
+        """How :meth:`recurse` runs lines of a ``(B, N, M)`` array along ``axis``
+        (:func:`recurse_launch` for this device)."""
+        return recurse_launch(shape, axis, np.dtype(dtype).itemsize, int(self._device.max_compute_units),
+                              self.kind, launch.group_size(self), length)
+
+    #: :meth:`recurse` takes ``window=``: an integer translation fused into the pass
+    recurses_windows = True
+
+    def _block_powers(self, plan, dtype, block, nblocks):
+        """(S, nblocks, 2) products of each block's lam (float64, then the real type), cached."""
+        key = (id(plan), dtype, "pow", block)
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plan:
+            self._plans.move_to_end(key)
+            return hit[1]
+        powers = block_powers(plan, block)
+        packed = np.ascontiguousarray(np.stack([powers.real, powers.imag], axis=-1).astype(dtype))
+        mf = self._cl.mem_flags
+        buf = self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=packed)
+        self._plans[key] = (plan, buf)
+        if len(self._plans) > _PLAN_CACHE_SIZE:
+            self._plans.popitem(last=False)
+        return buf
+
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False, check=False, window=None):
         if axis not in (1, 2):
             raise ValueError(f"axis must be 1 or 2, got {axis}")
         for arg, a in (("src", src), ("dst", dst)):
@@ -546,33 +651,75 @@ class OpenCLBackend(Backend):
         if dtype not in launch.REALS:
             raise TypeError(f"src must be float32 or float64, got {dtype}")
         self._check_dtype(dtype)
-        if plan.n != src.shape[axis]:
-            raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {src.shape[axis]}")
         same = src.base_data == dst.base_data and src.offset == dst.offset
+        if window is not None:
+            index, first = window
+            if plan.n != len(index):
+                raise ValueError(f"plan is for lines of {plan.n} samples, the window has {len(index)}")
+            if self.may_share_memory(src, dst):
+                raise ValueError("dst may not overlap src in a windowed pass")
+        elif plan.n != src.shape[axis]:
+            raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {src.shape[axis]}")
         if accumulate and same:
             raise ValueError("dst may not be src when accumulating")
         b, n, m = src.shape
         if src.size == 0:
-            return dst
-        lanes = self._lanes(dtype)
-        group = launch.group_size(self)
-        knl = self._kernel("recurse", dtype, SECTIONS=plan.sections, CONSTANT_COEF=int(plan.constant),
-                           LANES=lanes, ROWS=int(axis == 2))
-        lam, kap, omega, omega_c = self._plan_buffers(plan, dtype)
-        if axis == 2:
-            items = -(-(b * n) // lanes)
-            gsize, lsize = (-(-items // group) * group,), (group,)
+            return True if check else dst
+        shape = self.recurse_shape(src.shape, axis, dtype, None if window is None else plan.n)
+        if window is None:
+            win_buf, first = self._dummy(), 0
         else:
-            items = -(-m // lanes)
-            gsize, lsize = (-(-items // group) * group, b), (group, 1)
+            win_dev, _ = self._index_array(index, src.shape[axis])
+            win_buf, first = win_dev.data, int(first)
+        cpu = self.kind == "cpu"
+        config = dict(SECTIONS=plan.sections, CONSTANT_COEF=int(plan.constant), LANES=shape.lanes,
+                      ROWS=int(axis == 2), BAND=_BAND if cpu and axis == 1 else 1, STREAM=int(cpu),
+                      WINDOW=int(window is not None))
+        lam, kap, omega, omega_c = self._plan_buffers(plan, dtype)
         real = dtype.type
         item = dtype.itemsize
-        args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+        mf = self._cl.mem_flags
+        flag = np.zeros(1, np.int32)
+        flag_buf = (self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+                    if check else self._dummy())
+        # non-temporal stores only for arrays well beyond the caches: a small result is read
+        # again by the next pass, from the cache
+        stream = int(cpu and src.nbytes >= _STREAM_BYTES)
+        head = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
                 lam, kap, omega, omega_c, np.int32(plan.omega.shape[1]), np.int32(plan.n),
                 real(cval), real(plan.tap), np.int32(plan.reverse), np.int32(bool(accumulate)),
-                np.int32(b), np.int32(n), np.int32(m))
-        launch.launch(self, knl, gsize, lsize, [src], [dst], args)
-        return dst
+                np.int32(b), np.int32(n), np.int32(m), np.int32(shape.vectors), np.int32(stream), flag_buf,
+                np.int32(shape.block), np.int32(shape.blocks))
+        if shape.blocks == 1:
+            knl = self._kernel("recurse", dtype, PHASE=0, CHECK=int(bool(check)), **config)
+            evt = launch.launch(self, knl, shape.gsize, shape.lsize, [src], [dst],
+                                head + (self._dummy(), self._dummy(), win_buf, np.int32(first)))
+        else:
+            outer, count = (b, m) if axis == 1 else (1, b * n)
+            size = outer * shape.blocks * plan.sections * 2 * count
+            carry = self.empty((size,), dtype)
+            partial = self.empty((size,), dtype)
+            tail = (carry.base_data, partial.base_data, win_buf, np.int32(first))
+            knl = self._kernel("recurse", dtype, PHASE=1, CHECK=int(bool(check)), **config)
+            launch.launch(self, knl, shape.gsize, shape.lsize, [src], [carry, partial], head + tail)
+            compose = self._kernel("compose", dtype, SECTIONS=plan.sections, LANES=1)
+            group = launch.group_size(self) if not cpu else 64
+            launch.launch(self, compose, (-(-count // group) * group, outer), (group, 1), [partial], [carry],
+                          (carry.base_data, partial.base_data, omega_c,
+                           self._block_powers(plan, dtype, shape.block, shape.blocks), real(cval),
+                           np.int32(shape.blocks), np.int64(count), np.int32(outer)))
+            knl = self._kernel("recurse", dtype, PHASE=2, **config)
+            evt = launch.launch(self, knl, shape.gsize, shape.lsize, [src, carry], [dst], head + tail)
+        if not check:
+            return dst
+        self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
+        return int(flag[0]) == 0
+
+    def _dummy(self):
+        """A small buffer for kernel arguments a variant does not use."""
+        if self._spare is None:
+            self._spare = self._cl.Buffer(self.context, self._cl.mem_flags.READ_WRITE, 64)
+        return self._spare
 
     def translate(self, src, dst, axis, index, cval=0.0, check=False):
         for arg, a in (("src", src), ("dst", dst)):

@@ -16,6 +16,14 @@
  *   LANES          lines per work-item, one vector lane each (1, 2, 4, 8 or 16)
  *   ROWS           0: lines along axis 1 ("columns": B*M lines of N samples, stride M)
  *                  1: lines along axis 2 ("rows": B*N contiguous lines of M samples)
+ *   BAND           columns: most vectors of adjacent columns per work-item (CPU 64, GPU 1)
+ *   STREAM         1: non-temporal stores may be used (CPU devices; chosen per call by `stream`)
+ *   PHASE          0: whole lines; 1 and 2: the two passes of block-parallel lines (below)
+ *   CHECK          1: OR `flag` with 1 if a sample read is NaN or infinite (the finite check)
+ *   WINDOW         1: the line is read through a window index (an integer translation with the
+ *                  boundary mode's extension, fused into the pass): the recursion runs over the
+ *                  n window positions, position w reads sample window[w] (cval if negative) and
+ *                  is output sample w - first, written when it lies on the line
  *
  * Columns: a work-item runs LANES adjacent columns; one step is one vector load/store of
  * LANES contiguous samples (a full cache line for LANES = 64 bytes / sizeof(REAL)).
@@ -140,8 +148,384 @@ static inline void load_coef(coef_t *c, __global const REAL *lam, __global const
     }
 }
 
-/* One step on LANES lines: returns y = sum_s Re F_s + tap v and advances the state
- * (named `advance`: `step` is an OpenCL builtin). */
+/* One section's step F <- lam F + kap v (F = fr + i fi); returns nothing, updates in place. */
+#define ADVANCE(fr, fi, c, s, v) do { \
+        const VT r_ = (c).lr[s] * (fr) - (c).li[s] * (fi) + (c).kr[s] * (v); \
+        (fi) = (c).lr[s] * (fi) + (c).li[s] * (fr) + (c).ki[s] * (v); \
+        (fr) = r_; } while (0)
+
+/* x - x is +0 for every finite x and NaN for NaN and infinities (IEEE arithmetic: the programs are
+ * built without fast-math); unlike isfinite() it vectorises on CPU devices */
+#define NONFINITE(x) (((x) - (x)) != (REAL)0)
+#if LANES == 1
+#define ANY_NONFINITE(v) NONFINITE(v)
+#else
+#define ANY_NONFINITE(v) any(((v) - (v)) != (VT)(0))
+#endif
+
+/* A store of one vector of LANES samples: non-temporal (past the caches, no read for ownership)
+ * where the host asked for it (CPU devices, arrays larger than the caches) and `p` is aligned to
+ * the vector, else a plain store.  Every output sample is written once, so nothing is lost by
+ * bypassing the caches on images that do not fit them. */
+#if STREAM && LANES > 1
+#define STORE_V(v, p, nt) do { if (nt) __builtin_nontemporal_store((v), (__global VT *)(p)); \
+                               else VSTORE((v), (p)); } while (0)
+#if defined(__x86_64__)
+#define STREAM_FENCE(nt) do { if (nt) __builtin_ia32_sfence(); } while (0)
+#else
+#define STREAM_FENCE(nt) do { } while (0)
+#endif
+#else
+#define STORE_V(v, p, nt) VSTORE((v), (p))
+#define STREAM_FENCE(nt) do { } while (0)
+#endif
+
+/* Block-parallel lines (PHASE 1 and 2; PHASE 0 runs whole lines).  A line of n steps is cut into
+ * blocks of `block` steps.  PHASE 1 runs each block from a zero state and writes its end state to
+ * `carry`, and its part of the initial state (the omega terms of its own samples) to `partial`;
+ * the kernel `compose` turns them into each block's true start state, in place in `carry`;
+ * PHASE 2 runs each block again from that state and writes the outputs.  The carries of a (B, nb)
+ * grid of blocks are stored [outer][block][section][re, im][inner]: inner = the line's position
+ * across lines (column m, or row r for rows), so LANES adjacent lines are one vector. */
+#ifndef PHASE
+#define PHASE 0
+#endif
+
+static inline size_t carry_index(const int outer, const int blk, const int nblocks, const int s,
+                                 const int part, const long inner, const long count)
+{
+    return ((((size_t)outer * nblocks + blk) * SECTIONS + s) * 2 + part) * count + inner;
+}
+
+/* LANES values of carry at p (valid of them real lanes; the rest repeat the last) */
+static inline VT load_lanes(__global const REAL *p, const int valid)
+{
+    if (valid == LANES)
+        return VLOAD(p);
+    REAL tmp[LANES];
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        tmp[l] = p[min(l, valid - 1)];
+    return VLOAD(tmp);
+}
+
+static inline void store_lanes(__global REAL *p, const VT v, const int valid)
+{
+    if (valid == LANES) {
+        VSTORE(v, p);
+        return;
+    }
+    REAL tmp[LANES];
+    VSTORE(v, tmp);
+    for (int l = 0; l < valid; ++l)
+        p[l] = tmp[l];
+}
+
+#if !ROWS
+/* ---- columns: a band of nv vectors of LANES adjacent lines, stride M ------------------------
+ * A CPU work-item runs a band of up to BAND vectors (BAND * LANES adjacent columns) down the image:
+ * each step reads and writes nv whole cache lines of one row, contiguous, which the prefetchers
+ * follow, with the band's state in private memory (the L1 cache).  A GPU work-item runs one
+ * column (LANES = BAND = 1): adjacent work-items touch adjacent addresses (coalesced). */
+#ifndef BAND
+#define BAND 1
+#endif
+
+/* The LANES samples at p; a partial vector (valid < LANES, the last columns of a row) loads
+ * lane l from column min(l, valid - 1) so the extra lanes stay finite and in bounds. */
+static inline VT load_cols(__global const REAL *p, const int valid)
+{
+    return load_lanes(p, valid);
+}
+
+static inline void store_cols(__global REAL *p, const VT y, const int valid, const int accumulate,
+                              const int nt)
+{
+    if (valid == LANES) {
+        if (accumulate)
+            VSTORE(VLOAD(p) + y, p);
+        else
+            STORE_V(y, p, nt);
+        return;
+    }
+    REAL tmp[LANES];
+    VSTORE(y, tmp);
+    for (int l = 0; l < valid; ++l)
+        p[l] = accumulate ? p[l] + tmp[l] : tmp[l];
+}
+
+/* Work-item (g, b, blk): columns m0 = g * nv * LANES .. of image b, steps of block blk (PHASE 1/2)
+ * or of the whole line (PHASE 0). */
+__kernel void recurse(__global const REAL *src, __global REAL *dst, const long src_off,
+                      const long dst_off, __global const REAL *lam, __global const REAL *kap,
+                      __global const REAL *omega, __global const REAL *omega_c, const int L,
+                      const int n, const REAL cval, const REAL tap, const int reverse,
+                      const int accumulate, const int B, const int N, const int M, const int nv,
+                      const int stream, __global int *flag, const int block, const int nblocks,
+                      __global REAL *carry, __global REAL *partial, __global const int *window,
+                      const int first)
+{
+    const int m0 = (int)get_global_id(0) * nv * LANES;
+    const int b = (int)get_global_id(1);
+    const int blk = (int)get_global_id(2);
+    if (m0 >= M || b >= B)
+        return;
+    const int k_lo = PHASE ? blk * block : 0;
+    const int k_hi = PHASE ? min(n, k_lo + block) : n;
+    if (k_lo >= k_hi)
+        return;
+    const int cols = min(nv * LANES, M - m0);
+    const int vecs = (cols + LANES - 1) / LANES;
+    const int last = cols - (vecs - 1) * LANES;      /* real lanes of the last vector */
+    const long stride = M;
+    __global const REAL *s0 = src + src_off + (long)b * N * M + m0;
+    __global REAL *d0 = dst + dst_off + (long)b * N * M + m0;
+    /* non-temporal stores need every vector aligned: the band's start, and rows of whole vectors */
+    const int nt = stream && !accumulate && PHASE != 1 && M % LANES == 0
+                   && ((ulong)d0 % sizeof(VT)) == 0;
+    VT fr[SECTIONS][BAND], fi[SECTIONS][BAND];
+    for (int v = 0; v < vecs; ++v) {
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            fr[s][v] = (VT)(0);
+            fi[s][v] = (VT)(0);
+        }
+    }
+    /* traversal position k is row (reverse ? n - 1 - k : k); WINDOW: window position w reads
+     * source row window[w] (cval where negative) and writes output row w - first (if in range) */
+#define POS_AT(k) (reverse ? n - 1 - (k) : (k))
+#define ROW_AT(k) ((long)POS_AT(k) * stride)
+#if PHASE == 0
+    for (int j = 0; j < L; ++j) {
+#if WINDOW
+        const int q = window[POS_AT(j)];
+        __global const REAL *p = s0 + (long)max(q, 0) * stride;
+#else
+        const int q = 0;
+        __global const REAL *p = s0 + ROW_AT(j);
+#endif
+        for (int v = 0; v < vecs; ++v) {
+            const VT x = q >= 0 ? load_cols(p + v * LANES, v == vecs - 1 ? last : LANES) : (VT)(cval);
+#pragma unroll
+            for (int s = 0; s < SECTIONS; ++s) {
+                const size_t o = 2 * ((size_t)s * L + j);
+                fr[s][v] += omega[o] * x;
+                fi[s][v] += omega[o + 1] * x;
+            }
+        }
+    }
+    for (int v = 0; v < vecs; ++v) {
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            fr[s][v] += omega_c[2 * s] * cval;
+            fi[s][v] += omega_c[2 * s + 1] * cval;
+        }
+    }
+#elif PHASE == 1
+    /* this block's part of the initial state: omega terms of its own samples (j < L) */
+    for (int j = k_lo; j < min(k_hi, L); ++j) {
+#if WINDOW
+        const int q = window[POS_AT(j)];
+        __global const REAL *p = s0 + (long)max(q, 0) * stride;
+#else
+        const int q = 0;
+        __global const REAL *p = s0 + ROW_AT(j);
+#endif
+        for (int v = 0; v < vecs; ++v) {
+            const VT x = q >= 0 ? load_cols(p + v * LANES, v == vecs - 1 ? last : LANES) : (VT)(cval);
+#pragma unroll
+            for (int s = 0; s < SECTIONS; ++s) {
+                const size_t o = 2 * ((size_t)s * L + j);
+                fr[s][v] += omega[o] * x;
+                fi[s][v] += omega[o + 1] * x;
+            }
+        }
+    }
+    for (int v = 0; v < vecs; ++v) {
+        const int valid = v == vecs - 1 ? last : LANES;
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            store_lanes(partial + carry_index(b, blk, nblocks, s, 0, m0 + v * LANES, M), fr[s][v], valid);
+            store_lanes(partial + carry_index(b, blk, nblocks, s, 1, m0 + v * LANES, M), fi[s][v], valid);
+            fr[s][v] = (VT)(0);
+            fi[s][v] = (VT)(0);
+        }
+    }
+#else
+    for (int v = 0; v < vecs; ++v) {
+        const int valid = v == vecs - 1 ? last : LANES;
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            fr[s][v] = load_lanes(carry + carry_index(b, blk, nblocks, s, 0, m0 + v * LANES, M), valid);
+            fi[s][v] = load_lanes(carry + carry_index(b, blk, nblocks, s, 1, m0 + v * LANES, M), valid);
+        }
+    }
+#endif
+    int bad = 0;
+    coef_t c;
+    load_coef(&c, lam, kap, n, k_lo);
+    for (int k = k_lo; k < k_hi; ++k) {
+#if !CONSTANT_COEF
+        load_coef(&c, lam, kap, n, k);
+#endif
+#if WINDOW
+        const int from = window[POS_AT(k)];
+        const int to = POS_AT(k) - first;
+        __global const REAL *p = s0 + (long)max(from, 0) * stride;
+        __global REAL *q = d0 + (long)to * stride;
+        const int keep = to >= 0 && to < N;
+#else
+        const int from = 0, keep = 1;
+        const long row = ROW_AT(k);
+        __global const REAL *p = s0 + row;
+        __global REAL *q = d0 + row;
+#endif
+        for (int v = 0; v < vecs; ++v) {
+            const int valid = v == vecs - 1 ? last : LANES;
+            /* read before dst (may alias) is written */
+            const VT x = from >= 0 ? load_cols(p + v * LANES, valid) : (VT)(cval);
+#if CHECK
+            bad |= ANY_NONFINITE(x);
+#endif
+            VT y = fr[0][v];
+#pragma unroll
+            for (int s = 1; s < SECTIONS; ++s)
+                y += fr[s][v];
+            y += tap * x;
+#pragma unroll
+            for (int s = 0; s < SECTIONS; ++s)
+                ADVANCE(fr[s][v], fi[s][v], c, s, x);
+#if PHASE != 1
+            if (keep)
+                store_cols(q + v * LANES, y, valid, accumulate, nt);
+#endif
+        }
+    }
+#undef ROW_AT
+#undef POS_AT
+#if PHASE == 1
+    for (int v = 0; v < vecs; ++v) {
+        const int valid = v == vecs - 1 ? last : LANES;
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            store_lanes(carry + carry_index(b, blk, nblocks, s, 0, m0 + v * LANES, M), fr[s][v], valid);
+            store_lanes(carry + carry_index(b, blk, nblocks, s, 1, m0 + v * LANES, M), fi[s][v], valid);
+        }
+    }
+#endif
+    STREAM_FENCE(nt);
+#if CHECK
+    if (bad)
+        atomic_or(flag, 1);
+#endif
+}
+
+#else
+/* ---- rows: LANES contiguous lines of n samples, transposed tile by tile --------------- */
+
+/* w[i] = samples of every lane at traversal position k0 + i, i < cnt.  A full chunk is a
+ * tile load + transpose; a partial one (cnt < LANES, the end of the line) is gathered.
+ * Lanes past the last row (valid < LANES) repeat the last row: loads stay in bounds.
+ * Rows are M samples apart.  WINDOW: traversal runs over n window positions whose samples are
+ * src[window[w]] (cval where window[w] < 0); a chunk whose 16 sources are consecutive (the
+ * interior) is one tile, the ends are gathered. */
+static inline void load_chunk(VT *w, __global const REAL *src, const int n, const int valid,
+                              const int k0, const int cnt, const int reverse, const int M,
+                              __global const int *window, const REAL cval)
+{
+    if (cnt == LANES) {
+        VT t[LANES];
+        const int p0 = reverse ? n - k0 - LANES : k0;   /* natural start of the tile */
+#if WINDOW
+        const int q0 = window[p0];
+        const int whole = q0 >= 0 && window[p0 + LANES - 1] == q0 + LANES - 1;
+#else
+        const int q0 = p0;
+        const int whole = 1;
+#endif
+        if (whole) {
+#pragma unroll
+            for (int l = 0; l < LANES; ++l)
+                t[l] = VLOAD(src + (long)min(l, valid - 1) * M + q0);
+            transpose(t);
+            /* t[j] is natural position p0 + j; traversal runs backwards when reversed */
+#pragma unroll
+            for (int i = 0; i < LANES; ++i)
+                w[i] = reverse ? t[LANES - 1 - i] : t[i];
+            return;
+        }
+    }
+    /* unrolled with guards, not `i < cnt`: constant indices keep w[] in registers */
+#pragma unroll
+    for (int i = 0; i < LANES; ++i) {
+        if (i < cnt) {
+            const int p = reverse ? n - 1 - (k0 + i) : k0 + i;
+#if WINDOW
+            const int q = window[p];
+            if (q < 0) {
+                w[i] = (VT)(cval);
+                continue;
+            }
+#else
+            const int q = p;
+#endif
+            REAL tmp[LANES];
+#pragma unroll
+            for (int l = 0; l < LANES; ++l)
+                tmp[l] = src[(long)min(l, valid - 1) * M + q];
+            w[i] = VLOAD(tmp);
+        }
+    }
+}
+
+/* Write y[i] (traversal position k0 + i, i < cnt) of the `valid` real lanes.  WINDOW: window
+ * position p is output sample p - first, written only for 0 <= p - first < M. */
+static inline void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
+                               const int k0, const int cnt, const int reverse,
+                               const int accumulate, const int nt, const int M, const int first)
+{
+    if (cnt == LANES) {
+        const int p0 = reverse ? n - k0 - LANES : k0;
+        const int x0 = p0 - first;
+        if (x0 >= 0 && x0 + LANES <= M) {
+            VT t[LANES];
+#pragma unroll
+            for (int i = 0; i < LANES; ++i)
+                t[i] = reverse ? y[LANES - 1 - i] : y[i];
+            transpose(t);   /* back to one vector per row */
+#pragma unroll
+            for (int l = 0; l < LANES; ++l) {
+                if (l < valid) {
+                    __global REAL *p = dst + (long)l * M + x0;
+                    if (accumulate)
+                        VSTORE(VLOAD(p) + t[l], p);
+                    else
+                        STORE_V(t[l], p, nt && x0 % LANES == 0);
+                }
+            }
+            return;
+        }
+    }
+#pragma unroll
+    for (int i = 0; i < LANES; ++i) {
+        if (i < cnt) {
+            const int x = (reverse ? n - 1 - (k0 + i) : k0 + i) - first;
+            if (x >= 0 && x < M) {
+                REAL tmp[LANES];
+                VSTORE(y[i], tmp);
+#pragma unroll
+                for (int l = 0; l < LANES; ++l) {
+                    if (l < valid) {
+                        __global REAL *q = dst + (long)l * M + x;
+                        *q = accumulate ? *q + tmp[l] : tmp[l];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/* One step of every section on LANES rows: returns y = sum_s Re F_s + tap v. */
 static inline VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
 {
     VT y = fr[0];
@@ -150,12 +534,8 @@ static inline VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_
         y += fr[s];
     y += tap * v;
 #pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        const VT r = c->lr[s] * fr[s] - c->li[s] * fi[s] + c->kr[s] * v;
-        const VT i = c->lr[s] * fi[s] + c->li[s] * fr[s] + c->ki[s] * v;
-        fr[s] = r;
-        fi[s] = i;
-    }
+    for (int s = 0; s < SECTIONS; ++s)
+        ADVANCE(fr[s], fi[s], *c, s, v);
     return y;
 }
 
@@ -171,251 +551,189 @@ static inline void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *
     }
 }
 
-/* F_s += omega_c[s] cval: the constant-mode part of the initial state, added after the sum */
-static inline void add_cval(VT *fr, VT *fi, __global const REAL *omega_c, const REAL cval)
+/* `reverse` is a literal at each call site, so the tile's traversal order is static.  Runs
+ * traversal steps k_lo .. k_hi - 1 (k_lo a multiple of LANES) from the state in fr/fi. */
+static inline int run_rows(__global const REAL *src, __global REAL *dst,
+                           __global const REAL *lam, __global const REAL *kap,
+                           const int n, const REAL tap, const int accumulate, const int valid,
+                           const int reverse, const int k_lo, const int k_hi, const int nt,
+                           VT *fr, VT *fi, const int M, __global const int *window,
+                           const int first, const REAL cval)
 {
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] += omega_c[2 * s] * cval;
-        fi[s] += omega_c[2 * s + 1] * cval;
-    }
-}
-
-static inline void init_state(VT *fr, VT *fi)
-{
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] = (VT)(0);
-        fi[s] = (VT)(0);
-    }
-}
-
-#if !ROWS
-/* ---- columns: LANES adjacent lines of stride M ---------------------------------------- */
-
-/* The LANES samples at p; a partial group (valid < LANES, the last columns of a row) loads
- * lane l from column min(l, valid - 1) so the extra lanes stay finite and in bounds. */
-static inline VT load_cols(__global const REAL *p, const int valid, const int full)
-{
-    if (full)
-        return VLOAD(p);
-    REAL tmp[LANES];
-#pragma unroll
-    for (int l = 0; l < LANES; ++l)
-        tmp[l] = p[min(l, valid - 1)];
-    return VLOAD(tmp);
-}
-
-static inline void store_cols(__global REAL *p, const VT y, const int valid, const int full,
-                              const int accumulate)
-{
-    if (full) {
-        VSTORE(accumulate ? VLOAD(p) + y : y, p);
-        return;
-    }
-    REAL tmp[LANES];
-    VSTORE(y, tmp);
-    for (int l = 0; l < valid; ++l)
-        p[l] = accumulate ? p[l] + tmp[l] : tmp[l];
-}
-
-/* `full` is a literal at each call site so the vector path has no per-step lane logic. */
-static inline void run_columns(__global const REAL *src, __global REAL *dst,
-                               __global const REAL *lam, __global const REAL *kap,
-                               __global const REAL *omega, __global const REAL *omega_c,
-                               const int L, const int n, const REAL cval, const REAL tap,
-                               const int reverse, const int accumulate, const long stride,
-                               const int valid, const int full)
-{
-    /* traversal position k lives at src + k * walk (reversed lines walk backwards) */
-    const long walk = reverse ? -stride : stride;
-    if (reverse) {
-        src += (long)(n - 1) * stride;
-        dst += (long)(n - 1) * stride;
-    }
-    VT fr[SECTIONS], fi[SECTIONS];
-    init_state(fr, fi);
-    for (int j = 0; j < L; ++j)
-        add_initial(fr, fi, load_cols(src + j * walk, valid, full), omega, L, j);
-    add_cval(fr, fi, omega_c, cval);
-
+    VT w[LANES];
+    int bad = 0;
     coef_t c;
-    load_coef(&c, lam, kap, n, 0);
-    for (int k = 0; k < n; ++k) {
-        const VT v = load_cols(src, valid, full);   /* read before dst (may alias) is written */
-#if !CONSTANT_COEF
-        load_coef(&c, lam, kap, n, k);
-#endif
-        store_cols(dst, advance(fr, fi, v, tap, &c), valid, full, accumulate);
-        src += walk;
-        dst += walk;
-    }
-}
-
-/* Global size (ceil(M / LANES), B): work-item (g, b) runs columns g*LANES.. of image b. */
-__kernel void recurse(__global const REAL *src, __global REAL *dst, const long src_off,
-                      const long dst_off, __global const REAL *lam, __global const REAL *kap,
-                      __global const REAL *omega, __global const REAL *omega_c, const int L,
-                      const int n, const REAL cval, const REAL tap, const int reverse,
-                      const int accumulate, const int B, const int N, const int M)
-{
-    const int m0 = (int)get_global_id(0) * LANES;
-    const int b = (int)get_global_id(1);
-    if (m0 >= M || b >= B)
-        return;
-    const long base = (long)b * N * M + m0;
-    const int valid = min(LANES, M - m0);
-    if (valid == LANES)
-        run_columns(src + src_off + base, dst + dst_off + base, lam, kap, omega, omega_c, L, n,
-                    cval, tap, reverse, accumulate, (long)M, LANES, 1);
-    else
-        run_columns(src + src_off + base, dst + dst_off + base, lam, kap, omega, omega_c, L, n,
-                    cval, tap, reverse, accumulate, (long)M, valid, 0);
-}
-
-#else
-/* ---- rows: LANES contiguous lines of n samples, transposed tile by tile --------------- */
-
-/* w[i] = samples of every lane at traversal position k0 + i, i < cnt.  A full chunk is a
- * tile load + transpose; a partial one (cnt < LANES, the end of the line) is gathered.
- * Lanes past the last row (valid < LANES) repeat the last row: loads stay in bounds. */
-static inline void load_chunk(VT *w, __global const REAL *src, const int n, const int valid,
-                              const int k0, const int cnt, const int reverse)
-{
-    if (cnt == LANES) {
-        VT t[LANES];
-        const int p0 = reverse ? n - k0 - LANES : k0;   /* natural start of the tile */
-#pragma unroll
-        for (int l = 0; l < LANES; ++l)
-            t[l] = VLOAD(src + (long)min(l, valid - 1) * n + p0);
-        transpose(t);
-        /* t[j] is natural position p0 + j; traversal runs backwards when reversed */
-#pragma unroll
-        for (int i = 0; i < LANES; ++i)
-            w[i] = reverse ? t[LANES - 1 - i] : t[i];
-        return;
-    }
-    /* unrolled with guards, not `i < cnt`: constant indices keep w[] in registers */
-#pragma unroll
-    for (int i = 0; i < LANES; ++i) {
-        if (i < cnt) {
-            const int p = reverse ? n - 1 - (k0 + i) : k0 + i;
-            REAL tmp[LANES];
-#pragma unroll
-            for (int l = 0; l < LANES; ++l)
-                tmp[l] = src[(long)min(l, valid - 1) * n + p];
-            w[i] = VLOAD(tmp);
-        }
-    }
-}
-
-/* Write y[i] (traversal position k0 + i, i < cnt) of the `valid` real lanes. */
-static inline void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
-                               const int k0, const int cnt, const int reverse,
-                               const int accumulate)
-{
-    if (cnt == LANES) {
-        VT t[LANES];
-        const int p0 = reverse ? n - k0 - LANES : k0;
-#pragma unroll
-        for (int i = 0; i < LANES; ++i)
-            t[i] = reverse ? y[LANES - 1 - i] : y[i];
-        transpose(t);   /* back to one vector per row */
-#pragma unroll
-        for (int l = 0; l < LANES; ++l) {
-            if (l < valid) {
-                __global REAL *p = dst + (long)l * n + p0;
-                VSTORE(accumulate ? VLOAD(p) + t[l] : t[l], p);
-            }
-        }
-        return;
-    }
-#pragma unroll
-    for (int i = 0; i < LANES; ++i) {
-        if (i < cnt) {
-            const int p = reverse ? n - 1 - (k0 + i) : k0 + i;
-            REAL tmp[LANES];
-            VSTORE(y[i], tmp);
-#pragma unroll
-            for (int l = 0; l < LANES; ++l) {
-                if (l < valid) {
-                    __global REAL *q = dst + (long)l * n + p;
-                    *q = accumulate ? *q + tmp[l] : tmp[l];
-                }
-            }
-        }
-    }
-}
-
-/* `reverse` is a literal at each call site, so the tile's traversal order is static. */
-static inline void run_rows(__global const REAL *src, __global REAL *dst,
-                            __global const REAL *lam, __global const REAL *kap,
-                            __global const REAL *omega, __global const REAL *omega_c,
-                            const int L, const int n, const REAL cval, const REAL tap,
-                            const int accumulate, const int valid, const int reverse)
-{
-    VT fr[SECTIONS], fi[SECTIONS], w[LANES];
-    init_state(fr, fi);
-    for (int k0 = 0; k0 < L; k0 += LANES) {
-        load_chunk(w, src, n, valid, k0, min(LANES, n - k0), reverse);
-#pragma unroll
-        for (int i = 0; i < LANES; ++i)
-            if (k0 + i < L)
-                add_initial(fr, fi, w[i], omega, L, k0 + i);
-    }
-    add_cval(fr, fi, omega_c, cval);
-
-    coef_t c;
-    load_coef(&c, lam, kap, n, 0);
-    int k0 = 0;
-    for (; k0 + LANES <= n; k0 += LANES) {
-        load_chunk(w, src, n, valid, k0, LANES, reverse);   /* whole tile read before written */
+    load_coef(&c, lam, kap, n, k_lo);
+    int k0 = k_lo;
+    for (; k0 + LANES <= k_hi; k0 += LANES) {
+        load_chunk(w, src, n, valid, k0, LANES, reverse, M, window, cval);   /* read before written */
 #pragma unroll
         for (int i = 0; i < LANES; ++i) {
+#if CHECK
+            bad |= ANY_NONFINITE(w[i]);
+#endif
 #if !CONSTANT_COEF
             load_coef(&c, lam, kap, n, k0 + i);
 #endif
             w[i] = advance(fr, fi, w[i], tap, &c);
         }
-        store_chunk(w, dst, n, valid, k0, LANES, reverse, accumulate);
+#if PHASE != 1
+        store_chunk(w, dst, n, valid, k0, LANES, reverse, accumulate, nt, M, first);
+#endif
     }
-    if (k0 < n) {   /* scalar tail: the last n % LANES steps */
-        const int cnt = n - k0;
-        load_chunk(w, src, n, valid, k0, cnt, reverse);
+    if (k0 < k_hi) {   /* scalar tail: the last steps of the line */
+        const int cnt = k_hi - k0;
+        load_chunk(w, src, n, valid, k0, cnt, reverse, M, window, cval);
 #pragma unroll
         for (int i = 0; i < LANES; ++i) {
             if (i < cnt) {
+#if CHECK
+                bad |= ANY_NONFINITE(w[i]);
+#endif
 #if !CONSTANT_COEF
                 load_coef(&c, lam, kap, n, k0 + i);
 #endif
                 w[i] = advance(fr, fi, w[i], tap, &c);
             }
         }
-        store_chunk(w, dst, n, valid, k0, cnt, reverse, accumulate);
+#if PHASE != 1
+        store_chunk(w, dst, n, valid, k0, cnt, reverse, accumulate, nt, M, first);
+#endif
+    }
+    return bad;
+}
+
+/* The omega terms of traversal positions j_lo .. j_hi - 1 added to fr/fi. */
+static inline void initial_terms(__global const REAL *src, __global const REAL *omega, const int L,
+                                 const int n, const int valid, const int reverse, const int j_lo,
+                                 const int j_hi, VT *fr, VT *fi, const int M,
+                                 __global const int *window, const REAL cval)
+{
+    VT w[LANES];
+    for (int k0 = j_lo - j_lo % LANES; k0 < j_hi; k0 += LANES) {
+        load_chunk(w, src, n, valid, k0, min(LANES, n - k0), reverse, M, window, cval);
+#pragma unroll
+        for (int i = 0; i < LANES; ++i)
+            if (k0 + i >= j_lo && k0 + i < j_hi)
+                add_initial(fr, fi, w[i], omega, L, k0 + i);
     }
 }
 
-/* Global size ceil(B*N / LANES): work-item g runs rows g*LANES.. (lines of M samples). */
+/* Work-item (g, blk): rows g*LANES.. (lines of M samples), steps of block blk (PHASE 1/2) or the
+ * whole line (PHASE 0). */
 __kernel void recurse(__global const REAL *src, __global REAL *dst, const long src_off,
                       const long dst_off, __global const REAL *lam, __global const REAL *kap,
                       __global const REAL *omega, __global const REAL *omega_c, const int L,
                       const int n, const REAL cval, const REAL tap, const int reverse,
-                      const int accumulate, const int B, const int N, const int M)
+                      const int accumulate, const int B, const int N, const int M, const int nv,
+                      const int stream, __global int *flag, const int block, const int nblocks,
+                      __global REAL *carry, __global REAL *partial, __global const int *window,
+                      const int first)
 {
     const long rows = (long)B * N;
     const long r0 = (long)get_global_id(0) * LANES;
+    const int blk = (int)get_global_id(1);
     if (r0 >= rows)
+        return;
+    const int k_lo = PHASE ? blk * block : 0;
+    const int k_hi = PHASE ? min(n, k_lo + block) : n;
+    if (k_lo >= k_hi)
         return;
     const int valid = (int)min((long)LANES, rows - r0);
     const long base = r0 * M;
-    if (reverse)
-        run_rows(src + src_off + base, dst + dst_off + base, lam, kap, omega, omega_c, L, n,
-                 cval, tap, accumulate, valid, 1);
-    else
-        run_rows(src + src_off + base, dst + dst_off + base, lam, kap, omega, omega_c, L, n,
-                 cval, tap, accumulate, valid, 0);
+    __global const REAL *s0 = src + src_off + base;
+    __global REAL *d0 = dst + dst_off + base;
+    const int nt = stream && !accumulate && PHASE != 1 && M % LANES == 0
+                   && ((ulong)d0 % sizeof(VT)) == 0;
+    VT fr[SECTIONS], fi[SECTIONS];
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        fr[s] = (VT)(0);
+        fi[s] = (VT)(0);
+    }
+#if PHASE == 0
+    initial_terms(s0, omega, L, n, valid, reverse, 0, L, fr, fi, M, window, cval);
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        fr[s] += omega_c[2 * s] * cval;
+        fi[s] += omega_c[2 * s + 1] * cval;
+    }
+#elif PHASE == 1
+    if (k_lo < L) {
+        initial_terms(s0, omega, L, n, valid, reverse, k_lo, min(k_hi, L), fr, fi, M, window, cval);
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            store_lanes(partial + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
+            store_lanes(partial + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
+            fr[s] = (VT)(0);
+            fi[s] = (VT)(0);
+        }
+    } else {
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            store_lanes(partial + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
+            store_lanes(partial + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
+        }
+    }
+#else
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        fr[s] = load_lanes(carry + carry_index(0, blk, nblocks, s, 0, r0, rows), valid);
+        fi[s] = load_lanes(carry + carry_index(0, blk, nblocks, s, 1, r0, rows), valid);
+    }
+#endif
+    const int bad = reverse
+        ? run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 1, k_lo, k_hi, nt, fr, fi, M, window, first, cval)
+        : run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 0, k_lo, k_hi, nt, fr, fi, M, window, first, cval);
+#if PHASE == 1
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        store_lanes(carry + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
+        store_lanes(carry + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
+    }
+#endif
+    STREAM_FENCE(nt);
+#if CHECK
+    if (bad)
+        atomic_or(flag, 1);
+#else
+    (void)bad;
+#endif
 }
 #endif
+
+/* ---- compose: the blocks' start states from their zero-start end states --------------------
+ * Line (outer o, inner i): F = omega_c cval + sum_blk partial[blk]; then for each block in
+ * traversal order, carry[blk] <- F (its start state) and F <- Lambda[blk] F + end[blk], where
+ * Lambda[s, blk] is the product of the block's lam (host, float64).  One work-item per line. */
+__kernel void compose(__global REAL *carry, __global const REAL *partial,
+                      __global const REAL *omega_c, __global const REAL *blockpow, const REAL cval,
+                      const int nblocks, const long count, const int outer)
+{
+    const long i = (long)get_global_id(0);
+    const int o = (int)get_global_id(1);
+    if (i >= count || o >= outer)
+        return;
+    for (int s = 0; s < SECTIONS; ++s) {
+        REAL fr = omega_c[2 * s] * cval, fi = omega_c[2 * s + 1] * cval;
+        for (int blk = 0; blk < nblocks; ++blk) {
+            fr += partial[carry_index(o, blk, nblocks, s, 0, i, count)];
+            fi += partial[carry_index(o, blk, nblocks, s, 1, i, count)];
+        }
+        for (int blk = 0; blk < nblocks; ++blk) {
+            const size_t re = carry_index(o, blk, nblocks, s, 0, i, count);
+            const size_t im = carry_index(o, blk, nblocks, s, 1, i, count);
+            const REAL er = carry[re], ei = carry[im];
+            carry[re] = fr;
+            carry[im] = fi;
+            const REAL pr = blockpow[2 * ((size_t)s * nblocks + blk)];
+            const REAL pi = blockpow[2 * ((size_t)s * nblocks + blk) + 1];
+            const REAL nr = pr * fr - pi * fi + er;
+            fi = pr * fi + pi * fr + ei;
+            fr = nr;
+        }
+    }
+}
 
 /* ---- gather: out[i] = index[i] >= 0 ? src[index[i]] : cval ----------------------------- */
 __kernel void gather(__global const REAL *src, const long src_off, __global const int *index,
@@ -427,10 +745,6 @@ __kernel void gather(__global const REAL *src, const long src_off, __global cons
     const int j = index[i];
     out[out_off + i] = j >= 0 ? src[src_off + j] : cval;
 }
-
-/* x - x is +0 for every finite x and NaN for NaN and infinities (IEEE arithmetic: the programs are
- * built without fast-math); unlike isfinite() it vectorises on CPU devices */
-#define NONFINITE(x) (((x) - (x)) != (REAL)0)
 
 /* ---- any_nonfinite: *flag |= 1 if some x[i] (i < size) is NaN or infinite ------------------
  * Work-item g reads x[g*first + j*stride], j < count: contiguous chunks on a CPU

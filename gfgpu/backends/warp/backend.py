@@ -19,6 +19,7 @@ from functools import cache
 
 import numpy as np
 
+from ..._core.recursion import block_powers
 from ..._core.translation import _flat_index
 from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
@@ -26,6 +27,9 @@ from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
+GPU_THREADS = 132 * 1024   # threads a GPU pass should have in flight (an H200 holds 270,336)
+GPU_BLOCK_DIM = 128        # threads per block of the line kernels on a GPU
+MIN_BLOCK = 64             # shortest block of a block-parallel line (steps)
 
 
 @cache
@@ -153,6 +157,23 @@ def warp_devices():
     return [d.alias for d in wp.get_devices()]
 
 
+def block_split(shape, axis, kind):
+    """``(lines, blocks, block)`` of a recursion pass over a ``(B, N, M)`` array along ``axis``.
+
+    One thread per line (block) of the pass.  On a GPU, lines too few to fill it
+    (:data:`GPU_THREADS` threads in flight) are cut into blocks of at least :data:`MIN_BLOCK`
+    steps whose states are carried exactly (:func:`gfgpu._core.recursion.run_reference_blocks`);
+    Warp's CPU kernels run one thread at a time, so there lines stay whole.
+    """
+    b, n, m = (int(x) for x in shape)
+    lines, length = (b * m, n) if axis == 1 else (b * n, m)
+    blocks = 1
+    if kind != "cpu" and lines < GPU_THREADS and length >= 2 * MIN_BLOCK:
+        blocks = min(-(-GPU_THREADS // lines), length // MIN_BLOCK)
+    block = -(-length // blocks)
+    return lines, -(-length // block), block
+
+
 class WarpBackend(Backend):
     """Run the recursion primitive with Warp kernels on ``warp.array`` data.
 
@@ -206,6 +227,9 @@ class WarpBackend(Backend):
         self._k = kernels
         self.device = self._device.alias if self._device.is_cpu else \
             f"{self._device.alias} ({self._device.name})"
+        # the launch shapes follow ``kind``; a test may set "gpu" on the CPU device to run the
+        # GPU shapes (block-parallel lines, the translate kernel, device finite checks) there
+        self.kind = "cpu" if self._device.is_cpu else "gpu"
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, arrays)
         self._indices = OrderedDict()  # id(index) -> (index, device array, max index)
         self._flat = {}                # (id(line index), shape, axis) -> (line index, flat gather index)
@@ -267,6 +291,20 @@ class WarpBackend(Backend):
     def contiguous(self, array):
         return array if array.is_contiguous else array.contiguous()
 
+    def from_dlpack(self, array):
+        """A foreign array (``__dlpack__`` or ``__cuda_array_interface__``: torch, CuPy, JAX,
+        Numba) as a ``warp.array`` on the same memory, no copy (:mod:`gfgpu._core.arrays`).
+
+        ``wp.from_dlpack`` hands the producer Warp's current stream on the array's device, so
+        the producer orders its pending work before ours (DLPack's stream protocol); results go
+        back through ``warp.array.__dlpack__``, which does the same for the consumer.  A
+        ``__cuda_array_interface__`` array is wrapped on this backend's device (the interface
+        names no device).  The caller checks that the result is on this backend's device.
+        """
+        if hasattr(array, "__dlpack__"):
+            return self._wp.from_dlpack(array)
+        return self._wp.array(array, device=self._device, copy=False)
+
     def may_share_memory(self, a, b):
         if a.device != b.device or not a.size or not b.size:
             return False
@@ -324,7 +362,25 @@ class WarpBackend(Backend):
             self._plans.popitem(last=False)
         return arrays
 
-    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False):
+    def recurse_shape(self, shape, axis):
+        """``(lines, blocks, block)`` of a :meth:`recurse` pass (:func:`block_split`)."""
+        return block_split(shape, axis, self.kind)
+
+    def _block_powers(self, plan, dtype, block, blocks):
+        key = (id(plan), dtype, "pow", block)
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plan:
+            self._plans.move_to_end(key)
+            return hit[1]
+        powers = block_powers(plan, block)
+        packed = np.ascontiguousarray(np.stack([powers.real, powers.imag], axis=-1).astype(dtype))
+        arr = self._wp.array(packed, dtype=self._wp.dtype_from_numpy(dtype), device=self._device)
+        self._plans[key] = (plan, arr)
+        if len(self._plans) > _PLAN_CACHE_SIZE:
+            self._plans.popitem(last=False)
+        return arr
+
+    def recurse(self, src, dst, axis, plan, cval=0.0, accumulate=False, check=False):
         wp = self._wp
         if axis not in (1, 2):
             raise ValueError(f"axis must be 1 or 2, got {axis}")
@@ -345,16 +401,49 @@ class WarpBackend(Backend):
         if accumulate and src.ptr == dst.ptr:
             raise ValueError("dst may not be src when accumulating")
         if src.size == 0:
-            return dst
+            return True if check else dst
         lam, kap, omega, omega_c = self._plan_arrays(plan, dtype)
         real = src.dtype
+        _, blocks, block = self.recurse_shape(src.shape, axis)
+        if blocks > 1:
+            return self._recurse_blocks(src, dst, axis, plan, dtype, cval, accumulate, check, blocks, block)
+        finite = None
+        if check:   # Warp's CPU threads run one at a time: numpy tests the same memory as fast
+            finite = host_all_finite(src.numpy()) if self.kind == "cpu" else self.all_finite(src)
         scalars = [plan.sections, plan.omega.shape[1], real(cval), real(plan.tap), int(plan.reverse),
                    int(bool(accumulate)), int(plan.constant)]
         for lines_src, lines_dst in self._line_views(src, dst, axis):
-            wp.launch(self._k.recurse_lines, dim=lines_src.shape[:2],
-                      inputs=[lines_src, lines_dst, lam, kap, omega, omega_c, *scalars],
-                      device=self._device)
-        return dst
+            self._launch(self._k.recurse_lines, lines_src.shape[:2],
+                         [lines_src, lines_dst, lam, kap, omega, omega_c, *scalars])
+        return finite if check else dst
+
+    def _launch(self, kernel, dim, inputs):
+        # explicit thread blocks on a GPU: 128 threads, so that a pass of few lines still spreads
+        # over many multiprocessors
+        kw = {} if self._device.is_cpu else {"block_dim": GPU_BLOCK_DIM}
+        self._wp.launch(kernel, dim=dim, inputs=inputs, device=self._device, **kw)
+
+    def _recurse_blocks(self, src, dst, axis, plan, dtype, cval, accumulate, check, blocks, block):
+        """Block-parallel lines: block end states, their composition, the blocks' outputs."""
+        wp = self._wp
+        lam, kap, omega, omega_c = self._plan_arrays(plan, dtype)
+        real = src.dtype
+        views = (src, dst) if axis == 2 else (src.transpose((0, 2, 1)), dst.transpose((0, 2, 1)))
+        b, lines = views[0].shape[0], views[0].shape[1]
+        wdt = wp.dtype_from_numpy(dtype)
+        carry = wp.empty((b, blocks, 2 * plan.sections, lines), dtype=wdt, device=self._device)
+        partial = wp.empty((b, blocks, 2 * plan.sections, lines), dtype=wdt, device=self._device)
+        flag = wp.zeros(1, dtype=wp.int32, device=self._device)
+        self._launch(self._k.block_states, (b, lines, blocks),
+                     [views[0], lam, kap, omega, plan.sections, plan.omega.shape[1], int(plan.reverse),
+                      int(plan.constant), block, int(bool(check)), carry, partial, flag])
+        self._launch(self._k.compose, (b, lines),
+                     [carry, partial, omega_c, self._block_powers(plan, dtype, block, blocks), plan.sections,
+                      real(cval)])
+        self._launch(self._k.block_outputs, (b, lines, blocks),
+                     [views[0], views[1], lam, kap, plan.sections, real(plan.tap), int(plan.reverse),
+                      int(bool(accumulate)), int(plan.constant), block, carry])
+        return int(flag.numpy()[0]) == 0 if check else dst
 
     def recurse_lines(self, src, dst, axis, plans, cval=0.0):
         wp = self._wp
@@ -389,7 +478,7 @@ class WarpBackend(Backend):
         if axis == 2:
             return [(src, dst)]
         col_src, col_dst = src.transpose((0, 2, 1)), dst.transpose((0, 2, 1))
-        if not self._device.is_cpu:
+        if self.kind != "cpu":
             return [(col_src, col_dst)]   # GPU: adjacent threads, adjacent columns (coalesced)
         lane = self._k.LANE_TYPES[src.dtype]
         m = src.shape[2]
@@ -446,7 +535,7 @@ class WarpBackend(Backend):
             raise ValueError(f"index has {np.asarray(index).size} elements, axis {axis} has {length}")
         if src.size == 0:
             return True if check else None
-        if self._device.is_cpu:
+        if self.kind == "cpu":
             # Warp's CPU kernels run on one thread: the flat gather (its index cached) measured
             # faster than a kernel that computes the index; the check is numpy's on the same memory
             finite = host_all_finite(src.numpy()) if check else None
@@ -469,7 +558,7 @@ class WarpBackend(Backend):
 
     def input_finite(self, host, data):
         # a GPU tests its copy in parallel; Warp's CPU kernels run on one thread, as numpy does
-        return host_all_finite(host) if self._device.is_cpu else self.all_finite(data)
+        return host_all_finite(host) if self.kind == "cpu" else self.all_finite(data)
 
     def gather(self, src, index, cval, out):
         wp = self._wp

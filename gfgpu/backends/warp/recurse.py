@@ -112,6 +112,164 @@ def recurse_lines(
             f1r, f1i = _advance(f1r, f1i, c1, v)
 
 
+@wp.func
+def _initial_part(src: wp.array3d(dtype=Any), b: int, i: int, first: int, step: int,
+                  omega: wp.array3d(dtype=Any), s: int, j_lo: int, j_hi: int):
+    """The omega terms of traversal positions ``j_lo .. j_hi - 1`` of section ``s``."""
+    fr = src.dtype(0.0)
+    fi = src.dtype(0.0)
+    for j in range(j_lo, j_hi):
+        v = src[b, i, first + step * j]
+        fr = fr + omega[s, j, 0] * v
+        fi = fi + omega[s, j, 1] * v
+    return fr, fi
+
+
+@wp.kernel
+def block_states(
+    src: wp.array3d(dtype=Any),
+    lam: wp.array3d(dtype=Any),
+    kap: wp.array3d(dtype=Any),
+    omega: wp.array3d(dtype=Any),
+    sections: int,
+    init_len: int,
+    reverse: int,
+    constant: int,
+    block: int,
+    check: int,
+    carry: wp.array4d(dtype=Any),
+    partial: wp.array4d(dtype=Any),
+    flag: wp.array(dtype=wp.int32),
+):
+    """Block-parallel lines, phase 1: block ``blk`` of line ``src[b, i, :]`` run from a zero
+    state; its end state goes to ``carry[b, blk, 2s + (0: re, 1: im), i]`` and its part of the
+    initial state (the omega terms of its own samples) to ``partial`` (same layout).  With
+    ``check``, ``flag[0] = 1`` if a sample it reads is NaN or infinite."""
+    b, i, blk = wp.tid()
+    n = src.shape[2]
+    k_lo = blk * block
+    k_hi = wp.min(n, k_lo + block)
+    first = (n - 1) * reverse
+    step = 1 - 2 * reverse
+    two = sections > 1
+    j_hi = wp.min(k_hi, init_len)
+    p0r, p0i = _initial_part(src, b, i, first, step, omega, 0, k_lo, j_hi)
+    partial[b, blk, 0, i] = p0r
+    partial[b, blk, 1, i] = p0i
+    if two:
+        p1r, p1i = _initial_part(src, b, i, first, step, omega, 1, k_lo, j_hi)
+        partial[b, blk, 2, i] = p1r
+        partial[b, blk, 3, i] = p1i
+    f0r = src.dtype(0.0)
+    f0i = f0r
+    f1r = f0r
+    f1i = f0r
+    c0 = _coefficients(lam, kap, 0, k_lo)
+    c1 = c0
+    if two:
+        c1 = _coefficients(lam, kap, 1, k_lo)
+    for k in range(k_lo, k_hi):
+        v = src[b, i, first + step * k]
+        if check != 0:
+            if not wp.isfinite(v):
+                flag[0] = 1     # rare: a store only where a sample is bad
+        if constant == 0:
+            c0 = _coefficients(lam, kap, 0, k)
+            if two:
+                c1 = _coefficients(lam, kap, 1, k)
+        f0r, f0i = _advance(f0r, f0i, c0, v)
+        if two:
+            f1r, f1i = _advance(f1r, f1i, c1, v)
+    carry[b, blk, 0, i] = f0r
+    carry[b, blk, 1, i] = f0i
+    if two:
+        carry[b, blk, 2, i] = f1r
+        carry[b, blk, 3, i] = f1i
+
+
+@wp.kernel
+def compose(
+    carry: wp.array4d(dtype=Any),
+    partial: wp.array4d(dtype=Any),
+    omega_c: wp.array2d(dtype=Any),
+    blockpow: wp.array3d(dtype=Any),
+    sections: int,
+    cval: Any,
+):
+    """Block-parallel lines, phase 2: line ``(b, i)``'s initial state is ``omega_c cval`` plus its
+    blocks' ``partial`` parts; each block's start state replaces its end state in ``carry``,
+    ``F <- blockpow[s, blk] F + end[blk]`` (``blockpow``: the product of the block's lam)."""
+    b, i = wp.tid()
+    nblocks = carry.shape[1]
+    for s in range(sections):
+        fr = omega_c[s, 0] * cval
+        fi = omega_c[s, 1] * cval
+        for blk in range(nblocks):
+            fr = fr + partial[b, blk, 2 * s, i]
+            fi = fi + partial[b, blk, 2 * s + 1, i]
+        for blk in range(nblocks):
+            er = carry[b, blk, 2 * s, i]
+            ei = carry[b, blk, 2 * s + 1, i]
+            carry[b, blk, 2 * s, i] = fr
+            carry[b, blk, 2 * s + 1, i] = fi
+            pr = blockpow[s, blk, 0]
+            pi = blockpow[s, blk, 1]
+            nr = pr * fr - pi * fi + er
+            fi = pr * fi + pi * fr + ei
+            fr = nr
+
+
+@wp.kernel
+def block_outputs(
+    src: wp.array3d(dtype=Any),
+    dst: wp.array3d(dtype=Any),
+    lam: wp.array3d(dtype=Any),
+    kap: wp.array3d(dtype=Any),
+    sections: int,
+    tap: Any,
+    reverse: int,
+    accumulate: int,
+    constant: int,
+    block: int,
+    carry: wp.array4d(dtype=Any),
+):
+    """Block-parallel lines, phase 3: block ``blk`` of line ``(b, i)`` run from its start state
+    (``carry``, after :func:`compose`), writing its outputs (``run_reference``'s step)."""
+    b, i, blk = wp.tid()
+    n = src.shape[2]
+    k_lo = blk * block
+    k_hi = wp.min(n, k_lo + block)
+    first = (n - 1) * reverse
+    step = 1 - 2 * reverse
+    two = sections > 1
+    f0r = carry[b, blk, 0, i]
+    f0i = carry[b, blk, 1, i]
+    f1r = f0r
+    f1i = f0i
+    c0 = _coefficients(lam, kap, 0, k_lo)
+    c1 = c0
+    if two:
+        f1r = carry[b, blk, 2, i]
+        f1i = carry[b, blk, 3, i]
+        c1 = _coefficients(lam, kap, 1, k_lo)
+    for k in range(k_lo, k_hi):
+        x = first + step * k
+        v = src[b, i, x]
+        y = tap * v + f0r
+        if two:
+            y = y + f1r
+        if accumulate != 0:
+            y = y + dst[b, i, x]
+        dst[b, i, x] = y
+        if constant == 0:
+            c0 = _coefficients(lam, kap, 0, k)
+            if two:
+                c1 = _coefficients(lam, kap, 1, k)
+        f0r, f0i = _advance(f0r, f0i, c0, v)
+        if two:
+            f1r, f1i = _advance(f1r, f1i, c1, v)
+
+
 @wp.kernel
 def recurse_per_line(
     src: wp.array3d(dtype=Any),
@@ -197,6 +355,14 @@ for _real in (wp.float32, wp.float64):
                                    "lam": wp.array2d(dtype=_real), "kap": wp.array2d(dtype=_real),
                                    "tap": wp.array(dtype=_real), "omega": wp.array3d(dtype=_real),
                                    "omega_c": wp.array2d(dtype=_real), "cval": _real})
+    _blocks = {"carry": wp.array4d(dtype=_real), "partial": wp.array4d(dtype=_real)}
+    wp.overload(block_states, {"src": wp.array3d(dtype=_real), "lam": wp.array3d(dtype=_real),
+                               "kap": wp.array3d(dtype=_real), "omega": wp.array3d(dtype=_real), **_blocks})
+    wp.overload(compose, {"omega_c": wp.array2d(dtype=_real), "blockpow": wp.array3d(dtype=_real),
+                          "cval": _real, **_blocks})
+    wp.overload(block_outputs, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real),
+                                "lam": wp.array3d(dtype=_real), "kap": wp.array3d(dtype=_real),
+                                "tap": _real, "carry": wp.array4d(dtype=_real)})
     for _sample in (_real, LANE_TYPES[_real]):
         wp.overload(recurse_lines, {"src": wp.array3d(dtype=_sample), "dst": wp.array3d(dtype=_sample),
                                     **_plan})
@@ -205,4 +371,4 @@ for _real in (wp.float32, wp.float64):
                              "cval": _real, "out": wp.array(dtype=_real)})
     wp.overload(count_nonfinite, {"values": wp.array(dtype=_real)})
     wp.overload(translate, {"src": wp.array2d(dtype=_real), "cval": _real, "dst": wp.array2d(dtype=_real)})
-del _real, _plan, _sample, _index
+del _real, _plan, _sample, _index, _blocks

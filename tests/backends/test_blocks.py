@@ -1,0 +1,146 @@
+"""Block-parallel lines, bands of columns and the fused finite check of the recursion primitive.
+
+The specification of block-parallel lines (:func:`gfgpu._core.recursion.run_reference_blocks`)
+is checked against the sequential one, and every device backend, on its own launch shapes and
+forced into its GPU shapes, against a float64 run of the sequential specification.
+"""
+
+import numpy as np
+import pytest
+
+from gfgpu import greens
+from gfgpu._core import recursion
+from gfgpu._core.passes import LinePass, Section
+
+SEC1 = Section(lam=0.8 * np.exp(0.3j), kap=0.5 + 0.1j)
+SEC2 = Section(lam=0.6 * np.exp(-0.2j), kap=0.2 - 0.3j)
+PASSES = {
+    "one section": LinePass((SEC1,), tap=0.3),
+    "two sections, anticausal": LinePass((SEC1, SEC2), tap=-0.1, reverse=True),
+    "G_u": greens.UniformGreen(3.0).line_pass(),
+    # coefficients that change along the line: blocks carry with the product of their own lam
+    "G_U^(1), shift variant": greens.AffineGreen(u1=0.5, x_U=-3.0).line_pass(),
+}
+
+
+def reference(x, lp, axis, mode, cval):
+    """float64 sequential specification along ``axis`` of a (B, N, M) array."""
+    n = x.shape[axis]
+    plan = recursion.plan_pass(lp, n, mode, np.float64)
+    lines = np.moveaxis(x.astype(np.float64), axis, 0)
+    out = recursion.run_reference(lines.reshape(n, -1), plan, cval=cval).reshape(lines.shape)
+    return np.moveaxis(out, 0, axis)
+
+
+@pytest.mark.parametrize("name", sorted(PASSES))
+@pytest.mark.parametrize("block", [1, 7, 64, 1000])
+@pytest.mark.parametrize("mode", ["reflect", "wrap", "constant", "nearest", "mirror"])
+def test_blocks_spec_equals_sequential(name, block, mode, rng):
+    lp = PASSES[name]
+    x = rng.standard_normal((300, 5))
+    plan = recursion.plan_pass(lp, 300, mode, np.float64)
+    want = recursion.run_reference(x, plan, cval=0.7)
+    got = recursion.run_reference_blocks(x, plan, block, cval=0.7)
+    assert np.abs(got - want).max() <= 1e-12 * np.abs(want).max()
+
+
+def test_blocks_spec_float32_within_rounding(rng):
+    x = rng.standard_normal((5000, 3)).astype(np.float32)
+    lp = PASSES["two sections, anticausal"]
+    want = recursion.run_reference(x.astype(np.float64), recursion.plan_pass(lp, 5000, "reflect", np.float64))
+    got = recursion.run_reference_blocks(x, recursion.plan_pass(lp, 5000, "reflect", np.float32), 512)
+    assert np.linalg.norm(got - want) / np.linalg.norm(want) < 1e-6
+
+
+def test_block_powers_carry_a_state_across_a_block():
+    lp = PASSES["two sections, anticausal"]
+    plan = recursion.plan_pass(lp, 100, "reflect", np.float64)
+    power = recursion.block_powers(plan, 30)
+    assert power.shape == (2, 4)
+    lam = plan.lam[:, 0]
+    assert np.allclose(power[:, 0], lam ** 30, rtol=1e-13)
+
+
+# (B, N, M) shapes whose lines are too few to fill a 2-core CPU: block-parallel on every device
+FEW_LINES = [((1, 4, 20000), 2), ((1, 20000, 3), 1), ((1, 9000, 2), 1), ((1, 1, 30000), 2)]
+# shapes whose lines fill the device; 70 columns: bands end in a partial vector
+MANY_LINES = [((1, 300, 70), 1), ((1, 300, 70), 2), ((3, 40, 1100), 1), ((2, 33, 257), 2)]
+
+
+def _run(be, x, lp, axis, mode, cval, accumulate=None, check=False):
+    plan = recursion.plan_pass(lp, x.shape[axis], mode, x.dtype)
+    src = be.asarray(x)
+    dst = be.asarray(accumulate.copy()) if accumulate is not None else be.empty(x.shape, x.dtype)
+    res = be.recurse(src, dst, axis, plan, cval=cval, accumulate=accumulate is not None, check=check)
+    return be.to_host(dst), res
+
+
+def _check_backend(be, shapes, dtype, rng):
+    tol = 2e-6 if dtype == np.float32 else 1e-12
+    for shape, axis in shapes:
+        for (name, lp), mode in zip(sorted(PASSES.items()), ["reflect", "wrap", "constant", "mirror"]):
+            x = rng.standard_normal(shape).astype(dtype)
+            want = reference(x, lp, axis, mode, 0.7)
+            got, finite = _run(be, x, lp, axis, mode, 0.7, check=True)
+            assert finite is True
+            err = np.abs(got - want).max() / np.abs(want).max()
+            assert err < tol, (be.name, be.kind, shape, axis, name, mode, err)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_few_long_lines_run_in_blocks(backend, dtype, rng):
+    if backend.name == "numpy":
+        pytest.skip("the numpy backend runs whole lines (its blocked matrices are its own)")
+    for shape, axis in FEW_LINES:
+        blocks = _blocks(backend, shape, axis, dtype)
+        if backend.name == "opencl" or backend.kind == "gpu":
+            assert blocks > 1, (shape, axis)
+    _check_backend(backend, FEW_LINES, dtype, rng)
+
+
+def _blocks(be, shape, axis, dtype):
+    if be.name == "opencl":
+        return be.recurse_shape(shape, axis, np.dtype(dtype)).blocks
+    return be.recurse_shape(shape, axis)[1]
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_gpu_shapes_forced_on_cpu(gpu_shaped, dtype, rng):
+    """The GPU branches (one line per work-item, blocks, composition) on the CPU devices."""
+    for shape, axis in FEW_LINES:
+        assert _blocks(gpu_shaped, shape, axis, dtype) > 1
+    _check_backend(gpu_shaped, FEW_LINES + MANY_LINES, dtype, rng)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_bands_and_partial_vectors(backend, dtype, rng):
+    _check_backend(backend, MANY_LINES, dtype, rng)
+
+
+@pytest.mark.parametrize("shape, axis", FEW_LINES[:2] + MANY_LINES[:2])
+def test_accumulate_and_blocks(backend, shape, axis, rng):
+    x = rng.standard_normal(shape).astype(np.float32)
+    base = rng.standard_normal(shape).astype(np.float32)
+    lp = PASSES["G_u"]
+    got, _ = _run(backend, x, lp, axis, "reflect", 0.0, accumulate=base)
+    want = base + reference(x, lp, axis, "reflect", 0.0)
+    assert np.abs(got - want).max() < 2e-5 * np.abs(want).max()
+
+
+@pytest.mark.parametrize("where", ["first", "middle", "last"])
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_fused_finite_check_sees_every_sample(backend, where, value, rng):
+    for shape, axis in FEW_LINES[:2] + MANY_LINES[:2]:
+        x = rng.standard_normal(shape).astype(np.float32)
+        flat = x.reshape(-1)
+        flat[{"first": 0, "middle": flat.size // 2 + 1, "last": flat.size - 1}[where]] = value
+        _, finite = _run(backend, x, PASSES["G_u"], axis, "reflect", 0.0, check=True)
+        assert finite is False, (shape, axis)
+
+
+def test_gpu_shaped_check_sees_every_sample(gpu_shaped, rng):
+    for shape, axis in FEW_LINES[:2] + MANY_LINES[:2]:
+        x = rng.standard_normal(shape).astype(np.float32)
+        x.reshape(-1)[-1] = np.nan
+        _, finite = _run(gpu_shaped, x, PASSES["G_u"], axis, "reflect", 0.0, check=True)
+        assert finite is False, (shape, axis)

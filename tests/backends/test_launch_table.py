@@ -1,0 +1,46 @@
+"""The launch sizes of the recursion pass that docs/architecture.md states, recomputed.
+
+The table in the doc (between the ``launch-table`` markers) must equal :func:`launch_table`, so
+the documented sizes cannot drift from what the backends launch.
+"""
+
+from pathlib import Path
+
+from gfgpu.backends.opencl.backend import recurse_launch
+from gfgpu.backends.warp.backend import GPU_BLOCK_DIM, block_split
+
+DOC = Path(__file__).resolve().parents[2] / "docs" / "architecture.md"
+CASES = [("rows", 4096, 4096, 2), ("columns", 4096, 4096, 1), ("rows", 512, 512, 2), ("columns", 512, 512, 1),
+         ("rows", 4, 4194304, 2)]
+CPU_UNITS, GPU_UNITS, GPU_GROUP = 2, 132, 64
+
+
+def _items(gsize):
+    total = 1
+    for g in gsize:
+        total *= g
+    return total
+
+
+def launch_table():
+    """The Markdown table of the doc: one row per (pass, image), float32."""
+    lines = ["| pass, float32 image | PoCL, 2 CPU cores: work-items × lanes (band, blocks) | "
+             "OpenCL GPU, 132 units: work-items (blocks) | Warp CUDA: threads (blocks), block_dim |",
+             "|---|---|---|---|"]
+    for name, h, w, axis in CASES:
+        shape = (1, h, w)
+        cpu = recurse_launch(shape, axis, 4, CPU_UNITS, "cpu", 1)
+        gpu = recurse_launch(shape, axis, 4, GPU_UNITS, "gpu", GPU_GROUP)
+        lines_, blocks, _ = block_split(shape, axis, "gpu")
+        band = f"{cpu.vectors * cpu.lanes} columns" if axis == 1 else f"{cpu.lanes} rows"
+        lines.append(f"| {name} of {h}×{w} | {_items(cpu.gsize)} × {cpu.lanes} ({band}, {cpu.blocks}) | "
+                     f"{_items(gpu.gsize)} ({gpu.blocks}) | {lines_ * blocks} ({blocks}), {GPU_BLOCK_DIM} |")
+    return "\n".join(lines)
+
+
+def test_doc_states_the_launch_sizes():
+    text = DOC.read_text()
+    start, end = "<!-- launch-table -->", "<!-- /launch-table -->"
+    assert start in text and end in text, "docs/architecture.md lost its launch table markers"
+    documented = text.split(start, 1)[1].split(end, 1)[0].strip()
+    assert documented == launch_table(), "docs/architecture.md launch table is stale:\n" + launch_table()
