@@ -121,11 +121,13 @@ def sha256(path):
 
 
 def warp_kernel_modules(root=ROOT):
-    """The dotted names of gfgpu's modules that define Warp kernels (``@wp.kernel``), sorted."""
+    """The dotted names of gfgpu's modules that define Warp kernels (``@wp.kernel``) for a GPU,
+    sorted (modules marked ``CPU_ONLY = True`` are never compiled for CUDA)."""
     names = []
     for path in sorted(glob.glob(os.path.join(root, "gfgpu", "**", "*.py"), recursive=True)):
         with open(path, encoding="utf-8") as f:
-            if "@wp.kernel" not in f.read():
+            text = f.read()
+            if "@wp.kernel" not in text or "\nCPU_ONLY = True" in text:
                 continue
         rel = os.path.relpath(path, root)[:-3].split(os.sep)
         names.append(".".join(rel[:-1] if rel[-1] == "__init__" else rel))

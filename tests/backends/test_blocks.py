@@ -8,6 +8,7 @@ forced into its GPU shapes, against a float64 run of the sequential specificatio
 import numpy as np
 import pytest
 
+import gfgpu
 from gfgpu import greens
 from gfgpu._core import recursion
 from gfgpu._core.passes import LinePass, Section
@@ -144,3 +145,29 @@ def test_gpu_shaped_check_sees_every_sample(gpu_shaped, rng):
         x.reshape(-1)[-1] = np.nan
         _, finite = _run(gpu_shaped, x, PASSES["G_u"], axis, "reflect", 0.0, check=True)
         assert finite is False, (shape, axis)
+
+
+SHIFTS = [(0, 2.5), (-3.25, 0), (7.75, -12.5), (130.5, -0.25)]
+
+
+@pytest.mark.parametrize("mode", ["reflect", "wrap", "constant", "nearest", "mirror"])
+@pytest.mark.parametrize("interpolation", ["green", "cubic"])
+def test_windowed_passes_equal_the_gathered_ones(backend, mode, interpolation, rng):
+    """A translated pass read through a window index (one pass) equals the numpy backend's
+    gather, pass and crop, for shifts beyond the line too, rows and columns."""
+    for shape in [(37, 70), (300, 33), (5, 1000)]:
+        x = rng.standard_normal(shape).astype(np.float32)
+        for s in SHIFTS:
+            want = gfgpu.shift(x.astype(np.float64), s, mode=mode, interpolation=interpolation, cval=0.5,
+                               backend="numpy")
+            got = gfgpu.shift(x, s, mode=mode, interpolation=interpolation, cval=0.5, backend=backend)
+            assert np.abs(got - want).max() <= 2e-6 * np.abs(want).max(), (shape, s)
+
+
+def test_windowed_passes_gpu_shaped(gpu_shaped, rng):
+    for shape in [(37, 70), (5, 1000)]:
+        x = rng.standard_normal(shape).astype(np.float32)
+        for s, mode in zip(SHIFTS, ["reflect", "wrap", "constant", "mirror"]):
+            want = gfgpu.shift(x.astype(np.float64), s, mode=mode, cval=0.5, backend="numpy")
+            got = gfgpu.shift(x, s, mode=mode, cval=0.5, backend=gpu_shaped)
+            assert np.abs(got - want).max() <= 2e-6 * np.abs(want).max(), (shape, s, mode)

@@ -412,9 +412,8 @@ class WarpBackend(Backend):
             finite = host_all_finite(src.numpy()) if self.kind == "cpu" else self.all_finite(src)
         scalars = [plan.sections, plan.omega.shape[1], real(cval), real(plan.tap), int(plan.reverse),
                    int(bool(accumulate)), int(plan.constant)]
-        for lines_src, lines_dst in self._line_views(src, dst, axis):
-            self._launch(self._k.recurse_lines, lines_src.shape[:2],
-                         [lines_src, lines_dst, lam, kap, omega, omega_c, *scalars])
+        for kernel, lines_src, lines_dst in self._line_views(src, dst, axis):
+            self._launch(kernel, lines_src.shape[:2], [lines_src, lines_dst, lam, kap, omega, omega_c, *scalars])
         return finite if check else dst
 
     def _launch(self, kernel, dim, inputs):
@@ -468,26 +467,31 @@ class WarpBackend(Backend):
         return dst
 
     def _line_views(self, src, dst, axis):
-        """``(src, dst)`` view pairs ``(B, lines, n)`` whose last axis is the lines' axis.
+        """``(kernel, src, dst)``: views ``(B, lines, n)`` whose last axis is the lines' axis,
+        and the kernel that runs them.
 
         Rows are the arrays themselves; columns the transposed ``(B, M, N)`` views.  On the CPU,
         whose Warp threads run one after another, columns go in groups of adjacent columns
-        (vector samples, ``LANE_TYPES``) so that each thread walks down whole cache lines; the
-        ``M % lanes`` columns left over go one per thread.
+        (vector samples, :mod:`gfgpu.backends.warp.recurse_lanes`, a CPU-only module) so that
+        each thread walks down whole cache lines; the ``M % lanes`` columns left over go one per
+        thread.
         """
+        scalar = self._k.recurse_lines
         if axis == 2:
-            return [(src, dst)]
+            return [(scalar, src, dst)]
         col_src, col_dst = src.transpose((0, 2, 1)), dst.transpose((0, 2, 1))
         if self.kind != "cpu":
-            return [(col_src, col_dst)]   # GPU: adjacent threads, adjacent columns (coalesced)
-        lane = self._k.LANE_TYPES[src.dtype]
+            return [(scalar, col_src, col_dst)]   # GPU: adjacent threads, adjacent columns (coalesced)
+        from . import recurse_lanes
+        lane = recurse_lanes.LANE_TYPES[src.dtype]
         m = src.shape[2]
         body = m - m % lane._length_
         views = []
         if body:
-            views.append((self._lane_view(src, lane, body), self._lane_view(dst, lane, body)))
+            views.append((recurse_lanes.recurse_lanes, self._lane_view(src, lane, body),
+                          self._lane_view(dst, lane, body)))
         if body < m:
-            views.append((col_src[:, body:, :], col_dst[:, body:, :]))
+            views.append((scalar, col_src[:, body:, :], col_dst[:, body:, :]))
         return views
 
     def _lane_view(self, a, lane, width):

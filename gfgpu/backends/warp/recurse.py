@@ -7,11 +7,11 @@ the host side is :mod:`gfgpu.backends.warp.backend` and the executable specifica
 :func:`recurse_lines` runs one line per thread along the last axis of a 3-D *view*
 ``(B, lines, n)`` of the data: the rows of a C-contiguous ``(B, N, M)`` array directly, its
 columns through the transposed, strided view ``(B, M, N)`` (Warp indexes through strides, so
-no copy is made).  The *sample* type is a real (float32/float64) or, for columns on the CPU,
-a vector of adjacent columns (``LANE_TYPES``): one thread then advances that many independent
-lines in lockstep, reading whole cache lines and giving the compiler SIMD work, with the same
-arithmetic (real coefficients times samples).  On a GPU one thread per column is already
-coalesced, so only the real overloads are used there.
+no copy is made).  Its body, :func:`run_line`, is generic in the sample type: for columns on
+the CPU, :mod:`gfgpu.backends.warp.recurse_lanes` (a CPU-only module, so CUDA never compiles it)
+runs it on vectors of adjacent columns.  On a GPU one thread per column is already coalesced.
+Lines too few to fill a GPU run block-parallel (:func:`block_states`, :func:`compose`,
+:func:`block_outputs`).
 """
 
 from typing import Any
@@ -24,9 +24,6 @@ wp.set_module_options({"enable_backward": False})
 #: most sections a plan may have (a pole pair: the derivative and projection passes use two)
 MAX_SECTIONS = 2
 
-#: vector sample type of each real type: one 64-byte cache line of adjacent columns
-LANE_TYPES = {wp.float32: wp.types.vector(length=16, dtype=wp.float32),
-              wp.float64: wp.types.vector(length=8, dtype=wp.float64)}
 
 
 @wp.func
@@ -55,8 +52,8 @@ def _initial(src: wp.array3d(dtype=Any), b: int, i: int, first: int, step: int,
     return fr, fi
 
 
-@wp.kernel
-def recurse_lines(
+@wp.func
+def run_line(
     src: wp.array3d(dtype=Any),
     dst: wp.array3d(dtype=Any),
     lam: wp.array3d(dtype=Any),
@@ -70,6 +67,8 @@ def recurse_lines(
     reverse: int,
     accumulate: int,
     constant: int,
+    b: int,
+    i: int,
 ):
     """One pass over line ``src[b, i, :]`` into ``dst[b, i, :]`` (``run_reference``).
 
@@ -79,7 +78,6 @@ def recurse_lines(
     is kept in the samples' precision.  ``dst`` may be ``src`` unless ``accumulate``: each
     sample is read before it is written.
     """
-    b, i = wp.tid()
     n = src.shape[2]
     first = (n - 1) * reverse   # reverse is 0 or 1
     step = 1 - 2 * reverse
@@ -110,6 +108,30 @@ def recurse_lines(
         f0r, f0i = _advance(f0r, f0i, c0, v)
         if two:
             f1r, f1i = _advance(f1r, f1i, c1, v)
+
+
+
+
+@wp.kernel
+def recurse_lines(
+    src: wp.array3d(dtype=Any),
+    dst: wp.array3d(dtype=Any),
+    lam: wp.array3d(dtype=Any),
+    kap: wp.array3d(dtype=Any),
+    omega: wp.array3d(dtype=Any),
+    omega_c: wp.array2d(dtype=Any),
+    sections: int,
+    init_len: int,
+    cval: Any,
+    tap: Any,
+    reverse: int,
+    accumulate: int,
+    constant: int,
+):
+    """:func:`run_line` on line ``(b, i)``, real samples (every device; CPU vector lanes:
+    :mod:`gfgpu.backends.warp.recurse_lanes`)."""
+    b, i = wp.tid()
+    run_line(src, dst, lam, kap, omega, omega_c, sections, init_len, cval, tap, reverse, accumulate, constant, b, i)
 
 
 @wp.func
@@ -363,12 +385,10 @@ for _real in (wp.float32, wp.float64):
     wp.overload(block_outputs, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real),
                                 "lam": wp.array3d(dtype=_real), "kap": wp.array3d(dtype=_real),
                                 "tap": _real, "carry": wp.array4d(dtype=_real)})
-    for _sample in (_real, LANE_TYPES[_real]):
-        wp.overload(recurse_lines, {"src": wp.array3d(dtype=_sample), "dst": wp.array3d(dtype=_sample),
-                                    **_plan})
+    wp.overload(recurse_lines, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real), **_plan})
     for _index in (wp.int32, wp.int64):
         wp.overload(gather, {"src": wp.array(dtype=_real), "index": wp.array(dtype=_index),
                              "cval": _real, "out": wp.array(dtype=_real)})
     wp.overload(count_nonfinite, {"values": wp.array(dtype=_real)})
     wp.overload(translate, {"src": wp.array2d(dtype=_real), "cval": _real, "dst": wp.array2d(dtype=_real)})
-del _real, _plan, _sample, _index, _blocks
+del _real, _plan, _index, _blocks
