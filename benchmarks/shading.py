@@ -2,6 +2,25 @@
 
 What is measured
 ----------------
+First (issue 32), on surfaces nobody here designed:
+
+* **Standard surfaces**: the sphere and vase of Zhang, Tsai, Cryer & Shah, "Shape from shading:
+  a survey" (IEEE PAMI 21(8), 1999), defined with the citation in ``sfs_surfaces.py``, 128 x 128,
+  under the survey's lights (0,0,1), (1,0,1), (5,5,7) and (-1,0,1), (0,1,1), (1,1,2), noise none
+  and 0.02.  Methods, all given the true light: GSFS default, GSFS given the object mask
+  ``Z_gt > 0``, Pentland, Tsai-Shah.  Error: mean ``|Z − Z_gt|`` over the object ``Z_gt > 0``
+  after the least-squares scale and offset fitted there.  No scanned surface (the survey's
+  Mozart) is available to this benchmark.
+* **Light estimate** on those images: the default (``estimate_illuminant``, method 'background')
+  and Zheng & Chellappa's moments; angle to the true light (degrees), or the refusal.
+* **Rule check** (``sfs_rules.py``): GSFS with each rule of its 'background' prior switched off,
+  or added back for the two dropped after this check, over a tuning set (the surfaces below
+  that the rules were developed on) and a held-out set (the survey surfaces, also moved so that
+  the border cuts them, and the held-out ellipsoid and seven Gaussians); oblique survey lights.
+  About 3 minutes; ``--no-rules`` skips it.
+
+Then the surfaces first benchmarked here:
+
 * Four analytic height maps on a SIZE x SIZE grid (pixel units; Z toward the viewer), rendered
   as Lambertian images ``max(0, n·L)`` (albedo 1) from their *analytic* gradients:
 
@@ -38,7 +57,7 @@ What is measured
                   ``direction=0`` (the x axis) and the row is marked.
   - ``gpm``       gfgpu.photometric_motion (defaults: shift 1, fixed point -100n, k0 and scale
                   fitted by re-rendering).
-  - ``pentland``  Pentland's linear SFS (FFT), albedo from Zheng & Chellappa's estimator.
+  - ``pentland``  Pentland's linear SFS (FFT), albedo from Zheng & Chellappa's moments.
   - ``tsai-shah`` Tsai & Shah (10 Jacobi iterations, Kalman-gain form), albedo likewise.
   - ``gsfs-mask`` (bordered scenes only) gfgpu.shape_from_shading given the object mask
                   ``Z_gt > 0``.
@@ -51,15 +70,18 @@ What is measured
   - **own**: with the method's own scale, after the least-squares offset only.
 
   Run time is the median of 3 calls (numpy backend for gfgpu unless --backend).
-* Light estimation: Zheng & Chellappa (gfgpu.estimate_illuminant), angle between the estimated
+* Light estimation: Zheng & Chellappa (``method='zheng-chellappa'``), angle between the estimated
   and the true light, and the tilt error (also modulo 180°), per image, as published (all
-  pixels) and with the flat background left out (the default).  The held-out surfaces are run
-  once (no timing repeats) with gsfs, pentland and tsai-shah only.
+  pixels) and with the flat background left out; and the default estimate's angle (or its
+  refusal).  The held-out surfaces are run once (no timing repeats) with gsfs, pentland and
+  tsai-shah only.
 
 Usage::
 
     python benchmarks/shading.py [--size 128] [--backend numpy] [--figure docs/shading_results.png]
-                                 [--no-held-out] [--no-bordered]
+                                 [--no-held-out] [--no-bordered] [--no-rules] [--survey-only]
+
+``--figure X.png`` also writes ``X_survey.png`` (the standard surfaces) and ``X_557.png``.
 """
 
 from __future__ import annotations
@@ -75,6 +97,8 @@ from scipy import ndimage
 
 sys.path.insert(0, os.path.dirname(__file__))
 
+import sfs_rules
+import sfs_surfaces
 from sfs_baselines import pentland_linear, tsai_shah
 
 from gfgpu import shading
@@ -280,11 +304,11 @@ def methods(backend):
         return shading.photometric_motion(img, light=light, backend=backend)
 
     def pentland(img, light, z_gt):
-        _, albedo = shading.estimate_illuminant(img)
+        _, albedo = shading.estimate_illuminant(img, method="zheng-chellappa")
         return pentland_linear(img, shading.parse_light(light), albedo)
 
     def tsai(img, light, z_gt):
-        _, albedo = shading.estimate_illuminant(img)
+        _, albedo = shading.estimate_illuminant(img, method="zheng-chellappa")
         return tsai_shah(img, shading.parse_light(light), albedo)
 
     return {"gsfs": gsfs, "gpm": gpm, "pentland": pentland, "tsai-shah": tsai, "gsfs-mask": gsfs_mask}
@@ -313,11 +337,17 @@ def run(size, backend, repeats, surfaces=SURFACES, method_names=None, light_esti
                 if light_estimates:
                     errs = []
                     for exclude in (False, True):   # Zheng & Chellappa as published / background left out
-                        est, _ = shading.estimate_illuminant(img, exclude_background=exclude)
+                        est, _ = shading.estimate_illuminant(img, method="zheng-chellappa",
+                                                             exclude_background=exclude)
                         ang = math.degrees(math.acos(min(1.0, float(est @ true))))
                         tilt = _tilt_error(est, true) if true[2] < 0.999 else (float("nan"),) * 2
                         errs.append((ang, *tilt))
-                    light_rows.append((sname, lname, noise_label, errs[0], errs[1]))
+                    try:                            # the default: the plane's level over the peak
+                        est, _ = shading.estimate_illuminant(img)
+                        ours = f"{math.degrees(math.acos(min(1.0, float(est @ true)))):.1f}"
+                    except ValueError as exc:
+                        ours = "refused (no flat background)" if "no flat" in str(exc) else "refused"
+                    light_rows.append((sname, lname, noise_label, errs[0], errs[1], ours))
                 for mname, fn in meths.items():
                     z, t = timed(lambda fn=fn, img=img, light=light, z_gt=z_gt: fn(img, light, z_gt), repeats)
                     fit = errors(z, z_gt, True)
@@ -389,23 +419,256 @@ def print_tables(rows, light_rows, size, backend, held_rows=(), held_light_rows=
         print()
         _per_surface(bordered_rows, bordered, extra=("gsfs-mask",))
     all_light = list(light_rows) + list(held_light_rows)
-    print("\n### Light direction estimate (Zheng & Chellappa 1991), all surfaces: angular error of the light "
-          "vector (degrees); tilt error, and tilt error modulo 180° (the convex/concave ambiguity), in brackets. "
-          "**as published** = all pixels; **background out** = flat background left out (the default)\n")
-    print("| surface | light | noise | as published | background out |")
-    print("|---|---|---|---|---|")
-    for sname, lname, nl, before, after in all_light:
+    print("\n### Light direction estimate, our surfaces: angular error of the light vector (degrees). "
+          "Zheng & Chellappa 1991 (method='zheng-chellappa'), with the tilt error and the tilt error modulo "
+          "180° (the convex/concave ambiguity) in brackets: **as published** = all pixels, **background out** "
+          "= flat background left out; **default** = method='background' (the plane's level over the "
+          "object's brightest point), which refuses images without a flat background\n")
+    print("| surface | light | noise | Z&C as published | Z&C background out | default |")
+    print("|---|---|---|---|---|---|")
+    for sname, lname, nl, before, after, ours in all_light:
         cells = []
         for ang, tilt, tilt180 in (before, after):
             cells.append(f"{ang:.1f}" + ("" if math.isnan(tilt) else f" ({tilt:.1f}, {tilt180:.1f})"))
-        print(f"| {sname} | {lname} | {nl} | {cells[0]} | {cells[1]} |")
-    for label, k in (("as published", 3), ("background out", 4)):
+        print(f"| {sname} | {lname} | {nl} | {cells[0]} | {cells[1]} | {ours} |")
+    for label, k in (("Z&C as published", 3), ("Z&C background out", 4)):
         angs = np.array([r[k][0] for r in all_light])
         tilts = np.array([r[k][1] for r in all_light if not math.isnan(r[k][1])])
         tilts180 = np.array([r[k][2] for r in all_light if not math.isnan(r[k][2])])
         print(f"\n{label}: light angle mean {angs.mean():.1f}, median {np.median(angs):.1f}, max {angs.max():.1f} deg "
               f"over {len(angs)} images; tilt error mean {tilts.mean():.1f} deg, modulo 180° mean "
               f"{tilts180.mean():.1f} deg (oblique lights)")
+
+
+
+# ----------------------------------------------------------------------------------------
+# the survey's standard surfaces (Zhang, Tsai, Cryer & Shah 1999): the table of the issue
+# ----------------------------------------------------------------------------------------
+SURVEY_NOISES = (("none", 0.0), ("0.02", NOISE))
+
+
+def object_error(z, z_gt, obj):
+    """Mean |Z − Z_gt| over ``obj`` after the least-squares scale and offset (fitted over ``obj``)."""
+    a = np.asarray(z, np.float64)[obj]
+    b = z_gt[obj]
+    A = np.stack([a, np.ones_like(a)], axis=1)
+    coef, *_ = np.linalg.lstsq(A, b, rcond=None)
+    return float(np.abs(A @ coef - b).mean())
+
+
+def _frontal(light):
+    return shading.parse_light(light)[2] > math.cos(shading.MIN_SLANT)
+
+
+def survey_methods(backend):
+    """GSFS (default, and given the object), Pentland and Tsai-Shah, all given the true light."""
+    def gsfs(img, light, obj):
+        return shading.shape_from_shading(img, light=light, direction=0.0 if _frontal(light) else None,
+                                          backend=backend)
+
+    def gsfs_mask(img, light, obj):
+        return shading.shape_from_shading(img, light=light, direction=0.0 if _frontal(light) else None,
+                                          mask=obj, backend=backend)
+
+    def albedo(img):
+        return shading.estimate_illuminant(img, method="zheng-chellappa")[1]
+
+    def pentland(img, light, obj):
+        return pentland_linear(img, shading.parse_light(light), albedo(img))
+
+    def tsai(img, light, obj):
+        return tsai_shah(img, shading.parse_light(light), albedo(img))
+
+    return {"GSFS default": gsfs, "GSFS with mask": gsfs_mask, "Pentland": pentland, "Tsai-Shah": tsai}
+
+
+def _angle(est, true):
+    return math.degrees(math.acos(min(1.0, float(est @ true))))
+
+
+def survey_run(backend, surfaces=None, lights=None):
+    """Rows (surface, light, noise, {method: error}) and light-estimate rows; images for the figure."""
+    surfaces = sfs_surfaces.SURVEY if surfaces is None else surfaces
+    lights = sfs_surfaces.SURVEY_LIGHTS if lights is None else lights
+    rng = np.random.default_rng(11)
+    meths = survey_methods(backend)
+    rows, light_rows, images = [], [], {}
+    for sname, make in surfaces.items():
+        z_gt, p, q = make()
+        obj = z_gt > 0
+        images[(sname, "gt")] = z_gt
+        for lname, light in lights.items():
+            clean = render(p, q, light)
+            noisy = clean + NOISE * rng.standard_normal(clean.shape)
+            for nl, img in (("none", clean), ("0.02", noisy)):
+                errs = {}
+                for mname, fn in meths.items():
+                    z = fn(img, light, obj)
+                    errs[mname] = object_error(z, z_gt, obj)
+                    images[(sname, lname, nl, mname)] = z
+                images[(sname, lname, nl, "input")] = img
+                rows.append((sname, lname, nl, errs))
+                true = shading.parse_light(light)
+                try:
+                    est, _ = shading.estimate_illuminant(img)
+                    ours = f"{_angle(est, true):.1f}"
+                except ValueError as exc:
+                    ours = "refused" + (" (no normal along L)" if "faces the light" in str(exc) else "")
+                zc = shading.estimate_illuminant(img, method="zheng-chellappa")[0]
+                light_rows.append((sname, lname, nl, ours, f"{_angle(zc, true):.1f}"))
+    return rows, light_rows, images
+
+
+def print_survey(rows, light_rows, backend):
+    names = list(rows[0][3])
+    print(f"## Standard SFS surfaces (Zhang, Tsai, Cryer & Shah 1999), 128x128, gfgpu backend: {backend}\n")
+    print("Mean |Z − Z_gt| (pixels) over the object (Z_gt > 0) after the best least-squares scale and "
+          "offset; every method is given the true light. † = frontal light: GSFS refuses it and runs "
+          "with direction=0 (not a recovery); Pentland returns Z = 0 there. Bold = best of the row.\n")
+    print("| surface | light | noise | " + " | ".join(names) + " | GSFS default vs Pentland |")
+    print("|---|---|---|" + "---|" * len(names) + "---|")
+    for sname, lname, nl, errs in rows:
+        best = min(errs.values())
+        mark = "†" if lname == "(0,0,1)" else ""
+        cells = [(f"**{v:.2f}**" if v == best else f"{v:.2f}") + (mark if m.startswith("GSFS") else "")
+                 for m, v in errs.items()]
+        verdict = "win" if errs["GSFS default"] < errs["Pentland"] else "loss"
+        print(f"| {sname} | {lname} | {nl} | " + " | ".join(cells) + f" | {'—' if mark else verdict} |")
+    oblique = [r for r in rows if r[1] != "(0,0,1)"]
+    wins = sum(r[3]["GSFS default"] < r[3]["Pentland"] for r in oblique)
+    wins_m = sum(r[3]["GSFS with mask"] < r[3]["Pentland"] for r in oblique)
+    print(f"\nOblique lights: GSFS default below Pentland in {wins}/{len(oblique)} rows, GSFS with mask in "
+          f"{wins_m}/{len(oblique)}; means " + ", ".join(
+              f"{m} {np.mean([r[3][m] for r in oblique]):.2f}" for m in names))
+    print("\n### Light estimate on the standard surfaces: angle between the estimated and the true light "
+          "(degrees); **background** = estimate_illuminant's default (the plane's level over the object's "
+          "brightest point), **Zheng-Chellappa** = the published moments\n")
+    print("| surface | light | noise | background | Zheng-Chellappa |")
+    print("|---|---|---|---|---|")
+    for r in light_rows:
+        print("| " + " | ".join(r) + " |")
+
+
+# ----------------------------------------------------------------------------------------
+# the rules of GSFS's 'background' prior, each switched off, on a tuning and a held-out set
+# ----------------------------------------------------------------------------------------
+def _shifted(make, dy, dx):
+    """A survey surface moved by (dy, dx) pixels, so that the image border cuts it."""
+    def moved():
+        return tuple(ndimage.shift(a, (dy, dx), order=0, mode="constant", cval=0.0) for a in make())
+    return moved
+
+
+def _sized(fn, size=128):
+    return lambda: fn(size)
+
+
+#: the sets of the rule check.  TUNING: the surfaces the rules were developed on (our own
+#: objects and the bordered scenes of issue 18).  HELD-OUT: surfaces nobody here designed (the
+#: survey's sphere and vase, also moved so that the left or bottom border cuts them) and the
+#: held-out ellipsoid and seven Gaussians.
+RULE_SETS = {
+    "tuning": {"sphere": _sized(sphere), "vase": _sized(vase), "gaussians": _sized(gaussians),
+               **{k: _sized(v) for k, v in BORDERED.items()}},
+    "held-out": {"survey sphere": sfs_surfaces.survey_sphere, "survey vase": sfs_surfaces.survey_vase,
+                 "survey sphere, left cut": _shifted(sfs_surfaces.survey_sphere, 0, -40),
+                 "survey vase, bottom cut": _shifted(sfs_surfaces.survey_vase, 30, 0),
+                 "ellipsoid": _sized(ellipsoid), "gaussians-7": _sized(gaussians_seven)},
+}
+
+
+def rule_check(backend, lights=None):
+    """Per-surface mean object error of GSFS (default, with mask) for each variant of sfs_rules."""
+    lights = {k: v for k, v in sfs_surfaces.SURVEY_LIGHTS.items() if k != "(0,0,1)"} if lights is None else lights
+    rng = np.random.default_rng(5)
+    cases = {}
+    for set_name, surfaces in RULE_SETS.items():
+        cases[set_name] = []
+        for sname, make in surfaces.items():
+            z_gt, p, q = make()
+            for light in lights.values():
+                clean = render(p, q, light, z_gt.shape[0])
+                for img in (clean, clean + NOISE * rng.standard_normal(clean.shape)):
+                    cases[set_name].append((sname, img, light, z_gt))
+    out = {}
+    for vname in (*sfs_rules.VARIANTS, "boundary='free'"):
+        kw = {"boundary": "free"} if vname == "boundary='free'" else {}
+        for set_name, cs in cases.items():
+            per = {}
+            for sname, img, light, z_gt in cs:
+                obj = z_gt > 0
+                L = shading.parse_light(light)
+                with sfs_rules.variant(sfs_rules.VARIANTS[0] if kw else vname, math.atan2(L[1], L[0])):
+                    d = shading.shape_from_shading(img, light=light, backend=backend, **kw)
+                    m = shading.shape_from_shading(img, light=light, mask=obj, backend=backend, **kw)
+                per.setdefault(sname, []).append((object_error(d, z_gt, obj), object_error(m, z_gt, obj)))
+            out[(vname, set_name)] = {k: tuple(np.mean(v, axis=0)) for k, v in per.items()}
+    return out
+
+
+def print_rule_check(out):
+    sets = list(RULE_SETS)
+    variants = list(dict.fromkeys(k[0] for k in out))
+    print("\n### GSFS's rules, each switched off (-) or added back (+, the rules dropped after this "
+          "check): mean object error (as above), oblique survey lights, noise none and 0.02; default / with mask\n")
+    print("Tuning set (the rules were developed on these): " + ", ".join(RULE_SETS["tuning"]) + ".  Held-out "
+          "set (nobody here designed them): " + ", ".join(RULE_SETS["held-out"]) + ".\n")
+    print("| variant | " + " | ".join(f"{s} default | {s} mask" for s in sets) + " |")
+    print("|---|" + "---|---|" * len(sets))
+    for vname in variants:
+        cells = []
+        for s in sets:
+            vals = np.array(list(out[(vname, s)].values()))
+            cells += [f"{vals[:, 0].mean():.2f}", f"{vals[:, 1].mean():.2f}"]
+        print(f"| {vname} | " + " | ".join(cells) + " |")
+    for s in sets:
+        names = list(out[(variants[0], s)])
+        print(f"\n{s}, per surface (default / with mask):\n")
+        print("| variant | " + " | ".join(names) + " |")
+        print("|---|" + "---|" * len(names))
+        for vname in variants:
+            print(f"| {vname} | " + " | ".join(f"{out[(vname, s)][n][0]:.2f} / {out[(vname, s)][n][1]:.2f}"
+                                               for n in names) + " |")
+
+#: panels of the standard-surface figure: (surface, light), noise none; wins and losses
+SURVEY_PANELS = (("sphere", "(1,0,1)"), ("vase", "(1,0,1)"), ("vase", "(0,1,1)"), ("vase", "(5,5,7)"))
+
+
+def survey_figure(rows, images, path):
+    """The survey's surfaces: input, truth and each method after the LS scale + offset, error in the title."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    errs = {(r[0], r[1], r[2]): r[3] for r in rows}
+    names = list(rows[0][3])
+    cols = ["input", "gt", *names]
+    fig, axes = plt.subplots(len(SURVEY_PANELS), len(cols), figsize=(2.0 * len(cols), 2.1 * len(SURVEY_PANELS)))
+    for i, (s, light) in enumerate(SURVEY_PANELS):
+        gt = images[(s, "gt")]
+        obj = gt > 0
+        for j, c in enumerate(cols):
+            ax = axes[i, j]
+            if c == "input":
+                ax.imshow(images[(s, light, "none", "input")], cmap="gray", vmin=0, vmax=1)
+                ax.set_title(f"{s}, light {light}", fontsize=8)
+            else:
+                z = gt
+                if c != "gt":
+                    a = np.asarray(images[(s, light, "none", c)], np.float64)
+                    A = np.stack([a[obj], np.ones(int(obj.sum()))], 1)
+                    coef, *_ = np.linalg.lstsq(A, gt[obj], rcond=None)
+                    z = np.where(obj, coef[0] * a + coef[1], 0.0)
+                    ax.set_title(f"{c}: {errs[(s, light, 'none')][c]:.2f}", fontsize=8)
+                else:
+                    ax.set_title("ground truth", fontsize=8)
+                ax.imshow(z, cmap="viridis", vmin=gt.min(), vmax=gt.max())
+            ax.set_xticks([])
+            ax.set_yticks([])
+    fig.suptitle("Standard SFS surfaces (Zhang et al. 1999), no noise: depth after the LS scale + offset over "
+                 "the object; title = mean |Z − Z_gt| (px)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
 
 
 def figure(images, path, light="(1,0,1)", noise="none"):
@@ -448,7 +711,21 @@ def main(argv=None):
     ap.add_argument("--figure", default=None, help="write the comparison figure (PNG) here")
     ap.add_argument("--no-held-out", action="store_true", help="skip the held-out surfaces")
     ap.add_argument("--no-bordered", action="store_true", help="skip the bordered surfaces")
+    ap.add_argument("--no-rules", action="store_true", help="skip the rule check (about 3 minutes)")
+    ap.add_argument("--survey-only", action="store_true",
+                    help="only the standard surfaces (and the rule check unless --no-rules)")
     args = ap.parse_args(argv)
+    s_rows, s_light_rows, s_images = survey_run(args.backend)
+    print_survey(s_rows, s_light_rows, args.backend)
+    if not args.no_rules:
+        print_rule_check(rule_check(args.backend))
+    if args.figure:
+        survey_path = args.figure.replace(".png", "_survey.png")
+        survey_figure(s_rows, s_images, survey_path)
+        print(f"\nfigure: {survey_path}")
+    if args.survey_only:
+        return
+    print()
     rows, light_rows, images = run(args.size, args.backend, args.repeats)
     held_rows, held_light_rows = (), ()
     if not args.no_held_out:

@@ -8,7 +8,7 @@ pixels where a prior fixes the depth and fits ``(c, a)`` line by line:
   along each line (:func:`boundary_anchors`).  A line whose anchors lie on both sides of its
   object pixels gets ``c`` and ``a`` (Dirichlet conditions at both ends); a line cut by the image
   border on one side gets ``c`` only, since one end cannot fix a ramp; a line that is object from
-  border to border gets ``c`` from its neighbours (:func:`fix_from_neighbours`).
+  border to border keeps its integral's start (Z = 0 where it enters the image).
 * ``free`` prior: every line has zero weighted mean (:func:`fix_zero_mean`).
 
 Lines are those of :mod:`gfgpu._core.lines` at integer offsets ``r[t] = floor(γt + ½)``, laid out
@@ -19,12 +19,11 @@ as ``minor x major`` (``t`` the step along the dominant axis): pixel ``(m, t)`` 
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage, sparse
-from scipy.sparse import linalg as splinalg
+from scipy import ndimage
 
 from .._core.lines import direction as _line_direction
 
-__all__ = ["line_coordinates", "boundary_anchors", "line_ends_on", "fix_object", "fix_zero_mean", "fix_from_neighbours"]
+__all__ = ["line_coordinates", "boundary_anchors", "line_ends_on", "fix_object", "fix_zero_mean"]
 
 
 def _layout(angle):
@@ -137,56 +136,3 @@ def fix_object(z, line, t, obj, anchors):
     a[ramp] = -(s0[ramp] * stz[ramp] - s1[ramp] * sz[ramp]) / det[ramp]
     c = -np.divide(sz + a * s1, s0, out=np.zeros(n), where=anchored)
     return z + c[line] + a[line] * t, anchored
-
-
-def fix_from_neighbours(z, angle, line, fixed):
-    """``z + c[line]`` for the lines not ``fixed``: least cross-line differences to the others.
-
-    Adjacent lines are adjacent pixels across the dominant axis; ``c`` minimises the sum over
-    those pixel pairs of the squared depth difference, the fixed lines held (a tridiagonal
-    system).  Without any fixed line the mean of ``c`` is held at 0.
-    """
-    steep, gamma = _layout(angle)
-    zl = z.T if steep else z
-    ll = line.T if steep else line
-    n = int(line.max()) + 1
-    free = ~fixed
-    if not free.any():
-        return z
-    # pairs (m, t) - (m+1, t): lines l and l+1, difference d = z[m+1] - z[m]
-    lab = ll[:-1].ravel()
-    cnt = np.bincount(lab, minlength=n)[: n - 1]
-    dsum = np.bincount(lab, (zl[1:] - zl[:-1]).ravel(), minlength=n)[: n - 1]
-    # minimise Σ_l cnt_l (c_{l+1} − c_l + d_l)², d_l = dsum_l/cnt_l, over the free c (fixed c = 0)
-    pos = np.full(n, -1)
-    pos[free] = np.arange(int(free.sum()))
-    k = int(free.sum())
-    rows, cols, vals = [], [], []
-    rhs = np.zeros(k)
-    lo, hi = np.arange(n - 1), np.arange(1, n)
-    use = cnt > 0
-    lo, hi, cw, dd = lo[use], hi[use], cnt[use].astype(np.float64), dsum[use]
-    # gradient of Σ cw (c_hi − c_lo)² + 2 dd (c_hi − c_lo): normal equations entry by entry
-    for p_, q_, sgn in ((hi, lo, 1.0), (lo, hi, -1.0)):
-        fp = free[p_]
-        rows.append(pos[p_[fp]])
-        cols.append(pos[p_[fp]])
-        vals.append(cw[fp])
-        both = fp & free[q_]
-        rows.append(pos[p_[both]])
-        cols.append(pos[q_[both]])
-        vals.append(-cw[both])
-        np.add.at(rhs, pos[p_[fp]], -sgn * dd[fp])
-    ridge = 0.0 if fixed.any() else 1e-9 * max(1.0, float(cw.max()) if cw.size else 1.0)
-    mat = sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                            shape=(k, k)) + ridge * sparse.identity(k, format="csr")
-    diag = mat.diagonal()
-    isolated = diag <= 0
-    if isolated.any():       # a free line with no neighbour pairs: keep it as it is
-        mat = mat + sparse.diags(isolated.astype(np.float64))
-    c_free = splinalg.spsolve(mat.tocsc(), rhs)
-    c = np.zeros(n)
-    c[free] = c_free
-    if not fixed.any():
-        c -= c.mean()
-    return z + c[line]

@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from .._core.validation import work_dtype
+
 __all__ = ["MIN_SLANT", "checked_image", "checked_mask", "check_contrast", "parse_light", "tilt_slant"]
 
 #: Lights whose slant (angle from the viewing direction, radians) is below this have no usable
@@ -21,7 +23,7 @@ def checked_image(image, name="image"):
         raise ValueError(f"{name} must be a 2-D grey-level image, got shape {arr.shape}")
     if min(arr.shape) < 4:
         raise ValueError(f"{name} must be at least 4 x 4 pixels, got shape {arr.shape}")
-    dtype = arr.dtype if arr.dtype in (np.float32, np.float64) else np.dtype(np.float32)
+    dtype = work_dtype(arr.dtype, name)     # the operators' policy: wide integers in float64
     arr = arr.astype(dtype, copy=False)
     if not np.isfinite(arr).all():
         raise ValueError(f"{name} contains NaN or infinite values")

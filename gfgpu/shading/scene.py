@@ -9,8 +9,8 @@ from scipy import ndimage
 
 from .params import checked_image, checked_mask
 
-__all__ = ["noise_sigma", "flat_background", "has_background", "border_band", "background_region",
-           "quiet_sides", "border_side_masks"]
+__all__ = ["noise_sigma", "flat_background", "has_background", "border_band", "quiet_sides",
+           "border_side_masks"]
 
 #: shading-free ("flat background") pixels: smoothing scale (pixels) of the gradient test, the
 #: gradient floor relative to the image's strong (99th-percentile) shading gradient, the erosion
@@ -218,28 +218,3 @@ def has_background(image, mask=None):
     if float(img[band].std()) < BORDER_QUIET * total:
         return True
     return float(flat_background(img, m)[band].mean()) >= BORDER_FLAT
-
-
-#: :func:`background_region` grows the flat set back over the margin that the smoothing and the
-#: erosion of :func:`flat_background` cost, into pixels within this fraction of the image's
-#: intensity range (or 3 noise sigmas) of the background's intensity
-BACKGROUND_TOLERANCE = 0.02
-
-
-def background_region(image, flat, level, mask=None):
-    """The flat background grown over the margin that :func:`flat_background` leaves around it.
-
-    The gradient test smooths by :data:`FLAT_SMOOTHING` and erodes by :data:`FLAT_EROSION`
-    pixels, so the flat set stops short of the object by up to ``FLAT_EROSION + 2·FLAT_SMOOTHING``
-    pixels.  This grows it back by as many steps (8-connected) into pixels whose intensity is
-    within ``max(3 σ_n, BACKGROUND_TOLERANCE · range)`` of ``level`` (the background's
-    intensity): where an object is cut by the image border, its runs along a line then start
-    at the object, not several pixels before it.
-    """
-    img = np.asarray(image, np.float64)
-    m = np.ones(img.shape, bool) if mask is None else mask
-    vals = img[m]
-    tol = max(3.0 * noise_sigma(img), BACKGROUND_TOLERANCE * float(vals.max() - vals.min()))
-    near = (np.abs(img - level) <= tol) & m
-    steps = FLAT_EROSION + int(math.ceil(2 * FLAT_SMOOTHING))
-    return ndimage.binary_dilation(flat, np.ones((3, 3), bool), iterations=steps, mask=near) | flat

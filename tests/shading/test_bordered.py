@@ -69,18 +69,37 @@ def _fit_error(z, truth, border=2):
     return float(np.abs(a @ coef - truth[sl].ravel()).mean())
 
 
+def _object_error(z, truth):
+    """Mean |Z − Z_gt| over the object (Z_gt > 0) after the least-squares scale and offset there."""
+    obj = truth > 0
+    a = np.stack([z[obj], np.ones(int(obj.sum()))], axis=1)
+    coef, *_ = np.linalg.lstsq(a, truth[obj], rcond=None)
+    return float(np.abs(a @ coef - truth[obj]).mean())
+
+
+#: (scene, light) -> (GSFS below Pentland over the object?, lower bound of the correlation over
+#: the object).  The bust under (5, 5, 7) is a loss (object error 4.5 against 2.9; docs/shading.md)
+OUTCOMES = {("bust", (1, 0, 1)): (False, 0.7), ("bust", (5, 5, 7)): (False, 0.25),
+            ("relief", (1, 0, 1)): (True, 0.95), ("relief", (5, 5, 7)): (True, 0.95),
+            ("sphere-cut", (1, 0, 1)): (True, 0.75), ("sphere-cut", (5, 5, 7)): (True, 0.6)}
+
+
 @pytest.mark.parametrize("normals", ["gradient", "supersampled"])
-@pytest.mark.parametrize("light", [(1, 0, 1), (5, 5, 7)])
-@pytest.mark.parametrize("scene", list(SCENES))
-def test_gsfs_beats_pentland_on_objects_cut_by_the_border(scene, light, normals):
+@pytest.mark.parametrize("scene, light", list(OUTCOMES))
+def test_gsfs_against_pentland_on_objects_cut_by_the_border(scene, light, normals):
     truth = SCENES[scene](*_grid(SIZE))
     img = _render(SCENES[scene], light, normals)
     assert shading.has_background(img)              # 'auto' takes the object prior
     est = shading.shape_from_shading(img, light=light, backend="numpy")
     _, albedo = shading.estimate_illuminant(img)
     ref = _pentland(img, shading.parse_light(light), albedo)
+    wins, corr = OUTCOMES[(scene, light)]
+    if wins:
+        assert _object_error(est, truth) < _object_error(ref, truth)
+    # over the whole image GSFS's background is exactly the plane, which Pentland's is not
     assert _fit_error(est, truth) < _fit_error(ref, truth)
-    assert np.corrcoef(est.ravel(), truth.ravel())[0, 1] > 0.65     # sphere-cut (5,5,7): 0.70 (docs/shading.md)
+    obj = truth > 0
+    assert np.corrcoef(est[obj], truth[obj])[0, 1] > corr
 
 
 @pytest.mark.parametrize("scene, quiet", [("bust", (True, False, True, True)),
@@ -167,3 +186,20 @@ def test_bad_k1_raises_before_any_work():
     img = _render(_sphere_cut, (1, 0, 1), "gradient")
     with pytest.raises(ValueError, match="k1 must be 'render', 'linear'"):
         shading.shape_from_shading(img, light=(1, 0, 1), k1="auto")
+
+
+def test_a_flat_pocket_inside_the_object_is_object():
+    # the survey sphere under (1, 1, 2): the shading is stationary where the normal faces the
+    # light, so a few pixels there look flat; they are enclosed by the object and must not be
+    # pinned to the plane (the depth there was exactly 0, and every line through it was cut)
+    from scipy import ndimage
+
+    from .surfaces import render, survey_sphere
+    z, p, q = survey_sphere()
+    img = render(p, q, (1, 1, 2))
+    flat = shading.flat_background(img)
+    pocket = ndimage.binary_fill_holes(~flat) & flat
+    assert pocket.any()
+    est = shape_from_shading(img, light=(1, 1, 2), backend="numpy")
+    assert (est[pocket] > 0.3 * est.max()).all()          # the truth there: 0.7 of the top
+    assert _object_error(est, z) < 3.6                    # 3.45 (4.45 with the pocket pinned)

@@ -28,19 +28,6 @@ def test_boundary_anchors_are_the_pixels_next_to_the_object_along_each_line(rng,
     np.testing.assert_array_equal(line_fit.boundary_anchors(obj, angle), expected)
 
 
-@pytest.mark.parametrize("angle", [0.0, 0.7, 2.0])
-def test_lines_without_anchors_take_their_constants_from_their_neighbours(rng, angle):
-    shape = (20, 26)
-    line, t = line_fit.line_coordinates(shape, angle)
-    truth = np.sin(t / 4.0)                         # constant across lines: neighbours agree
-    n = int(line.max()) + 1
-    fixed = np.zeros(n, bool)
-    fixed[::5] = True
-    offsets = np.where(fixed, 0.0, rng.standard_normal(n) * 3)
-    out = line_fit.fix_from_neighbours(truth + offsets[line], angle, line, fixed)
-    np.testing.assert_allclose(out, truth, atol=1e-9)
-
-
 def test_object_fit_puts_both_ends_of_a_bracketed_run_at_zero():
     z = np.cumsum(np.ones((3, 12)), axis=1) + 5.0   # a ramp plus a constant on every row
     obj = np.zeros(z.shape, bool)

@@ -41,7 +41,8 @@ def test_illuminant_tilt_of_a_sphere(tilt_deg):
     y, x = grid(96)
     z = np.sqrt(np.clip(60.0**2 - x * x - y * y, 0, None))
     light = (math.radians(tilt_deg), math.radians(40))
-    est, albedo = shading.estimate_illuminant(shading.lambertian_shading(z, light))
+    # the sphere nearly fills the frame (no flat background to fix the slant): the published moments
+    est, albedo = shading.estimate_illuminant(shading.lambertian_shading(z, light), method="zheng-chellappa")
     tilt = math.degrees(math.atan2(est[1], est[0]))
     assert abs((tilt - tilt_deg + 180) % 360 - 180) < 5
     assert 0.5 < albedo < 1.5
@@ -53,6 +54,8 @@ def test_illuminant_ignores_a_flat_background():
     img = render(p, q, light)
     angle = {}
     for exclude in (False, True):
-        est, _ = shading.estimate_illuminant(img, exclude_background=exclude)
+        est, _ = shading.estimate_illuminant(img, method="zheng-chellappa", exclude_background=exclude)
         angle[exclude] = math.degrees(math.acos(min(1.0, float(est @ light))))
-    assert angle[False] > 15 and angle[True] < 8
+    est, _ = shading.estimate_illuminant(img)       # the plane's level over the object's peak
+    angle["background"] = math.degrees(math.acos(min(1.0, float(est @ light))))
+    assert angle[False] > 15 and angle[True] < 8 and angle["background"] < 3
