@@ -32,8 +32,9 @@ What is measured
   (``scipy.ndimage.distance_transform_edt`` of the ideal map).  FOM = 0 when nothing is detected.
 
 * Detectors:
-  - ``gfgpu``   gfgpu.canny: the chapter's D(x) with a = 1.1, eta = 3.5 (gradient on the default
-                backend, or --backend), interpolated NMS, hysteresis;
+  - ``gfgpu``   gfgpu.canny: the one-signed two-scale D(x) (gfgpu.edges.operator) with a = 1.1,
+                eta = 3.5 (gradient on the default backend, or --backend), interpolated NMS,
+                hysteresis;
   - ``skimage`` skimage.feature.canny (Gaussian smoothing + Sobel, bilinear NMS, hysteresis);
   - ``cv2``     cv2.Canny after cv2.GaussianBlur at sigma (the scale matched as for skimage: the
                 same sigma grid): Sobel derivatives of the blurred float32 image, scaled to int16,
@@ -83,7 +84,7 @@ import numpy as np
 from scipy import ndimage
 
 import gfgpu
-from gfgpu.edges import hysteresis
+from gfgpu.edges import edge_gradient, hysteresis
 from gfgpu.edges.spec import suppress_nonmaxima_reference
 from gfgpu.greens import EDGE_A, EDGE_ETA
 
@@ -303,7 +304,7 @@ def check_fast_path(target, backend, scales, pairs):
     img = target.noisy(1, 2.0, 999, 99)
     worst = 0
     for u, ratio in (scales[0], scales[len(scales) // 2], scales[-1]):
-        gy, gx = gfgpu.gradient(img, u, projection_scale=ratio, backend=backend)
+        gy, gx = edge_gradient(img, u, projection_scale=ratio, backend=backend)
         mag = np.hypot(gy, gx)
         nms = suppress_nonmaxima_reference(gy, gx)
         for lo, hi in (pairs[0], pairs[len(pairs) // 2], pairs[-1]):
@@ -334,7 +335,7 @@ def run_fom(targets, args, backend, grids, deriche, opencv=False):
         img = t.noisy(j, SNRS[j], k, i)
         t0 = time.perf_counter()
         for a, (u, ratio) in enumerate(grids["u"]):
-            gy, gx = gfgpu.gradient(img, u, a=EDGE_A, eta=EDGE_ETA, projection_scale=ratio, backend=backend)
+            gy, gx = edge_gradient(img, u, a=EDGE_A, eta=EDGE_ETA, projection_scale=ratio, backend=backend)
             res["gfgpu"][i, j, a, :, k] = grid_foms(t, np.asarray(gy), np.asarray(gx), pairs, lows)
         defaults["gfgpu"][i, j, k] = t.fom(gfgpu.canny(img, 1.0, backend=backend))
         t1 = time.perf_counter()

@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
+import inspect
 import itertools
 import threading
 
@@ -57,6 +58,7 @@ from ._core.translation import decay_length, step_offset, window_index, without_
 from ._core.validation import finite_cval, flag, work_dtype
 from .backends import Backend, backend_request, check_backend_name, resolve_backend
 from .edges import canny as canny_2d
+from .edges import check_arguments as check_canny_arguments
 from .motion import motion_blur as motion_blur_2d
 from .motion.kinds import motion_kind, psf_name
 
@@ -627,12 +629,21 @@ def canny(x, u=1.0, low_threshold=None, high_threshold=None, *, use_quantiles=Fa
     ------
     TypeError, ValueError
         For an ``x`` that is not a dask array, is empty, has unknown chunk sizes or fewer than
-        2 dimensions, and a bad backend name, before any task is built; :func:`gfgpu.canny`
-        checks its own parameters in the tasks, when the result is computed.
+        2 dimensions, a bad backend name, and every parameter :func:`gfgpu.canny` refuses
+        (a ``mask`` must have the image plane's shape), before any task is built;
+        ``return_gradient`` is refused (the result is one edge map per plane).
     """
     _check_array(x)
     if x.ndim < 2:
         raise ValueError(f"canny needs images (at least 2 dimensions), got shape {x.shape}")
+    unknown = sorted(set(kwargs) - (set(inspect.signature(canny_2d).parameters) - {"image"}))
+    if unknown:
+        raise TypeError(f"gfgpu.dask.canny got unexpected keyword argument(s) {', '.join(unknown)}")
+    if kwargs.get("return_gradient", False) is not False:
+        raise TypeError("gfgpu.dask.canny returns edge maps only: return_gradient is not supported "
+                        "(use gfgpu.dask.gradient for the gradient)")
+    check_canny_arguments(u, low_threshold, high_threshold, use_quantiles=use_quantiles, shape=x.shape[-2:],
+                          **kwargs)
     spec = _backend_spec(backend, device)
     kw = dict(kwargs, u=u, low_threshold=low_threshold, high_threshold=high_threshold,
               use_quantiles=use_quantiles)

@@ -264,12 +264,12 @@ def test_a_full_disk_is_failed_work(tmp_path, capsys, small_png, monkeypatch):
     """Exit status 1 (the work was done, its output could not be written), one line naming the output."""
     import errno
 
-    import imageio.v3 as iio
-
-    def full(*args, **kwargs):
+    def full(tmp, data):                       # every encoded image goes through this one write
+        with open(tmp, "wb") as f:
+            f.write(bytes(data[:10]))
         raise OSError(errno.ENOSPC, "No space left on device")
 
-    monkeypatch.setattr(iio, "imwrite", full)
+    monkeypatch.setattr(gfgpu.io, "_write_bytes", full)
     code = cli(["shift", str(small_png), "-o", str(tmp_path / "o.png"), "--dx", 1, "--backend", "numpy", "-q"])
     one_line_error(capsys, code, 1, "shift", rf"cannot write {tmp_path / 'o.png'}: No space left on device$")
     assert sorted(os.listdir(tmp_path)) == ["small.png"]          # no temporary file left
@@ -391,3 +391,81 @@ def test_blur_takes_the_box_psf(tmp_path, capsys, small_png):
     np.testing.assert_allclose(iio.imread(tmp_path / "box.tif").astype(np.float32),
                                np.clip(np.rint(ref), 0, 255), atol=1)
     assert not np.array_equal(iio.imread(tmp_path / "box.tif"), iio.imread(tmp_path / "green.tif"))
+
+
+# --- gfgpu canny: one image's edge map ------------------------------------------------------------
+@pytest.mark.parametrize("backend", ["numpy", "opencl", "warp"])
+def test_canny_command_writes_the_api_edge_map(tmp_path, capsys, require_backend, backend):
+    import imageio.v3 as iio
+
+    be = require_backend(backend)
+    out = tmp_path / "edges.png"
+    code = cli(["canny", "--example", "camera", "-o", out, "-u", 1.5, "--low", 0.8, "--high", 0.9,
+                "--backend", backend])
+    text = capsys.readouterr()
+    assert code == 0, text.err
+    assert text.out.splitlines()[0].startswith(f"gfgpu canny: backend {backend} on {be.device}")
+    written = iio.imread(out)
+    assert written.dtype == np.uint8 and written.ndim == 2 and set(np.unique(written)) == {0, 255}
+    cam = gfgpu.io.example_image("camera")
+    expect = gfgpu.canny(cam, 1.5, 0.8, 0.9, use_quantiles=True, backend="numpy")
+    np.testing.assert_array_equal(written == 255, expect)
+    assert f"{int(expect.sum())} edge pixels" in text.out
+
+
+def test_canny_command_files_colour_and_defaults(tmp_path, capsys):
+    import imageio.v3 as iio
+
+    rgb = np.zeros((40, 48, 3), np.uint8)
+    rgb[:, 24:] = (255, 120, 0)
+    path = tmp_path / "rgb.png"
+    iio.imwrite(path, rgb)
+    assert cli(["canny", path, "-o", tmp_path / "e.png", "--backend", "numpy", "-q"]) == 0
+    edges = iio.imread(tmp_path / "e.png") == 255
+    grey = (rgb / 255.0).astype(np.float32).mean(axis=-1)
+    np.testing.assert_array_equal(edges, gfgpu.canny(grey, 1.0, backend="numpy"))
+    assert np.unique(np.nonzero(edges)[1]).tolist() == [24]          # one edge, no side lobes
+    # a float TIFF in 0..255 (the issue's ghost edges came through a float file)
+    tif = tmp_path / "step.tif"
+    iio.imwrite(tif, ((np.mgrid[:64, :64][1] >= 32) * 255.0).astype(np.float32))
+    assert cli(["canny", tif, "-o", tmp_path / "s.png", "--backend", "numpy", "-q"]) == 0
+    assert np.unique(np.nonzero(iio.imread(tmp_path / "s.png"))[1]).tolist() == [32]
+
+
+@pytest.mark.parametrize("extra,pattern", [
+    (["--low", 0.8], r"give --low and --high together"),
+    (["--low", 1.5, "--high", 2], r"argument --low: expected a quantile in \[0, 1\], got '1.5'"),
+    (["--low", 0.9, "--high", 0.8], r"--low \(0.9\) must not exceed --high \(0.8\)"),
+    (["-u", 0], r"-u"),
+    (["-u", 1e12], r"-u must lie in"),
+    (["--mode", "bogus"], r"--mode"),
+])
+def test_canny_command_refuses_bad_options_before_work(tmp_path, capsys, extra, pattern):
+    out = tmp_path / "e.png"
+    try:
+        code = cli(["canny", "--example", "camera", "-o", out, "--backend", "numpy", *extra])
+    except SystemExit as exc:          # argparse's own checks exit from parse_args
+        code = exc.code
+    one_line_error(capsys, code, 2, "canny", pattern)
+    assert not out.exists()
+
+
+def test_canny_command_refuses_a_file_with_example(tmp_path, capsys, small_png):
+    code = cli(["canny", small_png, "--example", "camera", "-o", tmp_path / "e.png", "--backend", "numpy"])
+    one_line_error(capsys, code, 2, "canny", r"example")
+    assert not (tmp_path / "e.png").exists()
+
+
+def test_batch_canny_on_a_float_tiff_has_no_ghost_edges(tmp_path):
+    """The issue's second route to the side lobes: ``gfgpu batch canny`` on a float TIFF in 0..255."""
+    import imageio.v3 as iio
+
+    src = tmp_path / "in"
+    src.mkdir()
+    iio.imwrite(src / "step.tif", ((np.mgrid[:64, :64][1] >= 32) * 255.0).astype(np.float32))
+    for extra in ([], ["--low", 0.0, "--high", 0.5]):
+        out = tmp_path / f"out{len(extra)}"
+        assert cli(["batch", "canny", src / "step.tif", "-o", out, "--format", "npy", "--backend", "numpy",
+                    "--quiet", *extra]) == 0
+        edges = np.load(out / "step.npy")
+        assert np.unique(np.nonzero(edges)[1]).tolist() == [32], extra

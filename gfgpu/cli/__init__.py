@@ -1,6 +1,6 @@
 """The ``gfgpu`` command: Green's-function filters on image files.
 
-One module per command (``gradient``, ``shift``, ``blur``, ``frames``, ``disparity``,
+One module per command (``gradient``, ``canny``, ``shift``, ``blur``, ``frames``, ``disparity``,
 ``depth``, ``batch``, ``devices``), each with ``add_parser(subparsers)`` and ``run(args)``.
 The library never imports this package.
 
@@ -33,12 +33,12 @@ import sys
 from .._version import __version__
 from ..backends import BackendUnavailable
 from ..io import OutputError
-from . import batch, blur, depth, devices, disparity, frames, gradient, shift
-from .common import CommandError
+from . import batch, blur, canny, depth, devices, disparity, frames, gradient, shift
+from .common import CommandError, check_source, in_cli_terms
 
 __all__ = ["main", "build_parser"]
 
-COMMANDS = (disparity, gradient, shift, blur, frames, depth, batch, devices)
+COMMANDS = (disparity, gradient, canny, shift, blur, frames, depth, batch, devices)
 
 #: the command's one-line description (not read from the docstring, which ``python -OO`` drops)
 DESCRIPTION = "The gfgpu command: Green's-function filters on image files."
@@ -61,20 +61,25 @@ def build_parser():
 
 
 def main(argv=None):
-    """Run the ``gfgpu`` command; returns the exit status (2: usage error, 1: the work failed;
-    see the module's documentation)."""
-    args = build_parser().parse_args(argv)
-    name = args.command if getattr(args, "op", None) is None else f"{args.command} {args.op}"
+    """Run the ``gfgpu`` command; returns the exit status (2: usage error, 1: the work failed,
+    130: interrupted; see the module's documentation)."""
+    name, args = "gfgpu", None
     try:
+        args = build_parser().parse_args(argv)
+        name = args.command if getattr(args, "op", None) is None else f"{args.command} {args.op}"
+        check_source(args)
         return args.func(args)
     except OutputError as exc:
         print(f"gfgpu {name}: {exc}", file=sys.stderr)
         return 1
     except (CommandError, BackendUnavailable, OSError, ValueError, TypeError) as exc:
-        print(f"gfgpu {name}: {exc}", file=sys.stderr)
+        # a library error, in the command's terms (CommandErrors are written in them already)
+        terms = () if isinstance(exc, CommandError) else \
+            getattr(sys.modules.get(getattr(getattr(args, "func", None), "__module__", "")), "CLI_TERMS", ())
+        print(f"gfgpu {name}: {in_cli_terms(str(exc), terms)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"gfgpu {name}: interrupted", file=sys.stderr)
+        print(f"{'gfgpu ' if name != 'gfgpu' else ''}{name}: interrupted", file=sys.stderr)
         return 130
 
 

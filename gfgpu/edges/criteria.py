@@ -1,14 +1,16 @@
 """Canny's performance criteria for infinite-extent step-edge filters, in closed form.
 
 For an odd detector ``f`` (``f(x) = -F(x)`` for ``x > 0``, ``F(-x)`` for ``x < 0``) whose
-half-kernel is a sum of damped sines ``F(x) = Σ_j c_j e^{-p_j x} sin(q_j x)``, every integral
-below is a finite sum over pairs of complex exponentials:
+half-kernel is a sum of (complex) exponentials, e.g. damped sines
+``F(x) = Σ_j c_j e^{-p_j x} sin(q_j x)``, every integral below is a finite sum over pairs of
+exponentials:
 
 * detection ``Σ = |∫_{-∞}^0 f| / (∫f²)^{1/2}``;
 * localisation ``Λ = |f'(0)| / (∫f'²)^{1/2}``;
 * mean distance between noise-response maxima ``x_max = 2π (∫f'² / ∫f''²)^{1/2}``;
 * RMS width ``W_rms = (∫x² f² / ∫f²)^{1/2}`` and single-response ratio ``SRC = x_max / W_rms``;
-* the index ``(ΣΛ)·SRC``, which is 3.547 for the chapter's D(x) at a = 1.1, η = 3.5
+* the index ``(ΣΛ)·SRC``, which is 3.547 for the chapter's D(x) at a = 1.1, η = 3.5 (3.151
+  for the one-signed D that :func:`gfgpu.canny` uses, :func:`one_signed_criteria`)
   (this RMS-width convention is the one that reproduces the chapter's figure; other widths
   tried do not: ``docs/derivations.md``, "The differentiator D and the projection P").
 
@@ -28,8 +30,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..greens import EDGE_A, EDGE_ETA, edge_weights
+from .operator import scales
 
-__all__ = ["Criteria", "damped_sine_criteria", "edge_operator_criteria", "deriche_criteria",
+__all__ = ["Criteria", "exponential_criteria", "damped_sine_criteria", "edge_operator_criteria",
+           "one_signed_criteria", "deriche_criteria",
            "gaussian_derivative_criteria", "index_grid"]
 
 
@@ -56,6 +60,29 @@ def _pair_sum(b, r, n):
     return float(tot.sum().real)
 
 
+def exponential_criteria(amp, rate):
+    """Canny's criteria for ``F(x) = Re Σ_k amp_k e^{-rate_k x}`` (x > 0), closed form.
+
+    Parameters
+    ----------
+    amp, rate : array_like of complex
+        Amplitudes and rates (real parts > 0) of the exponentials; a real ``F`` needs the
+        conjugate pairs of complex terms, or real terms.
+    """
+    amp = np.asarray(amp, dtype=np.complex128)
+    rate = np.asarray(rate, dtype=np.complex128)
+    if np.any(rate.real <= 0):
+        raise ValueError(f"decay rates must have real parts > 0, got {rate}")
+    area = float(np.sum(amp / rate).real)                  # ∫_0^∞ F
+    slope0 = float(np.sum(-amp * rate).real)               # F'(0)
+    e0 = 2 * _pair_sum(amp, rate, 0)                        # ∫ f² over the whole line
+    e1 = 2 * _pair_sum(amp * (-rate), rate, 0)              # ∫ f'²
+    e2 = 2 * _pair_sum(amp * rate**2, rate, 0)              # ∫ f''²
+    m2 = 2 * _pair_sum(amp, rate, 2)                        # ∫ x² f²
+    return Criteria(abs(area) / math.sqrt(e0), abs(slope0) / math.sqrt(e1),
+                    2 * math.pi * math.sqrt(e1 / e2), math.sqrt(m2 / e0))
+
+
 def damped_sine_criteria(c, p, q):
     """Canny's criteria for ``F(x) = Σ c_j e^{-p_j x} sin(q_j x)`` (x > 0), closed form.
 
@@ -68,22 +95,23 @@ def damped_sine_criteria(c, p, q):
     if np.any(p <= 0):
         raise ValueError(f"decay rates p must be > 0, got {p}")
     # sin(qx) e^{-px} = (e^{-(p-iq)x} - e^{-(p+iq)x}) / 2i
-    amp = np.concatenate([c / 2j, -c / 2j])
-    rate = np.concatenate([p - 1j * q, p + 1j * q])
-    area = float(np.sum(amp / rate).real)                  # ∫_0^∞ F
-    slope0 = float(np.sum(-amp * rate).real)               # F'(0)
-    e0 = 2 * _pair_sum(amp, rate, 0)                        # ∫ f² over the whole line
-    e1 = 2 * _pair_sum(amp * (-rate), rate, 0)              # ∫ f'²
-    e2 = 2 * _pair_sum(amp * rate**2, rate, 0)              # ∫ f''²
-    m2 = 2 * _pair_sum(amp, rate, 2)                        # ∫ x² f²
-    return Criteria(abs(area) / math.sqrt(e0), abs(slope0) / math.sqrt(e1),
-                    2 * math.pi * math.sqrt(e1 / e2), math.sqrt(m2 / e0))
+    return exponential_criteria(np.concatenate([c / 2j, -c / 2j]), np.concatenate([p - 1j * q, p + 1j * q]))
 
 
 def edge_operator_criteria(a=EDGE_A, eta=EDGE_ETA):
     """Criteria of the chapter's D(x) (eq. 25-26, ``K = a η²``), from its closed form."""
     u, a, eta, big_a, big_k = edge_weights(1.0, a, eta)
     return damped_sine_criteria([big_a, big_a * big_k], [1 / (eta * u), 1 / u], [1 / (eta * u), 1 / u])
+
+
+def one_signed_criteria(a=EDGE_A, eta=EDGE_ETA):
+    """Criteria of canny's one-signed D (:mod:`gfgpu.edges.operator`): each damped sine
+    ``e^{-t} sin t`` of the chapter's D replaced by ``e^{-t} - e^{-2t}``."""
+    amp, rate = [], []
+    for v, w in scales(1.0, a, eta):
+        amp += [w, -w]
+        rate += [1 / v, 2 / v]
+    return exponential_criteria(amp, rate)
 
 
 def deriche_criteria(m):
