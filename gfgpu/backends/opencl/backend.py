@@ -573,12 +573,7 @@ class OpenCLBackend(Backend):
         dtype = self._check_dtype(src.dtype)
         if src.size == 0:
             return dst
-        mf = self._cl.mem_flags
-        buffers = []
-        for a in plans.packed(dtype):
-            a = a if a.size else np.zeros(2, a.dtype)     # OpenCL has no empty buffers
-            buffers.append(self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a))
-        lam, kap, tap, reverse, omega, omega_c = buffers
+        lam, kap, tap, reverse, omega, omega_c = self._plan_buffers(plans, dtype)   # uploaded once
         b, rows, cols = src.shape
         n, lines = (cols, rows) if axis == 2 else (rows, cols)
         line_stride, step = (cols, 1) if axis == 2 else (1, cols)
@@ -593,7 +588,8 @@ class OpenCLBackend(Backend):
         return dst
 
     def _plan_buffers(self, plan, dtype):
-        """Upload ``plan.packed(dtype)`` once; plans are immutable, so id(plan) is a key."""
+        """Upload ``plan.packed(dtype)`` once (a PassPlan or LinePlans); plans are immutable, so
+        id(plan) is a key."""
         key = (id(plan), dtype)
         hit = self._plans.get(key)
         if hit is not None and hit[0] is plan:
@@ -603,7 +599,7 @@ class OpenCLBackend(Backend):
         buffers = []
         for a in plan.packed(dtype):
             if a.size == 0:
-                a = np.zeros(2, dtype)   # L = 0 (constant mode): OpenCL has no empty buffers
+                a = np.zeros(2, a.dtype)   # L = 0 (constant mode): OpenCL has no empty buffers
             buffers.append(self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a))
         self._plans[key] = (plan, tuple(buffers))   # keeping the plan keeps its id unique
         if len(self._plans) > _PLAN_CACHE_SIZE:

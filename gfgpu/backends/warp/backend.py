@@ -453,13 +453,22 @@ class WarpBackend(Backend):
         dtype = np.dtype(wp.dtype_to_numpy(src.dtype))
         if src.size == 0:
             return dst
-        lam, kap, tap, reverse, omega, omega_c = plans.packed(dtype)
-        init_len = omega.shape[1]
-        if init_len == 0:
-            omega = np.zeros((omega.shape[0], 1, 2), dtype)   # no empty arrays for kernels
         real = wp.dtype_from_numpy(dtype)
-        dev = [wp.array(a, dtype=real, device=self._device) for a in (lam, kap, tap, omega, omega_c)]
-        rev = wp.array(reverse, dtype=wp.int32, device=self._device)
+        key = (id(plans), dtype, "lines")
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plans:       # plans are immutable: uploaded once
+            self._plans.move_to_end(key)
+            dev, rev, init_len = hit[1]
+        else:
+            lam, kap, tap, reverse, omega, omega_c = plans.packed(dtype)
+            init_len = omega.shape[1]
+            if init_len == 0:
+                omega = np.zeros((omega.shape[0], 1, 2), dtype)   # no empty arrays for kernels
+            dev = [wp.array(a, dtype=real, device=self._device) for a in (lam, kap, tap, omega, omega_c)]
+            rev = wp.array(reverse, dtype=wp.int32, device=self._device)
+            self._plans[key] = (plans, (dev, rev, init_len))
+            if len(self._plans) > _PLAN_CACHE_SIZE:
+                self._plans.popitem(last=False)
         views = (src, dst) if axis == 2 else (src.transpose((0, 2, 1)), dst.transpose((0, 2, 1)))
         wp.launch(self._k.recurse_per_line, dim=views[0].shape[:2],
                   inputs=[views[0], views[1], dev[0], dev[1], dev[2], rev, dev[3], dev[4], init_len,
