@@ -165,6 +165,7 @@ def test_windowed_passes_equal_the_gathered_ones(backend, mode, interpolation, r
 
 
 def test_windowed_passes_gpu_shaped(gpu_shaped, rng):
+    assert gpu_shaped.recurses_windows
     for shape in [(37, 70), (5, 1000)]:
         x = rng.standard_normal(shape).astype(np.float32)
         for s, mode in zip(SHIFTS, ["reflect", "wrap", "constant", "mirror"]):

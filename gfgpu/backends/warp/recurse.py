@@ -134,6 +134,76 @@ def recurse_lines(
     run_line(src, dst, lam, kap, omega, omega_c, sections, init_len, cval, tap, reverse, accumulate, constant, b, i)
 
 
+@wp.kernel
+def recurse_window(
+    src: wp.array3d(dtype=Any),
+    dst: wp.array3d(dtype=Any),
+    window: wp.array(dtype=wp.int32),
+    first: int,
+    lam: wp.array3d(dtype=Any),
+    kap: wp.array3d(dtype=Any),
+    omega: wp.array3d(dtype=Any),
+    omega_c: wp.array2d(dtype=Any),
+    sections: int,
+    init_len: int,
+    cval: Any,
+    tap: Any,
+    reverse: int,
+    accumulate: int,
+):
+    """A translated pass over line ``(b, i)`` read through a window index (GPU shapes): the
+    recursion runs over the ``len(window)`` positions, position ``w`` reads ``src[b, i,
+    window[w]]`` (``cval`` where negative) and is output sample ``w - first``, written when it
+    lies on the line.  Shift-invariant sections (constant coefficients)."""
+    b, i = wp.tid()
+    nw = window.shape[0]
+    n = src.shape[2]
+    two = sections > 1
+    f0r = omega_c[0, 0] * cval
+    f0i = omega_c[0, 1] * cval
+    f1r = f0r
+    f1i = f0i
+    if two:
+        f1r = omega_c[1, 0] * cval
+        f1i = omega_c[1, 1] * cval
+    for j in range(init_len):
+        w = j
+        if reverse != 0:
+            w = nw - 1 - j
+        q = window[w]
+        v = cval
+        if q >= 0:
+            v = src[b, i, q]
+        f0r = f0r + omega[0, j, 0] * v
+        f0i = f0i + omega[0, j, 1] * v
+        if two:
+            f1r = f1r + omega[1, j, 0] * v
+            f1i = f1i + omega[1, j, 1] * v
+    c0 = _coefficients(lam, kap, 0, 0)
+    c1 = c0
+    if two:
+        c1 = _coefficients(lam, kap, 1, 0)
+    for k in range(nw):
+        w = k
+        if reverse != 0:
+            w = nw - 1 - k
+        q = window[w]
+        v = cval
+        if q >= 0:
+            v = src[b, i, q]
+        x = w - first
+        if x >= 0 and x < n:
+            y = tap * v + f0r
+            if two:
+                y = y + f1r
+            if accumulate != 0:
+                y = y + dst[b, i, x]
+            dst[b, i, x] = y
+        f0r, f0i = _advance(f0r, f0i, c0, v)
+        if two:
+            f1r, f1i = _advance(f1r, f1i, c1, v)
+
+
 @wp.func
 def _initial_part(src: wp.array3d(dtype=Any), b: int, i: int, first: int, step: int,
                   omega: wp.array3d(dtype=Any), s: int, j_lo: int, j_hi: int):
@@ -386,6 +456,7 @@ for _real in (wp.float32, wp.float64):
                                 "lam": wp.array3d(dtype=_real), "kap": wp.array3d(dtype=_real),
                                 "tap": _real, "carry": wp.array4d(dtype=_real)})
     wp.overload(recurse_lines, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real), **_plan})
+    wp.overload(recurse_window, {"src": wp.array3d(dtype=_real), "dst": wp.array3d(dtype=_real), **_plan})
     for _index in (wp.int32, wp.int64):
         wp.overload(gather, {"src": wp.array(dtype=_real), "index": wp.array(dtype=_index),
                              "cval": _real, "out": wp.array(dtype=_real)})
