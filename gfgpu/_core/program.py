@@ -73,8 +73,7 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
     n = view[line_axis]
     s3, d3 = be.reshape(src, view), be.reshape(dst, view)
     if offset == 0:
-        for i, lp in enumerate(passes):
-            be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0)
+        run_plans(be, s3, d3, line_axis, [plan_pass(lp, n, mode, dtype) for lp in passes], cval)
         return dst
     if len(passes) == 1 and passes[0].is_identity:
         be.translate(s3, d3, line_axis, line_index(n, offset, mode), cval)
@@ -143,12 +142,24 @@ def run_passes_checked(be, src, dst, dtype, passes, mode, cval, axis, shape):
     view, line_axis = axis_view_shape(tuple(shape), axis)
     n = view[line_axis]
     s3, d3 = be.reshape(src, view), be.reshape(dst, view)
-    for i, lp in enumerate(passes):
-        finite = be.recurse(s3, d3, line_axis, plan_pass(lp, n, mode, dtype), cval, accumulate=i > 0,
-                            check=i == 0)
-        if i == 0 and not finite:
+    return run_plans(be, s3, d3, line_axis, [plan_pass(lp, n, mode, dtype) for lp in passes], cval, check=True)
+
+
+def run_plans(be, src, dst, line_axis, plans, cval, check=False):
+    """The passes of one step on ``(B, N, M)`` device arrays: the first writes ``dst``, the rest
+    accumulate; a causal/anticausal pair runs as one kernel where the backend fuses it
+    (``fuses_pair``: its second sweep reads the first's output from the cache).  With ``check``
+    the first pass also tests that ``src`` is finite and the result is that bool (the later
+    passes are skipped when it is not)."""
+    fuses = getattr(be, "fuses_pair", None)
+    if len(plans) == 2 and fuses is not None and fuses(line_axis, plans[0], plans[1]):
+        finite = be.recurse_pair(src, dst, line_axis, plans[0], plans[1], cval, check=check)
+        return bool(finite) if check else None
+    for i, plan in enumerate(plans):
+        finite = be.recurse(src, dst, line_axis, plan, cval, accumulate=i > 0, check=check and i == 0)
+        if check and i == 0 and not finite:
             return False
-    return True
+    return True if check else None
 
 
 def run_translation_checked(be, src, dst, passes, mode, cval, axis, shape):

@@ -711,6 +711,54 @@ class OpenCLBackend(Backend):
         self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
         return int(flag[0]) == 0
 
+    def fuses_pair(self, axis, first, second):
+        """True when :meth:`recurse_pair` runs these two plans in one kernel: rows on a CPU
+        (the rows a work-item writes stay in its cache for the second sweep), both with constant
+        coefficients and as many sections."""
+        return (self.kind == "cpu" and axis == 2 and first.constant and second.constant
+                and first.sections == second.sections and first.n == second.n)
+
+    def recurse_pair(self, src, dst, axis, first, second, cval=0.0, check=False):
+        """``recurse(src, dst, axis, first)`` then ``recurse(src, dst, axis, second,
+        accumulate=True)`` in one kernel (:meth:`fuses_pair` must hold); with ``check`` returns
+        whether ``src`` is finite, as :meth:`recurse` does."""
+        if not self.fuses_pair(axis, first, second):
+            raise ValueError("recurse_pair takes rows on a CPU device and two constant plans of as many sections")
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or a.ndim != 3 or not a.flags.c_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous 3-D pyopencl.array.Array in the context of "
+                                f"{self.device}")
+        if src.shape != dst.shape or src.dtype != dst.dtype:
+            raise ValueError(f"src and dst must match: {src.shape} {src.dtype} vs {dst.shape} {dst.dtype}")
+        if self.may_share_memory(src, dst):
+            raise ValueError("dst may not overlap src")
+        if first.n != src.shape[2]:
+            raise ValueError(f"plans are for lines of {first.n} samples, axis 2 has {src.shape[2]}")
+        dtype = self._check_dtype(src.dtype)
+        b, n, m = src.shape
+        if src.size == 0:
+            return True if check else dst
+        shape = self.recurse_shape(src.shape, axis, dtype)
+        knl = self._kernel("recurse_pair", dtype, SECTIONS=first.sections, CONSTANT_COEF=1, LANES=shape.lanes,
+                           ROWS=1, CHECK=int(bool(check)))
+        real, item = dtype.type, dtype.itemsize
+        a = self._plan_buffers(first, dtype)
+        z = self._plan_buffers(second, dtype)
+        mf = self._cl.mem_flags
+        flag = np.zeros(1, np.int32)
+        flag_buf = (self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+                    if check else self._dummy())
+        args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                *a, np.int32(first.omega.shape[1]), real(first.tap), np.int32(first.reverse),
+                *z, np.int32(second.omega.shape[1]), real(second.tap), np.int32(second.reverse),
+                np.int32(m), real(cval), np.int32(b), np.int32(n), np.int32(m), flag_buf)
+        gsize = (shape.gsize[0],)
+        evt = launch.launch(self, knl, gsize, (shape.lsize[0],), [src], [dst], args)
+        if not check:
+            return dst
+        self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
+        return int(flag[0]) == 0
+
     def _dummy(self):
         """A small buffer for kernel arguments a variant does not use."""
         if self._spare is None:
