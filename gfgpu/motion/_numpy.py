@@ -22,8 +22,8 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     return out
 
 
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
-    out[...] = specs.from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, keep)
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
+    out[...] = specs.from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef)
     return out
 
 

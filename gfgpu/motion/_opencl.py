@@ -165,7 +165,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     return out
 
 
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
     pcoef = ocl.plain(be, pcoef, "pcoef")
     obuf, ooff = ocl.written(be, out, "out")
     bbuf, boff = ocl.written(be, base, "base")      # base may be out
@@ -182,11 +182,13 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
             return out
     # radius within the band's rings (mirrored at their ends), angle within one turn: always near
     fast = {"MODE_Y": _code("mirror"), "MODE_X": _code("wrap")} if n_r > 3 and n_phi > 3 else {}
+    weights = be.asarray(np.ascontiguousarray(np.ones(1) if wcoef is None else wcoef, dtype))
     ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
-               [pcoef, base], [out],
+               [pcoef, base, weights], [out],
                (pcoef.data, bbuf, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
                 np.int32(bsz), grid(cy), grid(cx), np.int32(r0), grid(r_lo), grid(reach),
-                np.int32(x0), np.int32(y0), np.int32(x1 - x0), np.int32(y1 - y0), boff, grid(keep)))
+                np.int32(x0), np.int32(y0), np.int32(x1 - x0), np.int32(y1 - y0), boff, weights.data,
+                np.int32(wcoef is not None)))
     return out
 
 

@@ -458,10 +458,10 @@ def to_polar(coef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int
 @wp.kernel
 def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
                n_r: int, n_phi: int, cy: wp.float64, cx: wp.float64, r0: int, r_lo: wp.float64, r_hi: wp.float64,
-               keep: wp.float64):
+               wcoef: wp.array(dtype=Any), weighted: int):
     """One thread per pixel (from_polar_reference): ``base``, at the radii ``[r_lo, r_hi)`` weighted
-    by ``1/(1 + (keep r)^2)`` plus the polar spline of a band from ring ``r0``, whose radius mirrors
-    and angle wraps (``out`` may be ``base``)."""
+    by the radial spline of ``wcoef`` (if ``weighted``) plus the polar spline of a band from ring
+    ``r0``, whose radius mirrors and angle wraps (``out`` may be ``base``)."""
     t = wp.tid()
     plane = t / (h * w)
     pix = t - plane * h * w
@@ -476,10 +476,17 @@ def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.ar
     jf = phi * wp.float64(n_phi) / _TWO_PI
     value = base[t]
     if r >= r_lo and r < r_hi:
-        kr = keep * r
-        change = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, r - wp.float64(r0), jf, _MIRROR, _WRAP,
-                         pcoef.dtype(0.0))
-        value = pcoef.dtype(wp.float64(1.0) / (wp.float64(1.0) + kr * kr)) * value + change
+        ring = r - wp.float64(r0)
+        change = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, ring, jf, _MIRROR, _WRAP, pcoef.dtype(0.0))
+        if weighted != 0:
+            fr = wp.floor(ring)
+            ir = int(fr)
+            tr = ring - fr
+            weight = pcoef.dtype(0.0)
+            for p in range(4):
+                weight = weight + pcoef.dtype(_weight(tr, p)) * wcoef[_extend(ir + p - 1, n_r, _MIRROR)]
+            value = weight * value
+        value = value + change
     out[t] = value
 
 
@@ -496,7 +503,7 @@ for _real in (wp.float32, wp.float64):
     wp.overload(box_lines, {"src": _a, "dst": _a, "cval": _real, "less": _a})
     wp.overload(field_blur, {"coef": _a, "field": _a, "out": _a, "cval": _real})
     wp.overload(to_polar, {"coef": _a, "out": _a, "cval": _real})
-    wp.overload(from_polar, {"pcoef": _a, "base": _a, "out": _a})
+    wp.overload(from_polar, {"pcoef": _a, "base": _a, "out": _a, "wcoef": _a})
     wp.overload(add_rows, {"src": _a, "dst": _a, "scale": _a})
 del _real, _a
 
@@ -536,13 +543,15 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     return out
 
 
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, keep=0.0):
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
     bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
+    real = np.float64 if be.dtype_of(pcoef) == np.float64 else np.float32
+    weights = be.asarray(np.ascontiguousarray(np.ones(1) if wcoef is None else wcoef, real))
     wpl.launch(be, from_polar, dim=bsz * h * w,
                inputs=[_flat(be, pcoef), _flat(be, base), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy),
                        wp.float64(cx), int(r0), wp.float64(r_lo), wp.float64(min(float(r_hi), 1e300)),
-                       wp.float64(keep)])
+                       weights, int(wcoef is not None)])
     return out
 
 

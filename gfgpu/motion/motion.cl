@@ -22,6 +22,42 @@
 #define CHUNK 1      // angles per work-item in to_polar
 #endif
 
+// PoCL 3.0 (pocl-binary-distribution) calls its builtins out of line: min, max, floor, fabs,
+// sqrt, vloadn and vstoren are function calls in the compiled kernels, and so are the helpers
+// below unless forced inline; in the per-sample loops the calls cost more than the arithmetic.
+// Hence IMIN / IMAX (ints, arguments without side effects), the compiler's own floor, fabs, fmin,
+// fmax and sqrt under clang (one instruction each, the same values: exact, or correctly rounded
+// as PoCL's), and INLINE on the helpers of the loops.
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define IMAX(a, b) ((a) > (b) ? (a) : (b))
+#ifdef __clang__
+#define INLINE static inline __attribute__((always_inline))
+#define POS_IS_DOUBLE_double 1
+#define POS_IS_DOUBLE_float 0
+#define IS_DOUBLE_(t) POS_IS_DOUBLE_##t
+#define IS_DOUBLE(t) IS_DOUBLE_(t)
+#if IS_DOUBLE(POS)
+#define FLOOR_POS(x) __builtin_floor(x)
+#else
+#define FLOOR_POS(x) __builtin_floorf(x)
+#endif
+#if IS_DOUBLE(GRID)
+#define SQRT_GRID(x) __builtin_sqrt(x)
+#else
+#define SQRT_GRID(x) __builtin_sqrtf(x)
+#endif
+#define FABSF(x) __builtin_fabsf(x)
+#define FMAXF(a, b) __builtin_fmaxf(a, b)
+#define FMINF(a, b) __builtin_fminf(a, b)
+#else
+#define INLINE static inline
+#define FLOOR_POS(x) floor(x)
+#define SQRT_GRID(x) sqrt(x)
+#define FABSF(x) fabs(x)
+#define FMAXF(a, b) fmax(a, b)
+#define FMINF(a, b) fmin(a, b)
+#endif
+
 #ifndef GRID
 #define GRID POS     // positions of spline2: the polar kernels may take float for float32 images
 #endif
@@ -33,7 +69,7 @@
 #define IS_PERIODIC(mode) ((mode) == MODE_WRAP || (mode) == MODE_REFLECT || (mode) == MODE_MIRROR)
 
 // index of sample i of a line of n extended by mode (-1: cval): gfgpu._core.boundary.extend_index
-static inline int extend(int i, const int n, const int mode)
+INLINE int extend(int i, const int n, const int mode)
 {
     if (mode == MODE_CONSTANT)
         return (i < 0 || i >= n) ? -1 : i;
@@ -57,7 +93,7 @@ static inline int extend(int i, const int n, const int mode)
 
 // floor(x) as an int by conversion, |x| < 2^31: PoCL's floor() is a library call that stops the
 // vectorisation across work-items (two of them cost more than the rest of the spline)
-static inline int ifloor(const GRID x)
+INLINE int ifloor(const GRID x)
 {
     const int t = (int)x;
     return t - (x < (GRID)t);
@@ -69,22 +105,22 @@ static inline int ifloor(const GRID x)
 #define POLE_4 (POLE_2 * POLE_2)
 #define POLE_8 (POLE_4 * POLE_4)
 
-static inline POS pole_power(const int m)
+INLINE POS pole_power(const int m)
 {
     return (m & 1 ? POLE : (POS)1) * (m & 2 ? POLE_2 : (POS)1) * (m & 4 ? POLE_4 : (POS)1)
            * (m & 8 ? POLE_8 : (POS)1) * (m & 16 ? POLE_8 * POLE_8 : (POS)1) * (m > 31 ? (POS)0 : (POS)1);
 }
 
 // sum_{k=1}^{m} z^k, m >= 0 (gfgpu._core.bspline.pole_series)
-static inline POS geometric(const int m)
+INLINE POS geometric(const int m)
 {
     return POLE * ((POS)1 - pole_power(m)) / ((POS)1 - POLE);
 }
 
 // period of the coefficients of a line extended by a periodic mode (gfgpu._core.boundary.period)
-static inline int period_of(const int n, const int mode)
+INLINE int period_of(const int n, const int mode)
 {
-    return mode == MODE_WRAP ? n : (mode == MODE_REFLECT ? 2 * n : max(2 * n - 2, 1));
+    return mode == MODE_WRAP ? n : (mode == MODE_REFLECT ? 2 * n : IMAX(2 * n - 2, 1));
 }
 
 // The spline coefficients of a line (at `start`, stride `step`) beyond its ends
@@ -99,17 +135,17 @@ static inline int period_of(const int n, const int mode)
 //   P##sum(A, B):   the same in O(n) whatever B - A: whole periods, or the geometric tails, in
 //                   closed form
 #define EXTENSION(T, P, LOAD)                                                                             \
-static inline T P##edge(__global const REAL *src, const long start, const long step, const long ls,       \
+INLINE T P##edge(__global const REAL *src, const long start, const long step, const long ls,       \
                         const int n, const int right, const int mode, const REAL cval)                     \
 {                                                                                                         \
     if (mode != MODE_NEAREST)                                                                             \
         return (T)cval;                                                                                   \
-    const int j = right ? n - 1 : 0, j1 = right ? max(n - 2, 0) : min(1, n - 1);                         \
+    const int j = right ? n - 1 : 0, j1 = right ? IMAX(n - 2, 0) : IMIN(1, n - 1);                       \
     return (REAL)NEAR_A * LOAD(src + start + (long)j * step, ls)                                          \
            + (REAL)NEAR_B * LOAD(src + start + (long)j1 * step, ls);                                      \
 }                                                                                                         \
                                                                                                           \
-static inline T P##at(__global const REAL *src, const long start, const long step, const long ls,         \
+INLINE T P##at(__global const REAL *src, const long start, const long step, const long ls,         \
                       const int n, const int i, const int mode, const REAL cval)                           \
 {                                                                                                         \
     if ((unsigned)i < (unsigned)n)        /* inside the line: no extension (the common case) */           \
@@ -151,15 +187,15 @@ static inline T P##sum(__global const REAL *src, const long start, const long st
     }                                                                                                     \
     T total = 0;                                                                                          \
     if (a < 0) {          /* c[i] = e + z^-i (c[0] - e) for a <= i < min(b, 0) */                        \
-        const int top = min(b, 0);                                                                        \
+        const int top = IMIN(b, 0);                                                                       \
         const T e = P##edge(src, start, step, ls, n, 0, mode, cval);                                      \
         total += (REAL)(top - a) * e                                                                      \
                  + (REAL)(geometric(-a) - geometric(-top)) * (LOAD(src + start, ls) - e);                 \
     }                                                                                                     \
-    if (max(a, 0) < min(b, n))                                                                            \
-        total += P##run(src, start, step, ls, n, max(a, 0), min(b, n), mode, cval);                       \
+    if (IMAX(a, 0) < IMIN(b, n))                                                                          \
+        total += P##run(src, start, step, ls, n, IMAX(a, 0), IMIN(b, n), mode, cval);                     \
     if (b > n) {          /* c[i] = e + z^(i-n+1) (c[n-1] - e) for max(a, n) <= i < b */                 \
-        const int bottom = max(a, n);                                                                     \
+        const int bottom = IMAX(a, n);                                                                    \
         const T e = P##edge(src, start, step, ls, n, 1, mode, cval);                                      \
         total += (REAL)(b - bottom) * e + (REAL)(geometric(b - n) - geometric(bottom - n))                 \
                                           * (LOAD(src + start + (long)(n - 1) * step, ls) - e);           \
@@ -171,7 +207,7 @@ static inline T P##sum(__global const REAL *src, const long start, const long st
 EXTENSION(REAL, coef_, SLOAD)
 
 // weights in REAL from the fraction in REAL: positions need POS, a fraction in [0, 1) does not
-static inline REAL bweight(const REAL t, const int p)
+INLINE REAL bweight(const REAL t, const int p)
 {
     const REAL g = (REAL)1 - t;
     switch (p) {
@@ -182,7 +218,7 @@ static inline REAL bweight(const REAL t, const int p)
     }
 }
 
-static inline REAL bintegral(const REAL f, const int p)
+INLINE REAL bintegral(const REAL f, const int p)
 {
     const REAL f2 = f * f, f4 = f2 * f2, g = (REAL)1 - f;
     switch (p) {
@@ -193,7 +229,7 @@ static inline REAL bintegral(const REAL f, const int p)
     }
 }
 
-static inline REAL cell(__global const REAL *src, const long start, const long step, const int n, const int j,
+INLINE REAL cell(__global const REAL *src, const long start, const long step, const int n, const int j,
                         const int mode, const REAL cval)
 {
     return (coef_at(src, start, step, 0, n, j - 1, mode, cval) + (REAL)11 * coef_at(src, start, step, 0, n, j, mode, cval)
@@ -236,11 +272,11 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
         return;
     const int b = t / lines;
     const long start = b * batch_stride + (long)(t - b * lines) * line_stride;
-    int ia = (int)floor(a0), ib = (int)floor(b0);
+    int ia = (int)FLOOR_POS(a0), ib = (int)FLOOR_POS(b0);
     REAL sum = cells(src, start, step, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {
         const POS a = a0 + a1 * (POS)k, e = b0 + b1 * (POS)k;
-        const int na = (int)floor(a), nb = (int)floor(e);
+        const int na = (int)FLOOR_POS(a), nb = (int)FLOOR_POS(e);
         for (; ib < nb; ++ib) {
             const REAL y = cell(src, start, step, n, ib, mode, cval) - comp;
             const REAL s = sum + y;
@@ -256,7 +292,7 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
         const REAL fa = (REAL)(a - (POS)ia), fb = (REAL)(e - (POS)ib);
         const POS width = e - a;
         if (width < (POS)NARROW) {     // the spline at the middle (spec.NARROW)
-            const POS m = (POS)0.5 * (a + e), fm = floor(m);
+            const POS m = (POS)0.5 * (a + e), fm = FLOOR_POS(m);
             const int im = (int)fm;
             const REAL tm = (REAL)(m - fm);
             REAL v = 0;
@@ -292,7 +328,7 @@ static inline int coef_taps(const int i, const int n, const int mode, POS *w0, i
         *w0 = f;
         return j;
     }
-    *j1 = left ? min(1, n - 1) : max(n - 2, 0);
+    *j1 = left ? IMIN(1, n - 1) : IMAX(n - 2, 0);
     *w0 = f + ((POS)1 - f) * (POS)NEAR_A;
     *w1 = ((POS)1 - f) * (POS)NEAR_B;
     return j;
@@ -430,7 +466,7 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
 #if MODE_X == MODE_CONSTANT || MODE_Y == MODE_CONSTANT
 #error "spline2_near: constant mode runs on coefficients extended by pad_coef, as nearest"
 #endif
-static inline int near_index(const int i, const int n, const int mode)
+INLINE int near_index(const int i, const int n, const int mode)
 {
     if (mode == MODE_NEAREST)
         return i < 0 ? 0 : (i >= n ? n - 1 : i);      // clamp(): a library call in PoCL
@@ -442,7 +478,7 @@ static inline int near_index(const int i, const int n, const int mode)
 }
 
 // the four cubic B-spline weights at fraction t, multiplications only (bweight's values)
-static inline void bweights4(const REAL t, REAL *wt)
+INLINE void bweights4(const REAL t, REAL *wt)
 {
     const REAL sixth = (REAL)1 / (REAL)6, t2 = t * t, g = (REAL)1 - t;
     const REAL t3 = t2 * t;
@@ -514,7 +550,7 @@ __kernel void to_polar(__global const REAL *coef, __global REAL *out, const long
     if (i >= n_r)
         return;
     const GRID r = (GRID)(r0 + i);
-    const int j0 = get_global_id(0) * CHUNK, j1 = min(j0 + CHUNK, n_phi);
+    const int j0 = get_global_id(0) * CHUNK, j1 = IMIN(j0 + CHUNK, n_phi);
     for (int j = j0; j < j1; ++j) {
         const GRID py = cy - r * trig[2 * j + 1], px = cx + r * trig[2 * j];
         for (int b = 0; b < planes; ++b)
@@ -529,8 +565,8 @@ __kernel void to_polar(__global const REAL *coef, __global REAL *out, const long
 static inline GRID angle_of(const GRID dy, const GRID dx)
 {
 #if GRID_IS_FLOAT
-    const float ax = fabs(dx), ay = fabs(dy);
-    const float hi = fmax(ax, ay), lo = fmin(ax, ay);
+    const float ax = FABSF(dx), ay = FABSF(dy);
+    const float hi = FMAXF(ax, ay), lo = FMINF(ax, ay);
     float t = hi > 0.0f ? lo / hi : 0.0f;           // in [0, 1]
     const int big = t > 0.41421356237309503f;
     t = big ? (t - 1.0f) / (t + 1.0f) : t;
@@ -554,20 +590,27 @@ static inline GRID angle_of(const GRID dy, const GRID dx)
 __kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, __global REAL *out, const long out_off,
                          const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
                          const GRID cx, const int r0, const GRID r_lo, const GRID r_hi, const int x0, const int y0,
-                         const int bw, const int bh, const long base_off, const GRID keep)
+                         const int bw, const int bh, const long base_off, __global const REAL *wcoef,
+                         const int weighted)
 {
     const int gx = get_global_id(0), gy = get_global_id(1);
     if (gx >= bw || gy >= bh)
         return;
     const int x = x0 + gx, y = y0 + gy;
     const GRID dy = cy - (GRID)y, dx = (GRID)x - cx;
-    const GRID r = sqrt(dx * dx + dy * dy);
+    const GRID r = SQRT_GRID(dx * dx + dy * dy);
     const int inside = r >= r_lo && r < r_hi;
     GRID jf = angle_of(dy, dx) * ((GRID)n_phi / (GRID)6.283185307179586);
     jf = jf >= (GRID)n_phi ? jf - (GRID)n_phi : jf;     // rounding at 2 pi
-    const GRID kr = keep * r;
-    const REAL weight = inside ? (REAL)((GRID)1 / ((GRID)1 + kr * kr)) : (REAL)1;
     const GRID ring = inside ? r - (GRID)r0 : (GRID)0;     // outside the band: a valid read, not added
+    REAL weight = (REAL)1;
+    if (inside && weighted) {       // the ring weights' radial spline: what the resampling gives them
+        const int ir = ifloor(ring);
+        const REAL tr = (REAL)(ring - (GRID)ir);
+        weight = (REAL)0;
+        for (int p = 0; p < 4; ++p)
+            weight += bweight(tr, p) * wcoef[extend(ir + p - 1, n_r, MODE_MIRROR)];
+    }
     for (int b = 0; b < planes; ++b) {
         const long pix = ((long)b * h + y) * w + x;
         const REAL change = SPLINE_POLAR(pcoef, (long)b * n_r * n_phi, n_r, n_phi, ring, jf, MODE_MIRROR, MODE_WRAP,
@@ -608,6 +651,11 @@ typedef CAT(REAL, LANES) VT;
 #define VPUT(v, p, ls) do { const VT v_ = (v); (p)[0] = v_.s0; (p)[ls] = v_.s1; (p)[2 * (ls)] = v_.s2; \
     (p)[3 * (ls)] = v_.s3; } while (0)
 #endif
+#elif defined(__clang__)
+// a vector of the element's alignment: one unaligned load or store, not a vloadn call
+typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
+#define VGET(p, ls) ((VT)(*(__global const VTU *)(p)))
+#define VPUT(v, p, ls) (*(__global VTU *)(p) = (VTU)(v))
 #else
 #define VGET(p, ls) CAT(vload, LANES)(0, (p))
 #define VPUT(v, p, ls) CAT(vstore, LANES)((v), 0, (p))
@@ -624,7 +672,7 @@ typedef CAT(REAL, LANES) VT;
 
 EXTENSION(VT, vcoef_, VGET)
 
-static inline VT vcell(__global const REAL *src, const long start, const long step, const long ls, const int n,
+INLINE VT vcell(__global const REAL *src, const long start, const long step, const long ls, const int n,
                        const int j, const int mode, const REAL cval)
 {
     return (vcoef_at(src, start, step, ls, n, j - 1, mode, cval)
@@ -654,11 +702,11 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
     if (t >= total)
         return;
     LANE_GROUP(t, n, m, groups);
-    int ia = (int)floor(a0), ib = (int)floor(b0);
+    int ia = (int)FLOOR_POS(a0), ib = (int)FLOOR_POS(b0);
     VT sum = vcells(src, start, step, ls, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {
         const POS a = a0 + a1 * (POS)k, e = b0 + b1 * (POS)k;
-        const int na = (int)floor(a), nb = (int)floor(e);
+        const int na = (int)FLOOR_POS(a), nb = (int)FLOOR_POS(e);
         for (; ib < nb; ++ib) {
             const VT y = vcell(src, start, step, ls, n, ib, mode, cval) - comp;
             const VT s = sum + y;
@@ -674,7 +722,7 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
         __global REAL *o = dst + dst_off + start + (long)k * step;
         const POS width = e - a;
         if (width < (POS)NARROW) {
-            const POS mid = (POS)0.5 * (a + e), fm = floor(mid);
+            const POS mid = (POS)0.5 * (a + e), fm = FLOOR_POS(mid);
             const int im = (int)fm;
             const REAL tt = (REAL)(mid - fm);
             VT v = 0;

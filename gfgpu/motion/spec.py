@@ -310,16 +310,18 @@ def to_polar_reference(coef, cy, cx, r0, n_r, n_phi, mode, cval):
     return out.astype(np.asarray(coef).dtype)
 
 
-def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, keep=0.0):
-    """``base`` (B, H, W), where the pixel's radius ``r`` lies in ``[r_lo, r_hi)`` weighted by
-    ``1/(1 + (keep r)^2)`` and plus the polar spline ``pcoef`` (B, n_r, n_phi) of a band whose first
-    ring has radius ``r0``.
+def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef=None):
+    """``base`` (B, H, W), where the pixel's radius ``r`` lies in ``[r_lo, r_hi)`` weighted by the
+    radial cubic spline of ``wcoef`` (n_r,) (1 if None) and plus the polar spline ``pcoef``
+    (B, n_r, n_phi) of a band whose first ring has radius ``r0``.
 
     Pixel ``(y, x)`` reads ``r = hypot(y - cy, x - cx)``, ``phi = atan2(cy - y, x - cx)``, i.e. ring
     ``r - r0``; the radius mirrors at both ends of the band (the callers keep ``[r_lo, r_hi)`` far
     enough inside it that only the centre's mirror matters) and the angle wraps.  The callers
-    resample ``blurred - w unblurred`` polar samples (``w`` the same weight at each ring's radius)
-    and add it to ``w`` times the image: where the blur is short (``w`` near 1) what does not move
+    resample ``blurred - w unblurred`` polar samples (``w`` a weight per ring) and add it to ``w``
+    times the image, ``w`` read at the pixel by the same radial spline (``wcoef``: the coefficients
+    of the ring weights along the radius, mirrored at both ends), so that an image that the blur
+    leaves unchanged (a constant) comes back exactly: where the blur is short (``w`` near 1) what does not move
     is returned as it was, not through two resamplings; bands that split the radii add theirs in
     turn (``base`` the previous band's output).
     """
@@ -331,7 +333,15 @@ def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, keep=0.0):
     phi = np.mod(np.arctan2(cy - yy, xx - cx), 2.0 * np.pi) * (n_phi / (2.0 * np.pi))
     inside = (r >= r_lo) & (r < r_hi)
     out = np.array(base, np.float64)
-    out[:, inside] = (out[:, inside] / (1.0 + (keep * r[inside]) ** 2)
+    weight = 1.0
+    if wcoef is not None:
+        wcoef = np.asarray(wcoef, np.float64).reshape(-1)
+        ring = r[inside] - r0
+        i = np.floor(ring)
+        taps = tap_weights(ring - i)
+        i = i.astype(np.int64)
+        weight = sum(taps[p] * wcoef[extend_index(i + p - 1, len(wcoef), "mirror")] for p in range(4))
+    out[:, inside] = (out[:, inside] * weight
                       + spline_sample(pcoef, r[inside] - r0, phi[inside], "wrap", 0.0, mode_y="mirror"))
     return out.astype(base.dtype)
 

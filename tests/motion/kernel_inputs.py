@@ -64,7 +64,7 @@ def _from_polar(be, kernel, rng):
     for dtype in _motion_dtypes(be):
         pcoef = rng.standard_normal((2, 18, 64)).astype(dtype)
         base = rng.standard_normal((2, 20, 24)).astype(dtype)
-        for r0, r_lo, r_hi, keep in ((0, 0.0, math.inf, 0.0), (2, 4.5, 9.0, 0.3)):
+        for r0, r_lo, r_hi, keep in ((0, 0.0, math.inf, None), (2, 4.5, 9.0, rng.uniform(0.2, 1.0, 18))):
             ref = kernel.spec(pcoef, base, 9.5, 11.2, r0, r_lo, r_hi, keep)
             back = be.empty((2, 20, 24), dtype)
             kernel(be, be.asarray(pcoef), be.asarray(base), back, 9.5, 11.2, r0, r_lo, r_hi, keep)

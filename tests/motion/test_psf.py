@@ -330,9 +330,11 @@ def test_fused_kernels_match_specifications(backend, mode, rng):
         pcoef = rng.standard_normal((2, 18, 64)).astype(dtype)
         base = rng.standard_normal((2, 20, 24)).astype(dtype)
         back = backend.empty((2, 20, 24), dtype)
-        kernels.from_polar(backend, backend.asarray(pcoef), backend.asarray(base), back, 9.5, 11.2, 0, 0.0, math.inf,
-                           0.2)
-        _check(backend, back, specs.from_polar_reference(pcoef, base, 9.5, 11.2, 0, 0.0, math.inf, 0.2), dtype)
+        wcoef = rng.uniform(0.2, 1.0, 18)           # ring weights' radial coefficients (mirrored at both ends)
+        for w in (None, wcoef):
+            kernels.from_polar(backend, backend.asarray(pcoef), backend.asarray(base), back, 9.5, 11.2, 0, 0.0,
+                               math.inf, w)
+            _check(backend, back, specs.from_polar_reference(pcoef, base, 9.5, 11.2, 0, 0.0, math.inf, w), dtype)
 
 
 def test_box_specification_is_the_spline_integral():

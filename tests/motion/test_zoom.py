@@ -222,3 +222,30 @@ def test_zoom_about_a_point_outside_the_image_is_refused_by_both_psfs():
     for psf, rates in (("green", 0.1), ("green", (0.1, 0.2)), ("box", 0.1)):
         with pytest.raises(ValueError, match="center"):
             motion_blur(img, rates, kind="zoom", psf=psf, center=(-40.0, 70.0), backend="numpy")
+
+
+@pytest.mark.parametrize("shape", [(3, 5000), (5000, 3), (64, 4000)])
+@pytest.mark.parametrize("kind, velocity, psf", [("zoom", 0.1, "green"), ("zoom", -0.5, "box"), ("zoom", 0.3, "box"),
+                                                 ("rotation", 10.0, "green")])
+def test_a_polar_grid_far_larger_than_the_image_is_refused_before_any_work(shape, kind, velocity, psf):
+    """A zoom of 3 x 5000 pixels sampled a polar grid of 4e7 points (> 90 s); it is refused with
+    the reason before the image is read: a non-finite image gets this refusal, not the
+    non-finite one that reading it would give."""
+    if kind == "rotation" and shape == (64, 4000):
+        pytest.skip("a spin's banded grid of 64 x 4000 fits the budget (it runs)")
+    img = np.ones(shape, np.float32)
+    img[0, 0] = np.nan
+    with pytest.raises(ValueError, match=r"polar grid about center \(row, col\).*samples for .* pixels"):
+        motion_blur(img, velocity, kind=kind, psf=psf, backend="numpy")
+
+
+def test_polar_cost_budget_admits_square_images_and_moderate_strips():
+    from gfgpu.motion.polar import POLAR_FLOOR, POLAR_PER_PIXEL, polar_samples
+    for h, w in ((2048, 2048), (4096, 4096), (512, 512), (16, 300)):
+        for reach, split in ((1.0, False), (2.0, False), (1.0, True)):
+            # centred and at a corner: a square's grid is a few samples per pixel
+            for cy, cx in (((h - 1) / 2, (w - 1) / 2), (0.0, 0.0)):
+                assert polar_samples(h, w, cy, cx, reach, split) <= POLAR_FLOOR + POLAR_PER_PIXEL * h * w
+    strip = np.tile(np.linspace(0.0, 1.0, 300), (16, 1))
+    out = motion_blur(strip, 0.2, kind="zoom", psf="box", backend="numpy")
+    assert out.shape == strip.shape and np.isfinite(out).all()
