@@ -26,6 +26,8 @@ Usage::
                                 [--repeat 3] [--figure docs/stereo_scenes.png]
                                 [--scenes tsukuba venus teddy cones motorcycle synth-1500]
     python benchmarks/stereo.py --stages teddy [--backends opencl]   # per-stage times only
+    python benchmarks/stereo.py --stream teddy [--frames 20]          # StereoMatcher vs disparity()
+    python benchmarks/stereo.py --windows 1 3 5 7 9 11 13 15 --scenes tsukuba venus teddy cones motorcycle
 """
 
 from __future__ import annotations
@@ -163,7 +165,6 @@ def stage_times(scene_images, d_max, backend, repeat, steps=2, paths=4):
     (which adds the host's grey conversion and left-right check)."""
     from gfgpu import stereo
     from gfgpu.backends import resolve_backend
-    from gfgpu.filters import shift
     be = resolve_backend(backend, None)
     left, right = (stereo.matching.grey_image(img, name) for img, name in zip(scene_images, ("left", "right")))
     h, w = left.shape
@@ -172,21 +173,22 @@ def stage_times(scene_images, d_max, backend, repeat, steps=2, paths=4):
     state = {}
 
     def census():
+        # the views as disparity() prepares them: scaled, the right view's sub-pixel planes
+        # Green-shifted on the host (float64), then the census on the device
+        lft, planes = stereo.matching.matching_views(left, right, steps)
         state["cl"] = be.empty((1, h, w), np.uint64)
-        stereo_kernels.census(be, be.asarray(left), state["cl"], 0, radius)
+        stereo_kernels.census(be, be.asarray(lft), state["cl"], 0, radius)
         state["cr"] = be.empty((steps, h, w), np.uint64)
-        rgt = be.asarray(right)
         for f in range(steps):
-            moved = rgt if f == 0 else shift(rgt, (0.0, f / steps), mode="nearest", backend=be)
-            stereo_kernels.census(be, moved, state["cr"], f, radius)
+            stereo_kernels.census(be, be.asarray(planes[f]), state["cr"], f, radius)
 
     def match():
         outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
-        stereo_kernels.match(be, state["cl"], state["cr"], *outs, 0, n, steps, block, 6 * block**2,
-                             64 * block**2, paths, 10, stereo.matching._budget(be))
+        stereo_kernels.match(be, state["cl"], state["cr"], *outs, 0, n, steps, block,
+                             *stereo.default_penalties(block, paths), paths, 10, stereo.matching._budget(be))
 
     times = {}
-    for name, fn in (("census" + (" + Green shifts" if steps > 1 else ""), census),
+    for name, fn in (("census" + (" + Green shifts (host)" if steps > 1 else ""), census),
                      (f"cost + {paths}-path aggregation + selection", match)):
         best = np.inf
         for _ in range(repeat + 1):        # the first run compiles
@@ -198,6 +200,51 @@ def stage_times(scene_images, d_max, backend, repeat, steps=2, paths=4):
     _, times["disparity() total"] = timed(lambda: stereo.disparity(*scene_images, d_max, subpixel_steps=steps,
                                                                    paths=paths, backend=be), repeat)
     return times
+
+
+def _programs(be):
+    """Programs built so far in this process (OpenCL; Warp builds its module once, not per size)."""
+    if be.name != "opencl":
+        return 0
+    from gfgpu.backends.opencl import launch
+    return len(launch._programs)
+
+
+def stream_times(scene, backend, frames=20):
+    """``StereoMatcher.compute`` on ``frames`` pairs of ``scene`` (each with its own seeded noise,
+    σ = 1 grey level, so that every frame differs) against ``disparity()`` on the same frames,
+    interleaved in this process (one compute, then one disparity call, per frame) so that both see
+    the same machine load.  Returns the first frame's seconds, the median and largest of frames
+    2..N, disparity's median (steady: after a warm-up call), and the programs built at the first
+    frame and after it."""
+    from gfgpu import stereo
+    from gfgpu.backends import resolve_backend
+    be = resolve_backend(backend, None)
+    left, right, _, _, top = load_scene(scene)
+    d_max = 16 * int(np.ceil((top + 1) / 16)) - 1
+    rng = np.random.default_rng(0)
+    pairs = [(np.clip(left + rng.normal(0, 1, left.shape), 0, 255).astype(np.float32),
+              np.clip(right + rng.normal(0, 1, right.shape), 0, 255).astype(np.float32)) for _ in range(frames)]
+    matcher = stereo.StereoMatcher(pairs[0][0].shape[:2], d_max, backend=be)
+    built0 = _programs(be)
+    t0 = time.perf_counter()
+    matcher.compute(*pairs[0])
+    first = time.perf_counter() - t0
+    built1 = _programs(be)
+    stereo.disparity(*pairs[0], d_max, backend=be)            # warm-up of the one-shot call
+    per_frame, one_shot = [], []
+    for lft, rgt in pairs[1:]:
+        t0 = time.perf_counter()
+        got = matcher.compute(lft, rgt)
+        per_frame.append(time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        want = stereo.disparity(lft, rgt, d_max, backend=be)
+        one_shot.append(time.perf_counter() - t0)
+        if not np.array_equal(got, want, equal_nan=True):
+            raise AssertionError("StereoMatcher.compute differs from disparity()")
+    return {"shape": pairs[0][0].shape[:2], "d_max": d_max, "first": first, "median": float(np.median(per_frame)),
+            "max": max(per_frame), "disparity": float(np.median(one_shot)), "built_first": built1 - built0,
+            "built_after": _programs(be) - built1}
 
 
 def _rss_mb():
@@ -242,7 +289,31 @@ def main():
     ap.add_argument("--figure", help="write a figure (left, ground truth, gfgpu, SGBM) here")
     ap.add_argument("--stages", metavar="SCENE", help="print per-stage times of sgm on this Middlebury "
                     "scene (and SGBM's time) instead of the scene table")
+    ap.add_argument("--stream", metavar="SCENE", help="StereoMatcher.compute on --frames noisy copies of this "
+                    "scene's pair against disparity() on the same frames, instead of the scene table")
+    ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--windows", nargs="+", type=int, metavar="W", help="bad-2 of the default sgm with each "
+                    "block side W (default penalties) on --scenes, instead of the scene table")
     args = ap.parse_args()
+    if args.windows:
+        print("| scene | " + " | ".join(f"window {w}" for w in args.windows) + " |")
+        print("|---|" + "---|" * len(args.windows))
+        for scene in args.scenes:
+            left, right, gt, mask, top = load_scene(scene)
+            d_max = 16 * int(np.ceil((top + 1) / 16)) - 1
+            row = [scores(disparity(left, right, d_max, window=w, backend=args.backends[0]), gt, mask)[1]
+                   for w in args.windows]
+            print(f"| {scene} | " + " | ".join(f"{v:.2f}" for v in row) + " |", flush=True)
+        return
+    if args.stream:
+        for be in args.backends:
+            r = stream_times(args.stream, be, args.frames)
+            print(f"{args.stream} {r['shape'][1]}x{r['shape'][0]}, d = 0..{r['d_max']}, {be}, {args.frames} frames: "
+                  f"StereoMatcher.compute first {r['first'] * 1e3:.1f} ms ({r['built_first']} programs built), "
+                  f"then median {r['median'] * 1e3:.1f} ms (max {r['max'] * 1e3:.1f}; {r['built_after']} built); "
+                  f"disparity() steady median {r['disparity'] * 1e3:.1f} ms: "
+                  f"{r['median'] / r['disparity']:.2f}x", flush=True)
+        return
     if args.stages:
         left, right, _, _, top = load_scene(args.stages)
         num_disp = 16 * int(np.ceil((top + 1) / 16))

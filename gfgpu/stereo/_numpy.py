@@ -29,7 +29,7 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
-                 p1, p2, paths, uniqueness, budget=None):
+                 p1, p2, paths, uniqueness, budget=None, workspace=None):
     disp[...], disp_right[...], margin[...] = specs.semi_global_match_reference(
         census_left[0], census_right, first_step, n_disp, steps, block, p1, p2, paths, uniqueness)
     return disp, disp_right, margin

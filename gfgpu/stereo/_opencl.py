@@ -32,13 +32,15 @@ def _build(be, name, **defines):
                       **defines)
 
 
-def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=None):
+def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=None, cost_shift=None):
     """A kernel of stereo.cl; those of the cost volumes are built for their ``n_disp`` (and
     with ``cost_bytes`` for byte costs, with ``padded`` for volumes of :func:`_padded`, the
-    selection for its sub-pixel ``steps``)."""
+    selection for its sub-pixel ``steps``, the block sums for their ``cost_shift``)."""
     defines = {} if n_disp is None else {"N_DISP": int(n_disp)}
     if steps is not None:
         defines["STEPS"] = int(steps)
+    if cost_shift is not None:
+        defines["COST_SHIFT"] = int(cost_shift)
     if cost_bytes:
         defines["COST_BYTES"] = 1
     if padded:
@@ -46,12 +48,24 @@ def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=
     return _build(be, name, **defines)
 
 
-def _padded(be, rows, w, n, dtype):
+def _empty(be, workspace, name, shape, dtype):
+    """``be.empty(shape, dtype)``, or the buffer of that name, shape and dtype that ``workspace``
+    (a dict kept by the caller across calls, :class:`gfgpu.stereo.StereoMatcher`) already holds."""
+    if workspace is None:
+        return be.empty(shape, dtype)
+    key = (name, tuple(shape), np.dtype(dtype).str)
+    buf = workspace.get(key)
+    if buf is None:
+        buf = workspace[key] = be.empty(shape, dtype)
+    return buf
+
+
+def _padded(be, rows, w, n, dtype, workspace=None, name="padded"):
     """A (rows, w, n) volume of the band matcher with each pixel's samples padded to whole
     vectors, (rows, w, :func:`_padded_samples` (n)): every pixel starts on a vector boundary
     (``PADDED_PIXELS`` kernels; an odd n, the default sub-pixel ranges, otherwise misaligns
     half of the loads and stores)."""
-    return be.empty((rows, w, padded_samples(n)), dtype)
+    return _empty(be, workspace, name, (rows, w, padded_samples(n)), dtype)
 
 def launch_census(be, image, out, plane, radius):
     image = ocl.plain(be, image, "image", np.float32)
@@ -77,8 +91,8 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     return out
 
 
-def _interleave(be, cr, h, w, steps, n):
-    ri = be.empty((h, w * steps), np.uint64)
+def _interleave(be, cr, h, w, steps, n, workspace=None):
+    ri = _empty(be, workspace, "interleaved", (h, w * steps), np.uint64)
     ocl.launch(be, _stereo_kernel(be, "census_interleave", n), (w, h), None, [cr], [ri],
                (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
     return ri
@@ -90,16 +104,16 @@ def _cost_splits(be, w):
     return max(1, min(2 * be.cl_device.max_compute_units, w))
 
 
-def _block_scratch(be, w, n, block):
+def _block_scratch(be, w, n, block, workspace=None):
     """The Hamming ring of the CPU block_cost kernel: per column range, ``block`` rows of its
     columns plus the block's margins, 16 * ceil(n / 16) bytes per column, and their column sums
     (ushort: two more rows); and the slot width."""
     splits = _cost_splits(be, w)
     cols = -(-w // splits) + 2 * (block // 2)
-    return be.empty((splits * (block + 2) * cols * padded_samples(n),), np.uint8), cols
+    return _empty(be, workspace, "ring", (splits * (block + 2) * cols * padded_samples(n),), np.uint8), cols
 
 
-def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block):
+def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block, workspace=None):
     """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows], int16 or
     byte costs as ``out``'s dtype, n samples per pixel (``out`` of :func:`_padded` where its
     last axis is longer).  CPUs: straight from the census codes, each column range's rows in
@@ -109,10 +123,10 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, s
     group = ocl.group_size(be)
     gsize = (-(-rows // group) * group,)
     if ham is None:
-        knl = _build(be, "block_cost", N_DISP=n, BLOCK=int(block),
+        knl = _build(be, "block_cost", N_DISP=n, BLOCK=int(block), COST_SHIFT=specs.cost_shift(int(block)),
                      **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}), **({"PADDED_PIXELS": 1} if padded else {}))
         splits = _cost_splits(be, w)
-        scratch, cols = _block_scratch(be, w, n, block)
+        scratch, cols = _block_scratch(be, w, n, block, workspace)
         ocl.launch(be, knl, (splits,), (1,), [cl_, ri], [out, scratch],
                    (cl_.data, ri.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(first_step),
                     np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0), np.int32(splits),
@@ -125,7 +139,7 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, s
     ocl.launch(be, _stereo_kernel(be, "census_hamming", n), (w, yb - ya), None, [cl_, ri], [ham],
                (cl_.data, ri.data, ham.data, np.int32(h), np.int32(w), np.int32(first_step),
                 np.int32(steps), np.int32(ya)))
-    knl = _stereo_kernel(be, "block_sum", n, cost_bytes=out.dtype == np.uint8)
+    knl = _stereo_kernel(be, "block_sum", n, cost_bytes=out.dtype == np.uint8, cost_shift=specs.cost_shift(block))
     ocl.launch(be, knl, gsize, (group,), [ham], [out],
                (ham.data, out.data, np.int32(h), np.int32(w), np.int32(block), np.int32(first_step),
                 np.int32(steps), np.int32(y0), np.int32(rows), np.int32(ya), np.int32(out_row0)))
@@ -180,10 +194,10 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, step
                 np.int32(y0)))
 
 
-def _sgm_state(be, w, n):
+def _sgm_state(be, w, n, workspace=None):
     """The band sweeps' path states (2 work-items x 5 rows of w + 2 cells) and their minima."""
-    return (be.empty((2, 5, 16 + (w + 2) * (padded_samples(n) + 16)), np.int16),
-            be.empty((2, 4, w + 2), np.int16))
+    return (_empty(be, workspace, "state", (2, 5, 16 + (w + 2) * (padded_samples(n) + 16)), np.int16),
+            _empty(be, workspace, "state_min", (2, 4, w + 2), np.int16))
 
 
 def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
@@ -205,7 +219,7 @@ def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
-                 p1, p2, paths, uniqueness, budget=None):
+                 p1, p2, paths, uniqueness, budget=None, workspace=None):
     cl_ = ocl.plain(be, census_left, "census_left", np.uint64)
     cr = ocl.plain(be, census_right, "census_right", np.uint64)
     for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
@@ -220,9 +234,9 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     if be.kind != "cpu":
         # GPUs: whole int16 volumes, each path's lines in parallel (disparity() checks the
         # device's memory before allocating)
-        cost = be.empty((h, w, n), np.int16)
+        cost = _empty(be, workspace, "cost", (h, w, n), np.int16)
         launch_cost(be, cl_, cr, cost, first_step, steps, block)
-        agg = be.empty((h, w, n), np.int16)
+        agg = _empty(be, workspace, "aggregated", (h, w, n), np.int16)
         launch_sgm(be, cost, agg, p1, p2, paths)
         del cost
         return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
@@ -232,11 +246,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # volumes.  The byte costs of the whole image are kept between the two sweeps when
     # ``budget`` allows (H W D bytes), else computed again for each band.
     k, keep, _ = band_plan.match_plan(h, w, n, paths, block, budget)
-    ri = _interleave(be, cr, h, w, steps, n)
-    cost = _padded(be, h if keep else k, w, n, np.uint8)
-    down, up = _padded(be, k, w, n, np.int16), _padded(be, k, w, n, np.int16)
-    state, state_min = _sgm_state(be, w, n)
-    bound = be.empty((2, k, padded_samples(n) + 1), np.int16)
+    ri = _interleave(be, cr, h, w, steps, n, workspace)
+    cost = _padded(be, h if keep else k, w, n, np.uint8, workspace, "cost")
+    down = _padded(be, k, w, n, np.int16, workspace, "down")
+    up = _padded(be, k, w, n, np.int16, workspace, "up")
+    state, state_min = _sgm_state(be, w, n, workspace)
+    bound = _empty(be, workspace, "bound", (2, k, padded_samples(n) + 1), np.int16)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
     view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
@@ -245,19 +260,19 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     st_off, st_len = (5 + 1) * srow, (4 if paths == 8 else 1) * srow
     mrow = state_min.shape[2] * 2
     mn_off, mn_len = 4 * mrow, (4 if paths == 8 else 1) * mrow
-    ckpt = be.empty((max(len(bands) - 1, 1), st_len // 2), np.int16)
-    ckpt_min = be.empty((max(len(bands) - 1, 1), mn_len // 2), np.int16)
+    ckpt = _empty(be, workspace, "checkpoints", (max(len(bands) - 1, 1), st_len // 2), np.int16)
+    ckpt_min = _empty(be, workspace, "checkpoint_minima", (max(len(bands) - 1, 1), mn_len // 2), np.int16)
 
     def copy(dst, src, nbytes, dst_off, src_off):
         ocl.copy_bytes(be, dst, src, nbytes, dst_off, src_off)
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
-        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block)
+        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block, workspace)
 
     def band_cost(y0, rows):
         if keep:
             return y0
-        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block)
+        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace)
         return 0
 
     # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep

@@ -11,7 +11,7 @@ import numpy as np
 import warp as wp
 
 from ..backends.warp import launch as wpl
-from .spec import COST_MAX, NO_CANDIDATE, NO_MATCH, OUT_OF_VIEW, PATH_UNDEFINED, SGM_PATHS
+from .spec import COST_MAX, NO_CANDIDATE, NO_MATCH, OUT_OF_VIEW, PATH_UNDEFINED, SGM_PATHS, cost_shift
 
 wp.set_module_options({"enable_backward": False})
 
@@ -61,7 +61,7 @@ def census(img: wp.array2d(dtype=wp.float32), out: wp.array3d(dtype=wp.uint64), 
 
 @wp.kernel
 def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64),
-                out: wp.array3d(dtype=wp.int16), first_step: int, steps: int, block: int):
+                out: wp.array3d(dtype=wp.int16), first_step: int, steps: int, block: int, shift: int):
     """Block-summed Hamming distances for every disparity sample, -1 out of view; one thread per
     (pixel, sample) (see census_cost_reference)."""
     y, x, k = wp.tid()
@@ -80,7 +80,7 @@ def census_cost(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64)
         for u in range(-r, r + 1):
             xx = wp.clamp(x + u, 0, w - 1)
             total = total + _popcount(cl[0, yy, xx] ^ cr[f, yy, xx - n])
-    out[y, x, k] = wp.int16(wp.min(total, _COST_MAX))
+    out[y, x, k] = wp.int16(wp.min(total >> shift, _COST_MAX))
 
 
 @wp.kernel
@@ -186,6 +186,13 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
     delta = float(0.0)
     if kb > 0 and kb < nd - 1 and den > 0.0:
         delta = float(sm - sp) / (2.0 * den)
+    if steps == 2 and kb >= 2 and kb <= nd - 3:
+        # half-pixel samples: one baseline per phase (spec._half_pixel_fit)
+        sm2 = int(agg[y, x, kb - 2])
+        sp2 = int(agg[y, x, kb + 2])
+        den2 = sm2 + sp2 - 2 * best
+        if sm >= 0 and sp >= 0 and sm2 >= 0 and sp2 >= 0 and den2 > 0:
+            delta = wp.min(wp.max(float(2 * (sm - sp) + sm2 - sp2) / (2.0 * float(den2)), -1.0), 1.0)
     if unique and not cut:
         disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
         margin[y, x] = float(second - best) / float(second)
@@ -280,13 +287,24 @@ def launch_census(be, image, out, plane, radius):
 
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     wpl.launch(be, census_cost, dim=out.shape,
-               inputs=[census_left, census_right, out, int(first_step), int(steps), int(block)])
+               inputs=[census_left, census_right, out, int(first_step), int(steps), int(block),
+                       cost_shift(int(block))])
     return out
 
-def launch_sgm(be, cost, out, p1, p2, paths):
+def _empty(be, workspace, name, shape, dtype):
+    # be.empty, or the buffer of that name the caller's workspace (StereoMatcher) keeps across calls
+    if workspace is None:
+        return be.empty(shape, dtype)
+    key = (name, tuple(shape), np.dtype(dtype).str)
+    if key not in workspace:
+        workspace[key] = be.empty(shape, dtype)
+    return workspace[key]
+
+
+def launch_sgm(be, cost, out, p1, p2, paths, workspace=None):
     h, w, n = cost.shape
     lines = h + w - 1
-    scratch = be.empty((lines, 2 * n), np.int32)
+    scratch = _empty(be, workspace, "path_scratch", (lines, 2 * n), np.int32)
     for i, (dy, dx) in enumerate(SGM_PATHS[:paths]):
         count = w if dx == 0 else h if dy == 0 else lines
         wpl.launch(be, sgm_path, dim=count,
@@ -299,14 +317,14 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
     return disp, disp_right, margin
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
-                 p1, p2, paths, uniqueness, budget=None):
+                 p1, p2, paths, uniqueness, budget=None, workspace=None):
     # whole (H, W, D) volumes: each path's lines run in parallel (GPUs; disparity() checks the
     # memory before allocating)
     h, w = disp.shape
-    cost = be.empty((h, w, int(n_disp)), np.int16)
+    cost = _empty(be, workspace, "cost", (h, w, int(n_disp)), np.int16)
     launch_cost(be, census_left, census_right, cost, first_step, steps, block)
-    agg = be.empty((h, w, int(n_disp)), np.int16)
-    launch_sgm(be, cost, agg, p1, p2, paths)
+    agg = _empty(be, workspace, "aggregated", (h, w, int(n_disp)), np.int16)
+    launch_sgm(be, cost, agg, p1, p2, paths, workspace)
     del cost
     return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
 

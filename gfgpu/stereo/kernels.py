@@ -22,8 +22,9 @@ def _launchers(name):
 #: (``image`` (H, W) float32, ``out`` (S, H, W) uint64 device arrays)
 census = register("stereo.census", specs.census_transform_reference, **_launchers("census"))
 
-#: ``cost(be, census_left, census_right, out, first_step, steps, block, invalid)``: ``out =
-#: census_cost_reference(census_left[0], census_right, first_step, n_disp, steps, block, invalid)``
+#: ``cost(be, census_left, census_right, out, first_step, steps, block)``: ``out =
+#: census_cost_reference(census_left[0], census_right, first_step, n_disp, steps, block)`` (block sums
+#: shifted right by ``spec.cost_shift(block)`` bits, then saturated)
 #: (``census_left`` (1, H, W), ``census_right`` (steps, H, W) uint64; ``out`` (H, W, D) int16)
 cost = register("stereo.cost", specs.census_cost_reference, **_launchers("cost"))
 
@@ -42,7 +43,8 @@ select = register("stereo.select", specs.select_disparity_reference, **_launcher
 #: (``semi_global_match_reference``; ``census_left`` (1, H, W), ``census_right`` (steps, H, W) uint64;
 #: outputs as for ``select``; ``first_step`` a multiple of ``steps``); on CPUs the OpenCL launcher
 #: streams bands of rows instead of holding (H, W, D) volumes, and keeps the byte costs of the whole
-#: image only if that fits ``budget`` bytes (None: no limit)
+#: image only if that fits ``budget`` bytes (None: no limit); ``workspace=dict`` (keyword, Warp and
+#: OpenCL) keeps the launcher's own buffers in that dict across calls (:class:`StereoMatcher`)
 match = register("stereo.match", specs.semi_global_match_reference, **_launchers("match"))
 
 #: ``left_right(be, disp, disp_right, margin, steps, tol)``: ``disp, margin =

@@ -6,7 +6,9 @@ Three methods share one entry point, :func:`disparity`:
     Census matching cost over the disparity range, optionally sampled below the pixel with
     exact Green's-function shifts of the right view (``subpixel_steps``), semi-global
     aggregation (Hirschmüller 2008; 4 paths by default, 8 on request), winner-take-all with a
-    uniqueness test and a parabola fit, and a left-right consistency check.  On CPU devices
+    uniqueness test and a sub-pixel fit (with half-pixel samples one fitted to their two
+    phases, :func:`gfgpu.stereo.spec.select_disparity_reference`), and a left-right
+    consistency check.  On CPU devices
     (OpenCL) the matcher streams bands of rows through two concurrent sweeps and never holds
     an (H, W, D) volume of sums (``disparity_memory``).
 ``"uniform"``
@@ -35,17 +37,17 @@ import os
 import numpy as np
 
 from .. import greens
-from .._core.job import Job, apply_program
+from .._core.arrays import as_kind, host_array, kind_of
 from .._core.strips import get_working_set
-from .._core.validation import finite_scalar
+from .._core.validation import finite_scalar, flag, positive
 from ..backends import resolve_backend
-from ..filters import green_filter, shift, shift_program
+from ..filters import green_filter, shift
 from . import kernels
 from . import spec as specs
 from .spec import COST_MAX, SWEEP_PLANES
 
-__all__ = ["disparity", "disparity_work", "disparity_memory", "estimate_max_disparity", "METHODS", "fill_holes",
-           "random_dot_stereogram", "sweep_finish"]
+__all__ = ["disparity", "default_penalties", "matching_views", "disparity_work", "disparity_memory",
+           "estimate_max_disparity", "METHODS", "fill_holes", "random_dot_stereogram", "sweep_finish"]
 
 #: smallest disparity step of the chapter's sweeps (px)
 MIN_SWEEP_STEP = 1.0 / 64
@@ -171,7 +173,7 @@ def fill_holes(disp, *, edges="row"):
 
 
 def grey_image(image, name):
-    arr = np.asarray(image)
+    arr = host_array(image, name)     # any array kind, moved to the host once (disparity's docstring)
     if arr.dtype == object or arr.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be a real numeric image, got dtype {arr.dtype}")
     integer = arr.dtype.kind in "biu"         # always finite, also as float32
@@ -209,40 +211,190 @@ left_right_check = specs.left_right_check_reference
 # --------------------------------------------------------------------------------------
 # the methods
 # --------------------------------------------------------------------------------------
+def _largest_cost(census_radius, block):
+    return min((((2 * census_radius + 1) ** 2 - 1) * block * block) >> specs.cost_shift(block), COST_MAX)
+
+
+def _largest_p2(census_radius, block, paths):
+    """The largest P2 whose aggregated costs fit int16: ``paths * (largest cost + P2) < 32767``."""
+    return (_INT16_MAX - 1) // paths - _largest_cost(census_radius, block)
+
+
+def default_penalties(window, paths=4, census_radius=3):
+    """The default penalties ``(P1, P2)`` of ``"sgm"`` for a block side ``window``.
+
+    ``6 window²`` and ``64 window²`` in units of the block's summed Hamming distance (measured
+    on the Middlebury scenes of ``benchmarks/stereo.py`` at the default window 3), divided by
+    the ``2**cost_shift(window)`` by which the block sums are shifted before they saturate
+    (:func:`gfgpu.stereo.spec.cost_shift`), so that they scale with the costs; both lowered by
+    one factor where ``P2`` would not let the aggregated costs fit int16 (``paths * (largest
+    cost + P2) < 32767``), so that every documented window runs with the defaults.
+
+    Examples
+    --------
+    >>> default_penalties(3)
+    (54, 576)
+    >>> default_penalties(15)          # block sums shifted by 5 bits
+    (42, 450)
+    """
+    scale = 2 ** specs.cost_shift(window)
+    p1, p2 = 6 * window**2 // scale, 64 * window**2 // scale
+    top = _largest_p2(census_radius, window, paths)
+    if p2 > top:
+        p1, p2 = p1 * top // p2, top
+    return p1, p2
+
+
+#: float32's smallest normal number: smaller magnitudes are flushed to 0 on the host (devices
+#: flush subnormals, numpy does not)
+_TINY = np.float32(np.finfo(np.float32).tiny)
+
+
+def _flush(image):
+    return np.where(np.abs(image) < _TINY, np.float32(0), image).astype(np.float32, copy=False)
+
+
+def matching_views(left, right, steps):
+    """The images the census of ``"sgm"`` reads, computed on the host the same way for every
+    backend (so that every backend sees the same bits and returns the same map).
+
+    Both views are scaled by one power of two (exact) so that the largest magnitude lies in
+    [1, 2) (a pair in float32 subnormals is matched as its normal-range copy), and each right
+    plane ``f`` is the right view moved by ``+f / steps`` px with the exact discrete Green
+    shift (:func:`gfgpu.shift`, nearest extension) in float64, rounded to float32.  Magnitudes
+    below float32's smallest normal number are then flushed to 0: devices flush subnormals
+    (the G_f shift's geometric tails reach them beside flat regions), numpy does not.  A shift
+    computed on each device in float32 rounded differently per backend, and census compares
+    of near-equal neighbours (flat regions of boolean or 8-bit images) flipped with it.
+
+    Parameters
+    ----------
+    left, right : (H, W) float32 ndarray
+        Finite grey views (:func:`grey_image`).
+    steps : int
+        Sub-pixel samples per pixel, 1..4.
+
+    Returns
+    -------
+    left : (H, W) float32 ndarray
+    right : (steps, H, W) float32 ndarray
+    """
+    top = max(float(np.abs(left).max(initial=0.0)), float(np.abs(right).max(initial=0.0)))
+    exp = 1 - math.frexp(top)[1] if top > 0 else 0
+    lft = _flush(np.ldexp(left, exp, dtype=np.float32))
+    rgt = _flush(np.ldexp(right, exp, dtype=np.float32))
+    planes = np.empty((steps,) + rgt.shape, np.float32)
+    planes[0] = rgt
+    wide = rgt.astype(np.float64)
+    for f in range(1, steps):
+        # the sub-pixel disparity samples of the cost volume
+        moved = _green_shift_rows(wide, f / steps)
+        if 2 * f == steps:
+            # the half-pixel plane: the mean of the causal G_{1/2} shift and of the anticausal
+            # G_{-1/2} shift moved by one pixel, a kernel symmetric about the half-pixel point.
+            # The causal shift alone blurs to one side: samples half a pixel below and above a
+            # whole-pixel match cost unequally, and an exact 8 px shift came out 7.95 (median)
+            moved += _green_shift_rows(wide, -0.5, 1)
+            moved *= 0.5
+        planes[f] = _flush(moved.astype(np.float32))
+    return lft, planes
+
+
+def _green_shift_rows(rows, amount, offset=0):
+    """The rows of ``rows`` (float64) moved by ``amount`` px with the discrete Green shift
+    (:func:`gfgpu.shift`'s G_f, nearest extension) and then by ``offset`` whole px.
+
+    One real second-order recursion per row (``scipy.signal.lfilter``: the section ``y = tap x +
+    Re F``, ``F[x+1] = λ F[x] + κ x[x]``, as one rational filter), started in the steady state
+    of the edge value (the nearest extension from infinity): the values of :func:`gfgpu.shift`
+    on the numpy backend to ~1e-13, in about half its time."""
+    from scipy import signal
+    lp, = greens.translation_passes(amount)
+    (sec,) = lp.sections
+    lam, kap, tap = complex(sec.lam), complex(sec.kap), float(lp.tap)
+    a = np.array([1.0, -2 * lam.real, abs(lam) ** 2])
+    b = np.array([tap, tap * a[1] + kap.real, tap * a[2] - (kap * lam.conjugate()).real])
+    n = lp.offset + offset                  # the result at x is the filtered line at x - n
+    src = rows
+    if n > 0:                               # the extension's first n columns are needed
+        src = np.concatenate([np.repeat(rows[:, :1], n, axis=1), rows], axis=1)
+    if lp.reverse:
+        src = src[:, ::-1]
+    out = signal.lfilter(b, a, src, axis=1, zi=signal.lfilter_zi(b, a)[None] * src[:, :1])[0]
+    if lp.reverse:
+        out = out[:, ::-1]
+    if n < 0:
+        out = np.concatenate([out[:, -n:], np.repeat(out[:, -1:], -n, axis=1)], axis=1)
+    return out[:, :rows.shape[1]] if n > 0 else out
+
+
+def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniqueness):
+    """``disparity``'s ``"sgm"`` options checked (a clear error naming each), the defaults
+    filled in: ``(window, steps, radius, p1, p2, paths, uniqueness)``."""
+    window = 3 if window is None else _int_arg(window, "window")
+    if window < 1 or window % 2 == 0 or window > 15:
+        raise ValueError(f"window must be odd, 1..15, for method 'sgm'; got {window}")
+    steps = _int_arg(subpixel_steps, "subpixel_steps")
+    if not 1 <= steps <= 4:
+        raise ValueError(f"subpixel_steps must be 1..4, got {steps}")
+    radius = _int_arg(census_radius, "census_radius")
+    if not 1 <= radius <= MAX_CENSUS_RADIUS:
+        raise ValueError(f"census_radius must be 1..{MAX_CENSUS_RADIUS}, got {radius}")
+    if isinstance(paths, bool) or paths not in (4, 8):
+        raise ValueError(f"paths must be 4 or 8, got {paths!r}")
+    auto = default_penalties(window, paths, radius)
+    p1 = auto[0] if p1 is None else _int_arg(p1, "p1")
+    p2 = auto[1] if p2 is None else _int_arg(p2, "p2")
+    if not 0 <= p1 <= p2:
+        raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
+    top = _largest_p2(radius, window, paths)
+    if p2 > top:
+        raise ValueError(f"p2 = {p2} is too large: aggregated costs must fit int16 "
+                         f"(paths * (largest cost + p2) < {_INT16_MAX}: p2 <= {top} for window {window}, "
+                         f"census_radius {radius} and {paths} paths)")
+    uniq = _int_arg(uniqueness, "uniqueness")
+    if not 0 <= uniq <= 100:
+        raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
+    return window, steps, radius, p1, p2, int(paths), uniq
+
+
+def _buffer(be, buffers, name, shape, dtype):
+    # be.empty, or the caller's buffer of that name kept across calls (StereoMatcher)
+    if buffers is None:
+        return be.empty(shape, dtype)
+    if name not in buffers:
+        buffers[name] = be.empty(shape, dtype)
+    return buffers[name]
+
+
 def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, paths, uniqueness,
-         lr_check, progress):
+         lr_check, progress, buffers=None, workspace=None):
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
-    bits = (2 * census_radius + 1) ** 2 - 1
-    if paths * (min(bits * block * block, COST_MAX) + p2) >= _INT16_MAX:
-        raise ValueError(f"p2 = {p2} is too large: aggregated costs must fit int16 "
-                         f"(paths * (min(census bits * block^2, {COST_MAX}) + p2) < {_INT16_MAX})")
-    cen_l = be.empty((1, h, w), np.uint64)
-    kernels.census(be, be.asarray(left), cen_l, 0, census_radius)
-    cen_r = be.empty((steps, h, w), np.uint64)
-    rgt = be.asarray(right)
+    lft, planes = matching_views(left, right, steps)
+    cen_l = _buffer(be, buffers, "census_left", (1, h, w), np.uint64)
+    kernels.census(be, be.asarray(lft), cen_l, 0, census_radius)
+    cen_r = _buffer(be, buffers, "census_right", (steps, h, w), np.uint64)
     for f in range(steps):
-        # the right view moved by +f/steps px with the exact discrete G_u shift: the sub-pixel
-        # disparity samples of the cost volume
-        # (grey_image checked the view: no second finite check, which would wait for the device)
-        moved = rgt if f == 0 else apply_program(Job(rgt, None, be, finite=True),
-                                                 shift_program(2, (0.0, f / steps)), "nearest", 0.0)
-        kernels.census(be, moved, cen_r, f, census_radius)
+        kernels.census(be, be.asarray(planes[f]), cen_r, f, census_radius)
     progress(1)
-    disp = be.empty((h, w), np.float32)
-    right_steps = be.empty((h, w), np.int32)
-    margin = be.empty((h, w), np.float32)
+    disp = _buffer(be, buffers, "disp", (h, w), np.float32)
+    right_steps = _buffer(be, buffers, "disp_right", (h, w), np.int32)
+    margin = _buffer(be, buffers, "margin", (h, w), np.float32)
     # cost, aggregation and selection in one fused kernel: on CPUs it streams bands of rows
     # (memory O(band x W x D)), on GPUs it holds (H, W, D) volumes
     budget = _budget(be)
+    extra = {} if workspace is None else {"workspace": workspace}
     kernels.match(be, cen_l, cen_r, disp, right_steps, margin, d_min * steps, n_disp, steps, block, p1, p2,
-                  paths, uniqueness, None if budget is None else budget - _sgm_base((h, w), steps))
+                  paths, uniqueness, None if budget is None else budget - _sgm_base((h, w), steps), **extra)
     progress(1)
     if lr_check:
         # NaN where the views disagree; the confidence times the left-right agreement (1 where
         # both views agree exactly, 1/2 at the tolerance)
         kernels.left_right(be, disp, right_steps, margin, steps, LR_TOLERANCE)
     progress(1)
+    if buffers is not None:      # the next frame writes these buffers again: the results are copies
+        return np.array(be.to_host(disp), copy=True), np.array(be.to_host(margin), copy=True)
     return be.to_host(disp), be.to_host(margin)
 
 
@@ -330,15 +482,21 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         See the module docstring.  ``"sgm"`` is the accurate one.
     window : int, optional
         Odd window side: the block over which census Hamming distances are summed for
-        ``"sgm"`` (default 3), the squared-difference window for the sweeps (default 9).
+        ``"sgm"`` (default 3; 1..15, the sums shifted right by
+        :func:`gfgpu.stereo.spec.cost_shift` bits before they saturate at 254), the
+        squared-difference window for the sweeps (default 9).
     subpixel : bool, optional
-        Refine the winner with a parabola through its neighbours' costs.
+        Refine the winner with a fit through its neighbours' costs (``"sgm"`` with half-pixel
+        samples: through the samples one and two steps away, one baseline per phase; else a
+        parabola).
     lr_check : bool, optional
         Reject pixels whose right-view match points back more than 1 px away (for the sweeps
         the right view's running best is kept in the same pass).
     subpixel_steps : int, optional
         (``"sgm"``) Disparity samples per pixel, 1 to 4: the right view is shifted by
-        ``f / subpixel_steps`` px with the exact discrete G_u shift for each ``f``.  Default 2:
+        ``f / subpixel_steps`` px with the exact discrete G_u shift for each ``f`` (on the
+        host, :func:`matching_views`; the half-pixel plane by the mean of the causal and the
+        anticausal shift, symmetric about the half pixel).  Default 2:
         measured more accurate than whole-pixel samples on 14 of the 15 (scene, noise) cases of
         ``docs/stereo.md`` (Middlebury with added noise σ = 0, 2, 5; bad-2 5.8 → 4.8 % on
         average) and sub-pixel values 92 % → 100 % within 0.25 px on a random-dot square; 1 is the
@@ -348,7 +506,10 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     p1, p2 : int, optional
         (``"sgm"``) Penalties of semi-global aggregation for one-step and larger changes, in
         units of the block's summed Hamming distance; default ``6 window²`` and
-        ``64 window²`` (measured on the Middlebury scenes of ``benchmarks/stereo.py``).
+        ``64 window²`` (measured on the Middlebury scenes of ``benchmarks/stereo.py``), scaled
+        down together where the aggregated costs would not fit int16 (windows 13 and 15 with
+        4 paths, 9 to 15 with 8: :func:`default_penalties`).  A ``p2`` above that bound raises
+        ``ValueError``.
     paths : {4, 8}, optional
         (``"sgm"``) Aggregation directions: 4 (rows and columns, both ways; the default:
         measured as accurate as 8 or better on the Middlebury scenes of
@@ -375,15 +536,18 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         Called with a number of completed units of work (for progress bars);
         :func:`disparity_work` gives the total.
     backend, device : optional
-        Where the kernels run (default: the resolution rule of :mod:`gfgpu.backends`);
-        inputs are numpy images.
+        Where the kernels run (default: the resolution rule of :mod:`gfgpu.backends`, with
+        ``left``'s device: a CUDA tensor is matched on its GPU).  ``left`` and ``right`` may be
+        of any array kind (numpy, torch, CuPy, JAX, any ``__dlpack__`` array, Warp, pyopencl):
+        they are read on the host, device memory copied there once.
 
     Returns
     -------
-    disparity : (H, W) float32 ndarray
-        In px, NaN where no match is established.
-    confidence : (H, W) float32 ndarray
-        Only with ``return_confidence=True``.
+    disparity : (H, W) float32 array
+        In px, NaN where no match is established; of ``left``'s kind (torch in, torch out, on
+        its device; numpy for numpy, Warp and pyopencl inputs).
+    confidence : (H, W) float32 array
+        Only with ``return_confidence=True``; the same kind.
 
     Raises
     ------
@@ -451,34 +615,20 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
                          f"min_disparity + {MAX_RANGE}; got {d_max}")
     if not isinstance(return_confidence, (bool, np.bool_)):
         raise TypeError(f"return_confidence must be True or False, got {return_confidence!r}")
-    be = resolve_backend(backend, device)
+    lr_check = flag("lr_check", lr_check)       # not truthiness: 'False' is an error, not True
+    subpixel = flag("subpixel", subpixel)
+    be = resolve_backend(backend, device, left)     # a CUDA tensor: matched on its GPU
     report = progress if progress is not None else (lambda n: None)
     if method == "sgm":
-        window = 3 if window is None else _int_arg(window, "window")
-        if window < 1 or window % 2 == 0 or window > 15:
-            raise ValueError(f"window must be odd, 1..15, for method 'sgm'; got {window}")
-        steps = _int_arg(subpixel_steps, "subpixel_steps")
-        if not 1 <= steps <= 4:
-            raise ValueError(f"subpixel_steps must be 1..4, got {steps}")
-        radius = _int_arg(census_radius, "census_radius")
-        if not 1 <= radius <= MAX_CENSUS_RADIUS:
-            raise ValueError(f"census_radius must be 1..{MAX_CENSUS_RADIUS}, got {radius}")
-        p1 = 6 * window**2 if p1 is None else _int_arg(p1, "p1")
-        p2 = 64 * window**2 if p2 is None else _int_arg(p2, "p2")
-        if not 0 <= p1 <= p2:
-            raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
-        if paths not in (4, 8):
-            raise ValueError(f"paths must be 4 or 8, got {paths!r}")
-        uniq = _int_arg(uniqueness, "uniqueness")
-        if not 0 <= uniq <= 100:
-            raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
+        window, steps, radius, p1, p2, paths, uniq = _sgm_options(window, subpixel_steps, census_radius, p1, p2,
+                                                                  paths, uniqueness)
         _check_memory(be, lft.shape, d_max, d_min, method, steps, paths, window)
         disp, conf = _sgm(be, lft, rgt, d_min, d_max, steps, radius, window, p1, p2, paths,
                           uniq, lr_check, report)
         if not subpixel:
             disp = np.rint(disp * steps) / steps
         disp = disp.astype(np.float32)
-        return (disp, conf) if return_confidence else disp
+        return as_kind((disp, conf) if return_confidence else disp, kind_of(left), left)
     window = 9 if window is None else _int_arg(window, "window")
     if window < 1 or window % 2 == 0 or window > 31:
         raise ValueError(f"window must be odd, 1..31, for the sweeps; got {window}")
@@ -489,13 +639,13 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         raise ValueError(f"sweep_step must lie in [{MIN_SWEEP_STEP:g}, 1] px, got {sweep_step!r}")
     if sigma is None:
         sigma = 4.0 * math.sqrt(w * (max(abs(d_min), abs(d_max)) + 1))
-    elif not (math.isfinite(float(sigma)) and float(sigma) > 0):
-        raise ValueError(f"sigma must be a finite number > 0, got {sigma!r}")
+    else:
+        sigma = positive("sigma", sigma)          # names the argument for a string or a bool
     disp, conf = _sweep(be, lft, rgt, d_min, d_max, step, method, window // 2, float(sigma), bool(lr_check),
                         report)
     if not subpixel:
         disp = (np.rint((disp - d_min) / step) * step + d_min).astype(np.float32)
-    return (disp, conf) if return_confidence else disp
+    return as_kind((disp, conf) if return_confidence else disp, kind_of(left), left)
 
 
 #: bytes per pixel and disparity sample of the "sgm" method where whole volumes are held: the

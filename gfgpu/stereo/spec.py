@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = [
     "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "PATH_UNDEFINED", "NO_CANDIDATE", "SWEEP_PLANES",
-    "census_transform_reference", "in_view_reference", "census_cost_reference", "sgm_aggregate_reference",
+    "census_transform_reference", "in_view_reference", "cost_shift", "census_cost_reference", "sgm_aggregate_reference",
     "select_disparity_reference", "left_right_check_reference", "left_right_reference",
     "semi_global_match_reference", "sweep_update_reference",
 ]
@@ -89,9 +89,20 @@ OUT_OF_VIEW = -1
 COST_MAX = 254
 
 
+def cost_shift(block):
+    """Bits by which a ``block x block`` sum of Hamming distances is shifted right before it
+    saturates at :data:`COST_MAX`: ``round(2 log2(block / 3))``, at least 0 (0 for blocks 1
+    and 3, 1 for 5, 2 for 7, 3 for 9, 4 for 11 and 13, 5 for 15).  The costs of every block
+    then span about the 3 x 3 block's range: unshifted, the sums of blocks from 7 x 7 up
+    saturated on correct matches as well (Hamming distances of a few bits per pixel times 49 to
+    225 pixels) and ties left most pixels without a unique minimum (bad-2 19-100 % on the
+    Middlebury scenes of ``benchmarks/stereo.py``)."""
+    return max(0, int(round(2 * np.log2(block / 3)))) if block > 3 else 0
+
+
 def census_cost_reference(census_left, census_right, first_step, n_disp, steps, block):
-    """Matching-cost volume: Hamming distances of census codes, summed over a block, at most
-    :data:`COST_MAX`.
+    """Matching-cost volume: Hamming distances of census codes, summed over a block, shifted
+    right by :func:`cost_shift` bits and at most :data:`COST_MAX`.
 
     ``cost[y, x, k]`` is the sum over the ``block x block`` window around ``(y, x)`` (clamped
     at the border) of ``popcount(L[y', x'] ^ R_f[y', x' - n])`` for the disparity
@@ -127,7 +138,7 @@ def census_cost_reference(census_left, census_right, first_step, n_disp, steps, 
         colsw = np.clip(cols[:, None] + np.arange(-r, r + 1)[None], 0, w - 1)
         ham = ham[rows].sum(axis=1)                      # (H, W, D): window rows summed
         ham = ham[:, colsw].sum(axis=2)
-    ham = np.minimum(ham, COST_MAX)
+    ham = np.minimum(ham >> cost_shift(block), COST_MAX)
     view = in_view_reference(w, first_step, n_disp, steps, block // 2)
     ham[:, ~view] = OUT_OF_VIEW
     return ham.astype(np.int16)
@@ -230,7 +241,8 @@ def select_disparity_reference(aggregated, d_min, steps, uniqueness):
 
     Otherwise ``d = d_min + (k* + δ) / steps`` with the parabola vertex ``δ = (S[k*-1] -
     S[k*+1]) / (2 (S[k*-1] - 2 S[k*] + S[k*+1]))`` (0 at the range's ends or when the
-    curvature is not positive), and ``margin = (S2 - S[k*]) / S2`` (float32; 1 where ``S2 =
+    curvature is not positive; with ``steps = 2`` the two-phase fit of :func:`_half_pixel_fit`
+    where ``k* ± 2`` are in view), and ``margin = (S2 - S[k*]) / S2`` (float32; 1 where ``S2 =
     0`` cannot occur for a kept pixel, 0 where rejected).  Right view: the first minimum over
     ``k`` of ``S[y, xr + d_k, k]`` (index ``d_min*steps + k``, in steps) over the ``k`` whose
     left pixel ``xr + d_k`` (``d_k`` rounded down) lies inside and whose sample is in view;
@@ -261,6 +273,8 @@ def select_disparity_reference(aggregated, d_min, steps, uniqueness):
     inner = (k > 0) & (k < n - 1) & (den > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
         delta = np.where(inner, (sm - sp).astype(np.float32) / (np.float32(2) * den), np.float32(0))
+    if steps == 2:
+        delta = _half_pixel_fit(s, k, best, sm, sp, delta)
     disp = ((np.float32(d_min * steps) + k.astype(np.float32) + delta) / np.float32(steps)).astype(np.float32)
     keep = unique & ~cut
     disp[~keep] = np.nan
@@ -279,6 +293,25 @@ def select_disparity_reference(aggregated, d_min, steps, uniqueness):
         best_r[better] = val[better]
         right[better] = d_min * steps + kk
     return disp, right, margin
+
+
+def _half_pixel_fit(s, k, best, sm, sp, delta):
+    """The refinement of half-pixel samples (``steps = 2``): the winner's neighbours one step
+    away come from the other phase (the half-pixel plane, blurred by its Green shift, or the
+    unshifted one), those two steps away from its own, so a parabola through ``k* ± 1`` mixes
+    two baselines.  Fitted instead: ``S[k* + j] = A (j/2 - δ)^2 + B_(j mod 2)`` through ``k* -
+    2 .. k* + 2``, one curvature and one baseline per phase, ``δ = (2 (S₋₁ - S₊₁) + S₋₂ - S₊₂) /
+    (2 (S₋₂ + S₊₂ - 2 S₀))`` in steps, clipped to [-1, 1] (float32; the parabola where ``k* ± 2``
+    is outside the range or out of view, or the curvature is not positive)."""
+    n = s.shape[2]
+    sm2 = np.take_along_axis(s, np.maximum(k - 2, 0)[..., None], 2)[..., 0]
+    sp2 = np.take_along_axis(s, np.minimum(k + 2, n - 1)[..., None], 2)[..., 0]
+    den = sm2 + sp2 - 2 * best
+    ok = (k >= 2) & (k <= n - 3) & (sm >= 0) & (sp >= 0) & (sm2 >= 0) & (sp2 >= 0) & (den > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fit = (2 * (sm - sp) + sm2 - sp2).astype(np.float32) / (np.float32(2) * den.astype(np.float32))
+    fit = np.minimum(np.maximum(fit, np.float32(-1)), np.float32(1))
+    return np.where(ok, fit, delta).astype(np.float32)
 
 
 def left_right_check_reference(disp, right, steps, tol, return_difference=False):

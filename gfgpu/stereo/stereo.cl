@@ -15,6 +15,8 @@ static inline int floor_div(const int a, const int b)
 }
 
 #define CLAMPI(v, lo, hi) ((v) < (lo) ? (lo) : (v) > (hi) ? (hi) : (v))   // not clamp(): see VMIN
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))        // scalar min / max: PoCL calls min() and max()
+#define IMAX(a, b) ((a) > (b) ? (a) : (b))
 
 // Census transform: bit b of out[plane][y][x] is set where neighbour b of the (2r+1)^2 window
 // (row-major, centre skipped, edge pixels repeated) is darker than the centre.  One work-item per
@@ -70,7 +72,7 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
     for (int v = -R_; v <= R_; ++v)
         rows[v + R_] = img + (size_t)CLAMPI(y + v, 0, h - 1) * w;
     __global ulong *o = out + plane_offset + (size_t)y * w;
-    const int x0 = min(R_, w), x1 = max(x0, w - R_ - 7);    // [x0, x1): 8-pixel blocks inside
+    const int x0 = IMIN(R_, w), x1 = IMAX(x0, w - R_ - 7);    // [x0, x1): 8-pixel blocks inside
     int x = 0;
     for (; x < x0; ++x)
         o[x] = census_pixel(rows, x, w);
@@ -269,7 +271,7 @@ __kernel void census_hamming(__global const ulong *cl, __global const ulong *ri,
     __global const ulong *row = ri + (size_t)y * ws;
     __global uchar *dst = ham + ((size_t)i * w + x) * N_DISP;
     const int j0 = x * steps + steps - 1 - first_step;          // right index of sample k is j0 - k
-    const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
+    const int k_hi = CLAMPI(j0 + 1, 0, N_DISP), k_lo = CLAMPI(j0 - ws + 1, 0, k_hi);
     int k = 0;
     for (; k < k_lo; ++k)
         dst[k] = 0;
@@ -312,26 +314,31 @@ static inline int all_in_view(const int x, const int r, const int w, const int f
     return x >= 0 && x < w && lo <= 0 && hi >= N_DISP - 1;
 }
 
-// Output pixel x's block sums, saturated at COST_MAX, OUT_OF_VIEW where the sample is out of view:
-// r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
+// Output pixel x's block sums, shifted right by COST_SHIFT bits (spec.cost_shift of the block, defined by
+// the launcher of every kernel that stores block costs) and saturated at COST_MAX, OUT_OF_VIEW where the
+// sample is out of view: r <= x - n <= w - 1 - r with n = floor((first_step + k) / steps)
+#if defined(BLOCK) && !defined(COST_SHIFT)
+#error "kernels that store block costs are built with -D COST_SHIFT (gfgpu.stereo.spec.cost_shift)"
+#endif
+#ifdef COST_SHIFT
 static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t *dst, const int x, const int r,
                                             const int w, const int first_step, const int steps)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     long lo, hi;
     view_range(x, r, w, first_step, steps, &lo, &hi);
-    const short16 k_hi = (short16)((short)clamp(hi, -1L, (long)N_DISP));
-    const short16 k_lo = (short16)((short)clamp(lo, -1L, (long)N_DISP));
+    const short16 k_hi = (short16)((short)CLAMPI(hi, -1L, (long)N_DISP));
+    const short16 k_lo = (short16)((short)CLAMPI(lo, -1L, (long)N_DISP));
     if (lo <= 0 && hi >= N_DISP - 1) {      // every sample in view (most pixels): no mask
         UNROLL_NV
         for (int j = 0; j < NV; ++j)
-            STORE_COST(VMIN(as_short16(sum[j]), (short16)(COST_MAX)), dst, j);
+            STORE_COST(VMIN(as_short16(sum[j] >> (ushort16)(COST_SHIFT)), (short16)(COST_MAX)), dst, j);
         return;
     }
     UNROLL_NV
     for (int j = 0; j < NV; ++j) {
         const short16 k = lane + (short16)(16 * j);
-        const short16 c = VMIN(as_short16(sum[j]), (short16)(COST_MAX));
+        const short16 c = VMIN(as_short16(sum[j] >> (ushort16)(COST_SHIFT)), (short16)(COST_MAX));
         STORE_COST((k < k_lo) | (k > k_hi) ? (short16)(OUT_OF_VIEW) : c, dst, j);
     }
 }
@@ -353,7 +360,7 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
     }
     __global cost_t *dst = out + (size_t)(out_row0 + i) * w * N_DISP;
     for (int x = 0; x < w; ++x, dst += N_DISP) {
-        const int add = min(x + r, w - 1), sub = max(x - 1 - r, 0);
+        const int add = IMIN(x + r, w - 1), sub = IMAX(x - 1 - r, 0);
         const int moved = x > 0 && add != sub;     // the window moved to columns [x-r, x+r] (clamped)
         UNROLL_NV
         for (int j = 0; j < NV; ++j)
@@ -363,6 +370,7 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
         store_block_costs(sum, dst, x, r, w, first_step, steps);
     }
 }
+#endif  // COST_SHIFT
 
 // The block cost straight from the census codes, without a Hamming volume (built with -D BLOCK=b):
 // work-item g of `splits` takes the columns [g w / splits, (g + 1) w / splits) of every output row
@@ -419,7 +427,7 @@ static void hamming_row(__global uchar *dst, __global const ulong *cl, __global 
     const int ws = w * steps;
     for (int c = ca; c < cb; ++c, dst += NP) {
         const int j0 = c * steps + steps - 1 - first_step;      // right code of sample k: j0 - k
-        const int k_hi = clamp(j0 + 1, 0, N_DISP), k_lo = clamp(j0 - ws + 1, 0, k_hi);
+        const int k_hi = CLAMPI(j0 + 1, 0, N_DISP), k_lo = CLAMPI(j0 - ws + 1, 0, k_hi);
         const ulong lc = cl[(size_t)y * w + c];
         __global const ulong *row = ri + (size_t)y * ws;
         int k = 0;
@@ -461,7 +469,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
     if (g >= splits)
         return;
     const int xa = (int)((long)g * w / splits), xb = (int)((long)(g + 1) * w / splits);
-    const int ca = max(xa - r, 0), cb = min(xb + r, w);
+    const int ca = IMAX(xa - r, 0), cb = IMIN(xb + r, w);
     const size_t slot = (size_t)slot_cols * NP;
     __global uchar *ring = scratch + (size_t)g * (BLOCK + 2) * slot;
     // the ring's column sums (ushort, two slots): each output row's block sums read one vector
@@ -488,7 +496,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
         }
         __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * PIX;
         for (int x = xa; x < xb; ++x, dst += PIX) {
-            const int add = min(x + r, w - 1) - ca, sub = max(x - 1 - r, 0) - ca;
+            const int add = IMIN(x + r, w - 1) - ca, sub = IMAX(x - 1 - r, 0) - ca;
             if (x > xa && add != sub) {
                 __global const ushort *pa = colsum + (size_t)add * NP, *ps = colsum + (size_t)sub * NP;
                 UNROLL_NV
@@ -583,7 +591,7 @@ __kernel void sgm_line_pair(__global const short *cost, __global short *total, c
     }
     const int len_x = dx > 0 ? w - x : dx < 0 ? x + 1 : INT_MAX;
     const int len_y = dy > 0 ? h - y : dy < 0 ? y + 1 : INT_MAX;
-    const int len = min(len_x, len_y);
+    const int len = IMIN(len_x, len_y);
     const long stride = ((long)dy * w + dx) * N_DISP;
     const long first = ((long)y * w + x) * N_DISP;
     sgm_sweep(cost, total, first, stride, len, p1, p2, accumulate);
@@ -724,10 +732,10 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     // that the tile's vertical states stay in cache (a row of them exceeds L2 on wide images);
     // each row's horizontal path goes on across a tile's edge from `bound` (the row's last
     // vector cell and minimum).  The diagonals need the whole previous row: one tile.
-    const int ncol = xb - xa, tw = diagonals ? ncol : max(1, min(tile, ncol));
+    const int ncol = xb - xa, tw = diagonals ? ncol : IMAX(1, IMIN(tile, ncol));
     __global short *bnd = bound + (size_t)gid * rows * (NP + 1);
     for (int t0 = 0; t0 < ncol; t0 += tw) {
-      const int tn = min(tw, ncol - t0);
+      const int tn = IMIN(tw, ncol - t0);
       for (int i = 0; i < rows; ++i) {
         const int bi = pass == 0 ? i : rows - 1 - i, y = y0 + bi;
         // the diagonal from x - s: read the buffer of the previous row's parity, write this row's
@@ -898,6 +906,16 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
     float delta = 0.0f;
     if (kb > 0 && kb < N_DISP - 1 && den > 0.0f)
         delta = (float)(sm - sp) / (2.0f * den);
+    if (steps == 2 && kb >= 2 && kb <= N_DISP - 3) {
+        // half-pixel samples: one baseline per phase (spec._half_pixel_fit)
+        const int sm2 = s[kb - 2] < 0 || !two ? s[kb - 2] : s[kb - 2] + s2[kb - 2];
+        const int sp2 = s[kb + 2] < 0 || !two ? s[kb + 2] : s[kb + 2] + s2[kb + 2];
+        const int den2 = sm2 + sp2 - 2 * best;
+        if (sm >= 0 && sp >= 0 && sm2 >= 0 && sp2 >= 0 && den2 > 0) {
+            const float fit = (float)(2 * (sm - sp) + sm2 - sp2) / (2.0f * (float)den2);
+            delta = fit < -1.0f ? -1.0f : fit > 1.0f ? 1.0f : fit;
+        }
+    }
     const int keep = unique && !cut;
     drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
     mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
@@ -930,7 +948,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     // one; four: 18 % less than two)
     for (int x = w - 1; x >= 0; x -= 4) {
         short16 m1[4], m2[4], i1[4];
-        const int cnt = min(4, x + 1);
+        const int cnt = IMIN(4, x + 1);
         for (int q = 0; q < 4; ++q) {
             if (q < cnt) {
                 // `two` as a constant: no test per vector (1000 x 1500 x 383: -38 %)
@@ -948,7 +966,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     }
     // right pixels whose diagonals start left of the image enter it at pixel 0, entries
     // g STEPS .. g STEPS + STEPS - 1 with g = -xr - n0
-    const int xr_end = min(w, -n0);
+    const int xr_end = IMIN(w, -n0);
     if (xr_end > 0) {
         short idx[NP], val[NP];
         UNROLL_SEL
@@ -959,7 +977,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         for (int xr = 0; xr < xr_end; ++xr) {
             const int k0 = (-xr - n0) * STEPS;
             int best = SHRT_MAX, kb = 0;
-            for (int k = k0; k < min(k0 + STEPS, N_DISP); ++k)
+            for (int k = k0; k < IMIN(k0 + STEPS, N_DISP); ++k)
                 if (val[k] < best || (val[k] == best && idx[k] < kb)) {
                     best = val[k];
                     kb = idx[k];
@@ -986,10 +1004,10 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
     const int in_view = x - offset >= radius && x - offset <= w - 1 - radius;
     float cost = in_view ? 0.0f : INFINITY;
     for (int v = -radius; v <= radius && in_view; ++v) {
-        const size_t row = (size_t)clamp(y + v, 0, h - 1) * w;
+        const size_t row = (size_t)CLAMPI(y + v, 0, h - 1) * w;
         for (int u = -radius; u <= radius; ++u) {
-            const int xl = clamp(x + u, 0, w - 1);
-            const int xr = clamp(xl - offset, 0, w - 1);
+            const int xl = CLAMPI(x + u, 0, w - 1);
+            const int xr = CLAMPI(xl - offset, 0, w - 1);
             const float a = gl[xl] * ls[row + xl] - gr[xr] * rs[row + xr];
             cost += a * a;
         }
@@ -1002,7 +1020,7 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
         state[3 * n + p] = NAN;
         state[p] = cost;
         state[n + p] = d;
-    } else if (isnan(state[3 * n + p])) {
+    } else if (state[3 * n + p] != state[3 * n + p]) {      // isnan(): a call in PoCL
         state[3 * n + p] = cost;
     } else if (cost < state[5 * n + p]) {
         state[5 * n + p] = cost;
