@@ -10,13 +10,23 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import strips
+from . import arrays, strips
 from .program import is_checkable, is_translation, run_passes, run_passes_checked, run_translation_checked
-from .validation import host_all_finite, work_dtype
+from .validation import host_all_finite, wide_integer, work_dtype
 
 NONFINITE = "input contains NaN or infinite values"
 
 __all__ = ["Job", "apply_program", "copy_of_input"]
+
+
+def _is_float32(output):
+    """``output`` names the float32 dtype (a dtype argument, not an array)."""
+    if not isinstance(output, (type, np.dtype, str)):
+        return False
+    try:
+        return np.dtype(output) == np.float32
+    except TypeError:
+        return False
 
 
 class Job:
@@ -31,6 +41,11 @@ class Job:
     def __init__(self, input, output, backend, min_ndim=1, finite=False):
         be = backend
         self.backend = be
+        # a foreign array (torch, CuPy, JAX, any DLPack producer) is computed on as a numpy view
+        # or as the backend's own device array, without a copy; results go back as its kind
+        self.kind, self.like = arrays.kind_of(input), input
+        if self.kind is not None:
+            input = arrays.take(input, self.kind, be, "input")
         self.host_input = be.name == "numpy" or not be.owns(input)
         if self.host_input:
             library = type(input).__module__.split(".")[0]
@@ -39,7 +54,8 @@ class Job:
                                 f"backend={'opencl' if library == 'pyopencl' else 'warp'!r} (or pass a numpy array)")
             arr = np.asarray(input)
             if arr.dtype == object:
-                raise TypeError("input must be a numeric array, got dtype object")
+                raise TypeError(f"input must be a numeric array, got {type(input).__name__} (no array protocol: numpy, "
+                                f"__array__, __dlpack__ or __cuda_array_interface__, or a ragged sequence)")
         else:
             arr = input
         if arr.ndim < min_ndim:
@@ -49,7 +65,13 @@ class Job:
         self.shape = tuple(int(s) for s in arr.shape)
         self.ndim = len(self.shape)
         self.dtype = work_dtype(arr.dtype if self.host_input else be.dtype_of(arr))
+        if wide_integer(arr.dtype if self.host_input else be.dtype_of(arr)) and _is_float32(output):
+            self.dtype = np.dtype(np.float32)      # asked for: float32's rounding above 2**24 accepted
         if self.dtype == np.float64 and not be.supports_float64:
+            if self.dtype != (arr.dtype if self.host_input else be.dtype_of(arr)):
+                raise TypeError(f"input is {arr.dtype}, computed in float64 (float32 rounds integers above "
+                                f"2**24), but {be!r} has no float64 support; pass output=numpy.float32 to "
+                                f"accept float32's rounding, or choose another device")
             raise TypeError(f"input is float64 but {be!r} has no float64 support; pass a float32 "
                             f"array or choose another device (no silent downcast)")
         self.output = output
@@ -58,13 +80,17 @@ class Job:
                 out_dtype = np.dtype(output)
             except TypeError:
                 raise TypeError(f"output must be an array or a float dtype, got {output!r}") from None
-            out_dtype = out_dtype.newbyteorder("=") if out_dtype.kind == "f" else out_dtype
+            out_dtype = np.dtype(out_dtype.type) if out_dtype.kind == "f" else out_dtype   # numpy's own dtype object
             if out_dtype not in (np.float32, np.float64):
                 raise TypeError(f"output dtype must be float32 or float64, got {out_dtype}")
             if out_dtype.itemsize < self.dtype.itemsize:
                 raise TypeError(f"output dtype {out_dtype} would downcast the {self.dtype} result")
             self.dtype = out_dtype
             self.output = None
+        self.caller_output = self.output       # returned as it is: ``output=`` of any kind
+        out_kind = arrays.kind_of(self.output)
+        if out_kind is not None:
+            self.output = arrays.take(self.output, out_kind, be, "output")
         if self.host_input:
             # the finite check runs before the input is first used: on the device that reads it,
             # or fused into the first pass (apply_program), one read of the image instead of two
@@ -161,7 +187,20 @@ class Job:
         return self.empty()
 
     def finish(self, result):
-        """Return ``result`` (a device array of self.shape) in the caller's array kind."""
+        """Return ``result`` (a device array of self.shape) in the caller's array kind: the
+        caller's ``output``, or a new array of the input's kind (numpy, the backend's device
+        array, or the foreign kind: torch in, torch out, :mod:`gfgpu._core.arrays`)."""
+        return self.deliver(self._finish_native(result))
+
+    def deliver(self, result):
+        """A finished ``result`` (a numpy array, a device array, or a tuple of them, already
+        written into ``output`` if one was given) as the caller gets it: the caller's own
+        ``output`` object, else ``result`` in the input's kind."""
+        if self.output is not None:
+            return self.caller_output
+        return arrays.as_kind(result, self.kind, self.like)
+
+    def _finish_native(self, result):
         be = self.backend
         if self.host_input:
             host = be.to_host(result).reshape(self.shape)   # devices may fold leading axes

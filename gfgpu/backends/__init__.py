@@ -3,7 +3,10 @@
 Resolution, first match wins:
 
 1. an explicit ``backend=`` / ``device=`` argument;
-2. the input array's own kind: a ``warp.array`` or a ``pyopencl.array.Array`` stays where it is;
+2. the input array's own device: a ``warp.array`` or a ``pyopencl.array.Array`` stays where it
+   is, and so does a foreign CUDA array (torch, CuPy, JAX, anything with ``__dlpack__`` or
+   ``__cuda_array_interface__``: the Warp backend on its device, or one error naming its device
+   and the backends that could take it); host memory (numpy, a CPU tensor) goes on to 3.;
 3. the innermost ``with gfgpu.use_backend(...)`` block;
 4. the ``GFGPU_BACKEND`` environment variable (``name`` or ``name:device``, e.g. ``warp:cuda:1``);
 5. automatic: a CUDA GPU through Warp, then an OpenCL GPU, then OpenCL on the CPU, then Warp on
@@ -22,6 +25,7 @@ import threading
 from dataclasses import dataclass
 from functools import cache, lru_cache
 
+from .._core import arrays
 from . import opencl, warp
 from .base import Backend, BackendUnavailable
 from .numpy import NumpyBackend
@@ -131,13 +135,32 @@ def _automatic():
 
 
 def array_backend(array):
-    """The backend that owns ``array`` (warp or pyopencl array), or None for host arrays."""
+    """The backend that computes on ``array`` where it lives (a warp or pyopencl array, a
+    foreign CUDA array), or None for host memory (numpy, CPU tensors: the rule goes on).
+
+    Raises
+    ------
+    BackendUnavailable
+        A foreign array in device memory that no usable backend reads: the message names its
+        device and the backends that could take it.
+    """
     mod = type(array).__module__
     if mod.startswith("warp"):
         return get_backend("warp", str(array.device))
     if mod.startswith("pyopencl"):
         return opencl.backend_for_queue(array.queue)
-    return None
+    kind = arrays.kind_of(array)
+    if kind is None or kind.on_host:
+        return None
+    if not kind.on_cuda:
+        raise BackendUnavailable(kind.refusal("input", "no gfgpu backend reads that memory"))
+    device = kind.device       # "cuda" for __cuda_array_interface__ (it names no device): the current one
+    try:
+        return get_backend("warp", device)
+    except BackendUnavailable as exc:
+        others = ", ".join(n for n in BACKENDS if n != "warp")
+        raise BackendUnavailable(kind.refusal("input", f"the warp backend there is unavailable ({exc}), and the "
+                                                       f"other backends ({others}) cannot read CUDA memory")) from exc
 
 
 def _after_fork_in_child():
@@ -174,6 +197,11 @@ def resolve_backend(backend=None, device=None, array=None) -> Backend:
         return _own(ctx)
     env = os.environ.get("GFGPU_BACKEND")
     if env:
+        name = env.partition(":")[0].strip()
+        if name not in BACKENDS:       # say where the name came from: no argument named it
+            raise ValueError(f"the environment variable GFGPU_BACKEND={env!r} names no backend: it must be "
+                             f"one of {', '.join(BACKENDS)} (optionally 'name:device', e.g. warp:cuda:0), "
+                             f"or be unset")
         return _parse_spec(env)
     return _automatic()
 
