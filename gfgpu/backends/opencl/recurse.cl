@@ -62,30 +62,33 @@
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 
-/* ---- lane vectors ------------------------------------------------------------------ */
+/* ---- lane vectors ------------------------------------------------------------------
+ * PoCL 3.0 (pocl-binary-distribution) calls its builtins out of line: vloadn, vstoren, min, max
+ * and any are function calls in the compiled kernel, which in a per-sample loop cost more than
+ * the arithmetic.  The hot paths therefore use plain vector accesses through a type of the
+ * element's alignment (VTU: unaligned loads and stores, one instruction each), vector subscripts
+ * for lanes, and IMIN / IMAX below. */
+#define INLINE static inline __attribute__((always_inline))
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define IMAX(a, b) ((a) > (b) ? (a) : (b))
 #if LANES == 1
 typedef REAL VT;
 #define VLOAD(p) (*(p))
 #define VSTORE(v, p) (*(p) = (v))
-#elif LANES == 2 || LANES == 4
+#elif LANES == 2 || LANES == 4 || LANES == 8 || LANES == 16
 typedef CAT(REAL, LANES) VT;
-#define VLOAD(p) CAT(vload, LANES)(0, (p))
-#define VSTORE(v, p) CAT(vstore, LANES)((v), 0, (p))
-#elif LANES == 8 || LANES == 16
-/* In two halves: PoCL 3.0 on x86 crashes in code generation on 512-bit vloadn/vstoren
- * (float16, double8: "Do not know how to scalarize ..." or a segfault); the halves are
- * adjacent and compile to the same moves. */
-#if LANES == 8
-#define HALF 4
-#else
-#define HALF 8
-#endif
-typedef CAT(REAL, LANES) VT;
-#define VLOAD(p) ((VT)(CAT(vload, HALF)(0, (p)), CAT(vload, HALF)(0, (p) + HALF)))
-#define VSTORE(v, p) do { const VT v_ = (v); CAT(vstore, HALF)(v_.lo, 0, (p)); \
-                          CAT(vstore, HALF)(v_.hi, 0, (p) + HALF); } while (0)
+typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
+#define VLOAD(p) ((VT)(*(__global const VTU *)(p)))
+#define VSTORE(v, p) (*(__global VTU *)(p) = (VTU)(v))
 #else
 #error "LANES must be 1, 2, 4, 8 or 16"
+#endif
+
+/* lane l of vector v (a subscript: no memory round trip) */
+#if LANES == 1
+#define LANE(v, l) (v)
+#else
+#define LANE(v, l) ((v)[l])
 #endif
 
 /* Interleave the low (ZIPLO) or high (ZIPHI) halves of two vectors: a0 b0 a1 b1 ... */
@@ -112,7 +115,7 @@ typedef CAT(REAL, LANES) VT;
 /* In-place transpose of the LANES x LANES matrix whose rows are t[0..LANES-1].
  * Each round maps element (r, c) to the position whose index bits [r | c] are rotated left
  * by one; LOG2_LANES rounds give [c | r], the transpose.  Fully unrolled: registers only. */
-static inline void transpose(VT *t)
+INLINE void transpose(VT *t)
 {
 #if LANES > 1
 #pragma unroll
@@ -135,7 +138,7 @@ typedef struct {
     REAL lr[SECTIONS], li[SECTIONS], kr[SECTIONS], ki[SECTIONS];
 } coef_t;
 
-static inline void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *kap,
+INLINE void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *kap,
                              const int n, const int k)
 {
 #pragma unroll
@@ -160,7 +163,16 @@ static inline void load_coef(coef_t *c, __global const REAL *lam, __global const
 #if LANES == 1
 #define ANY_NONFINITE(v) NONFINITE(v)
 #else
-#define ANY_NONFINITE(v) any(((v) - (v)) != (VT)(0))
+/* a lane that is not finite makes x - x NaN; summing the lanes keeps the NaN (no any(): a call) */
+#define ANY_NONFINITE(v) lanes_nonfinite((v) - (v))
+INLINE int lanes_nonfinite(const VT z)
+{
+    REAL t = 0;
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        t += LANE(z, l);
+    return t != (REAL)0;
+}
 #endif
 
 /* A store of one vector of LANES samples: non-temporal (past the caches, no read for ownership)
@@ -191,34 +203,32 @@ static inline void load_coef(coef_t *c, __global const REAL *lam, __global const
 #define PHASE 0
 #endif
 
-static inline size_t carry_index(const int outer, const int blk, const int nblocks, const int s,
+INLINE size_t carry_index(const int outer, const int blk, const int nblocks, const int s,
                                  const int part, const long inner, const long count)
 {
     return ((((size_t)outer * nblocks + blk) * SECTIONS + s) * 2 + part) * count + inner;
 }
 
 /* LANES values of carry at p (valid of them real lanes; the rest repeat the last) */
-static inline VT load_lanes(__global const REAL *p, const int valid)
+INLINE VT load_lanes(__global const REAL *p, const int valid)
 {
     if (valid == LANES)
         return VLOAD(p);
-    REAL tmp[LANES];
+    VT v;
 #pragma unroll
     for (int l = 0; l < LANES; ++l)
-        tmp[l] = p[min(l, valid - 1)];
-    return VLOAD(tmp);
+        LANE(v, l) = p[IMIN(l, valid - 1)];
+    return v;
 }
 
-static inline void store_lanes(__global REAL *p, const VT v, const int valid)
+INLINE void store_lanes(__global REAL *p, const VT v, const int valid)
 {
     if (valid == LANES) {
         VSTORE(v, p);
         return;
     }
-    REAL tmp[LANES];
-    VSTORE(v, tmp);
     for (int l = 0; l < valid; ++l)
-        p[l] = tmp[l];
+        p[l] = LANE(v, l);
 }
 
 #if !ROWS
@@ -232,13 +242,13 @@ static inline void store_lanes(__global REAL *p, const VT v, const int valid)
 #endif
 
 /* The LANES samples at p; a partial vector (valid < LANES, the last columns of a row) loads
- * lane l from column min(l, valid - 1) so the extra lanes stay finite and in bounds. */
-static inline VT load_cols(__global const REAL *p, const int valid)
+ * lane l from column IMIN(l, valid - 1) so the extra lanes stay finite and in bounds. */
+INLINE VT load_cols(__global const REAL *p, const int valid)
 {
     return load_lanes(p, valid);
 }
 
-static inline void store_cols(__global REAL *p, const VT y, const int valid, const int accumulate,
+INLINE void store_cols(__global REAL *p, const VT y, const int valid, const int accumulate,
                               const int nt)
 {
     if (valid == LANES) {
@@ -248,10 +258,8 @@ static inline void store_cols(__global REAL *p, const VT y, const int valid, con
             STORE_V(y, p, nt);
         return;
     }
-    REAL tmp[LANES];
-    VSTORE(y, tmp);
     for (int l = 0; l < valid; ++l)
-        p[l] = accumulate ? p[l] + tmp[l] : tmp[l];
+        p[l] = accumulate ? p[l] + LANE(y, l) : LANE(y, l);
 }
 
 /* Work-item (g, b, blk): columns m0 = g * nv * LANES .. of image b, steps of block blk (PHASE 1/2)
@@ -271,10 +279,10 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     if (m0 >= M || b >= B)
         return;
     const int k_lo = PHASE ? blk * block : 0;
-    const int k_hi = PHASE ? min(n, k_lo + block) : n;
+    const int k_hi = PHASE ? IMIN(n, k_lo + block) : n;
     if (k_lo >= k_hi)
         return;
-    const int cols = min(nv * LANES, M - m0);
+    const int cols = IMIN(nv * LANES, M - m0);
     const int vecs = (cols + LANES - 1) / LANES;
     const int last = cols - (vecs - 1) * LANES;      /* real lanes of the last vector */
     const long stride = M;
@@ -299,7 +307,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     for (int j = 0; j < L; ++j) {
 #if WINDOW
         const int q = window[POS_AT(j)];
-        __global const REAL *p = s0 + (long)max(q, 0) * stride;
+        __global const REAL *p = s0 + (long)IMAX(q, 0) * stride;
 #else
         const int q = 0;
         __global const REAL *p = s0 + ROW_AT(j);
@@ -323,10 +331,10 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     }
 #elif PHASE == 1
     /* this block's part of the initial state: omega terms of its own samples (j < L) */
-    for (int j = k_lo; j < min(k_hi, L); ++j) {
+    for (int j = k_lo; j < IMIN(k_hi, L); ++j) {
 #if WINDOW
         const int q = window[POS_AT(j)];
-        __global const REAL *p = s0 + (long)max(q, 0) * stride;
+        __global const REAL *p = s0 + (long)IMAX(q, 0) * stride;
 #else
         const int q = 0;
         __global const REAL *p = s0 + ROW_AT(j);
@@ -371,7 +379,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 #if WINDOW
         const int from = window[POS_AT(k)];
         const int to = POS_AT(k) - first;
-        __global const REAL *p = s0 + (long)max(from, 0) * stride;
+        __global const REAL *p = s0 + (long)IMAX(from, 0) * stride;
         __global REAL *q = d0 + (long)to * stride;
         const int keep = to >= 0 && to < N;
 #else
@@ -429,7 +437,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
  * Rows are M samples apart.  WINDOW: traversal runs over n window positions whose samples are
  * src[window[w]] (cval where window[w] < 0); a chunk whose 16 sources are consecutive (the
  * interior) is one tile, the ends are gathered. */
-static inline void load_chunk(VT *w, __global const REAL *src, const int n, const int valid,
+INLINE void load_chunk(VT *w, __global const REAL *src, const int n, const int valid,
                               const int k0, const int cnt, const int reverse, const int M,
                               __global const int *window, const REAL cval)
 {
@@ -446,7 +454,7 @@ static inline void load_chunk(VT *w, __global const REAL *src, const int n, cons
         if (whole) {
 #pragma unroll
             for (int l = 0; l < LANES; ++l)
-                t[l] = VLOAD(src + (long)min(l, valid - 1) * M + q0);
+                t[l] = VLOAD(src + (long)IMIN(l, valid - 1) * M + q0);
             transpose(t);
             /* t[j] is natural position p0 + j; traversal runs backwards when reversed */
 #pragma unroll
@@ -469,18 +477,18 @@ static inline void load_chunk(VT *w, __global const REAL *src, const int n, cons
 #else
             const int q = p;
 #endif
-            REAL tmp[LANES];
+            VT v;
 #pragma unroll
             for (int l = 0; l < LANES; ++l)
-                tmp[l] = src[(long)min(l, valid - 1) * M + q];
-            w[i] = VLOAD(tmp);
+                LANE(v, l) = src[(long)IMIN(l, valid - 1) * M + q];
+            w[i] = v;
         }
     }
 }
 
 /* Write y[i] (traversal position k0 + i, i < cnt) of the `valid` real lanes.  WINDOW: window
  * position p is output sample p - first, written only for 0 <= p - first < M. */
-static inline void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
+INLINE void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
                                const int k0, const int cnt, const int reverse,
                                const int accumulate, const int nt, const int M, const int first)
 {
@@ -511,13 +519,11 @@ static inline void store_chunk(VT *y, __global REAL *dst, const int n, const int
         if (i < cnt) {
             const int x = (reverse ? n - 1 - (k0 + i) : k0 + i) - first;
             if (x >= 0 && x < M) {
-                REAL tmp[LANES];
-                VSTORE(y[i], tmp);
 #pragma unroll
                 for (int l = 0; l < LANES; ++l) {
                     if (l < valid) {
                         __global REAL *q = dst + (long)l * M + x;
-                        *q = accumulate ? *q + tmp[l] : tmp[l];
+                        *q = accumulate ? *q + LANE(y[i], l) : LANE(y[i], l);
                     }
                 }
             }
@@ -526,7 +532,7 @@ static inline void store_chunk(VT *y, __global REAL *dst, const int n, const int
 }
 
 /* One step of every section on LANES rows: returns y = sum_s Re F_s + tap v. */
-static inline VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
+INLINE VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
 {
     VT y = fr[0];
 #pragma unroll
@@ -540,7 +546,7 @@ static inline VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_
 }
 
 /* F_s += omega[s, j] v  (initial state, traversal position j < L) */
-static inline void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
+INLINE void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
                                const int L, const int j)
 {
 #pragma unroll
@@ -553,7 +559,7 @@ static inline void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *
 
 /* `reverse` is a literal at each call site, so the tile's traversal order is static.  Runs
  * traversal steps k_lo .. k_hi - 1 (k_lo a multiple of LANES) from the state in fr/fi. */
-static inline int run_rows(__global const REAL *src, __global REAL *dst,
+INLINE int run_rows(__global const REAL *src, __global REAL *dst,
                            __global const REAL *lam, __global const REAL *kap,
                            const int n, const REAL tap, const int accumulate, const int valid,
                            const int reverse, const int k_lo, const int k_hi, const int nt,
@@ -604,14 +610,14 @@ static inline int run_rows(__global const REAL *src, __global REAL *dst,
 }
 
 /* The omega terms of traversal positions j_lo .. j_hi - 1 added to fr/fi. */
-static inline void initial_terms(__global const REAL *src, __global const REAL *omega, const int L,
+INLINE void initial_terms(__global const REAL *src, __global const REAL *omega, const int L,
                                  const int n, const int valid, const int reverse, const int j_lo,
                                  const int j_hi, VT *fr, VT *fi, const int M,
                                  __global const int *window, const REAL cval)
 {
     VT w[LANES];
     for (int k0 = j_lo - j_lo % LANES; k0 < j_hi; k0 += LANES) {
-        load_chunk(w, src, n, valid, k0, min(LANES, n - k0), reverse, M, window, cval);
+        load_chunk(w, src, n, valid, k0, IMIN(LANES, n - k0), reverse, M, window, cval);
 #pragma unroll
         for (int i = 0; i < LANES; ++i)
             if (k0 + i >= j_lo && k0 + i < j_hi)
@@ -636,10 +642,10 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     if (r0 >= rows)
         return;
     const int k_lo = PHASE ? blk * block : 0;
-    const int k_hi = PHASE ? min(n, k_lo + block) : n;
+    const int k_hi = PHASE ? IMIN(n, k_lo + block) : n;
     if (k_lo >= k_hi)
         return;
-    const int valid = (int)min((long)LANES, rows - r0);
+    const int valid = (int)IMIN((long)LANES, rows - r0);
     const long base = r0 * M;
     __global const REAL *s0 = src + src_off + base;
     __global REAL *d0 = dst + dst_off + base;
@@ -660,7 +666,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     }
 #elif PHASE == 1
     if (k_lo < L) {
-        initial_terms(s0, omega, L, n, valid, reverse, k_lo, min(k_hi, L), fr, fi, M, window, cval);
+        initial_terms(s0, omega, L, n, valid, reverse, k_lo, IMIN(k_hi, L), fr, fi, M, window, cval);
 #pragma unroll
         for (int s = 0; s < SECTIONS; ++s) {
             store_lanes(partial + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
@@ -718,7 +724,7 @@ __kernel void recurse_pair(__global const REAL *src, __global REAL *dst, const l
     const long r0 = (long)get_global_id(0) * LANES;
     if (r0 >= rows)
         return;
-    const int valid = (int)min((long)LANES, rows - r0);
+    const int valid = (int)IMIN((long)LANES, rows - r0);
     __global const REAL *s0 = src + src_off + r0 * M;
     __global REAL *d0 = dst + dst_off + r0 * M;
     __global const int *none = 0;
