@@ -11,8 +11,10 @@ top); angles are in radians from +x toward +y (down the rows).  ``axes`` names t
 operator works on; ``channel_axis`` names a colour axis that it leaves alone (each channel is
 filtered on its own).  Arguments after the data and the main parameter are keyword-only.
 
-Dtype policy: float32 and float64 are preserved; integer and boolean images are converted
-to float32; float16 is computed in float32; complex and other types raise ``TypeError``.
+Dtype policy: float32 and float64 are preserved; boolean images and integers of up to 16 bits
+are converted to float32, wider integers (int32, uint32, int64, uint64) to float64 (float32
+rounds integers above 2**24; ``output=numpy.float32`` asks for float32 instead); float16 is
+computed in float32; complex and other types raise ``TypeError``.
 numpy in, numpy out; a ``warp.array`` or ``pyopencl.array.Array`` input gives an array of the
 same kind on the same device.
 """
@@ -22,10 +24,10 @@ from __future__ import annotations
 import numpy as np
 
 from . import greens
+from ._core.boundary import filter_mode, interpolation_branch, interpolation_mode
 from ._core.job import Job, apply_program
 from ._core.lines import normalize_axis
 from ._core.program import Program, axes_list, direction_steps, is_axis_angle, per_axis, plane_axes
-from ._core.recursion import check_mode
 from ._core.validation import finite_cval, flag, positive, scale
 from .backends import resolve_backend
 
@@ -160,7 +162,7 @@ def green_filter(input, kernel, *, axis=None, angle=None, axes=None, channel_axi
     ----------
     input : array_like, warp.array or pyopencl.array.Array
         Image, stack ``(N, H, W)`` or colour image (with ``channel_axis``); float32/float64
-        kept, integers -> float32.
+        kept, integers -> float32 (wider than 16 bits: float64).
     kernel : GreenKernel
         :class:`~gfgpu.greens.UniformGreen` ``(u)`` (G_u, eq. 9),
         :class:`~gfgpu.greens.HomogeneousGreen` ``(u)`` (H_u, eq. 33),
@@ -196,11 +198,15 @@ def green_filter(input, kernel, *, axis=None, angle=None, axes=None, channel_axi
         Apply the mirrored operator ``f[x] = Σ_{x0 >= x} G(x', x0')`` (right to left).
     output : ndarray or dtype, optional
         Array to write the result into, or the result dtype (never lower precision).
-    mode : {'reflect', 'constant', 'nearest', 'mirror', 'wrap'}, optional
-        How the input extends beyond its border (scipy.ndimage semantics); realised exactly
-        as the recursion's initial state.
+    mode : {'reflect', 'grid-mirror', 'constant', 'grid-constant', 'nearest', 'mirror', 'wrap', 'grid-wrap'}, optional
+        How the input extends beyond its border, with scipy.ndimage's filter meaning
+        (``d c b a | a b c d`` for ``'reflect'``, ``d c b | a b c d`` for ``'mirror'``, the
+        edge value for ``'nearest'``, ``cval`` for ``'constant'``, period ``n`` for
+        ``'wrap'``); as in scipy's filters, ``'grid-mirror'`` is ``'reflect'``,
+        ``'grid-constant'`` is ``'constant'`` and ``'grid-wrap'`` is ``'wrap'``.  Realised
+        exactly as the recursion's initial state.
     cval : float, optional
-        Value beyond the border when ``mode='constant'``.
+        Value beyond the border when ``mode='constant'`` (or ``'grid-constant'``).
     backend, device : str, optional
         ``"numpy"``, ``"warp"`` or ``"opencl"`` and its device; default: the resolution rule
         of :mod:`gfgpu.backends` (explicit argument, the input array's own kind,
@@ -245,7 +251,7 @@ def green_filter(input, kernel, *, axis=None, angle=None, axes=None, channel_axi
     ...                                                   backend="numpy")))
     True
     """
-    check_mode(mode)
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
     if angle is not None and not is_axis_angle(angle):
@@ -256,11 +262,16 @@ def green_filter(input, kernel, *, axis=None, angle=None, axes=None, channel_axi
                 raise ValueError(f"an oblique direction on a device array needs the image plane on its last two "
                                  f"axes; got plane axes ({ya}, {xa}) of shape {job.shape} (move the channel "
                                  f"axis first)")
-            out_view = np.moveaxis(output, (ya, xa), last) if isinstance(output, np.ndarray) else output
+            # job.output: the caller's output= as a numpy view (a tensor's memory included)
+            native = job.output
+            if isinstance(native, np.ndarray):
+                out_view = np.moveaxis(native, (ya, xa), last)
+            else:   # no output=, or a dtype (it is the job's dtype)
+                out_view = None if output is None else job.dtype
             moved = Job(np.moveaxis(np.asarray(job.source), (ya, xa), last), out_view, job.backend)
             program = green_filter_program(job.ndim, kernel, angle=angle, anticausal=anticausal)
             result = apply_program(moved, program, mode, cval)
-            return output if isinstance(output, np.ndarray) else np.moveaxis(result, last, (ya, xa))
+            return job.deliver(native if isinstance(native, np.ndarray) else np.moveaxis(result, last, (ya, xa)))
     program = green_filter_program(job.ndim, kernel, axis=axis, angle=angle, axes=axes,
                                    channel_axis=channel_axis, anticausal=anticausal)
     return apply_program(job, program, mode, cval)
@@ -310,8 +321,21 @@ def shift(input, shift, *, output=None, mode="reflect", cval=0.0, axes=None, cha
         number shifts every such axis by the same amount.
     output : ndarray or dtype, optional
         As in :func:`green_filter`.
-    mode, cval : optional
-        As in :func:`green_filter`.
+    mode : {'reflect', 'grid-mirror', 'constant', 'grid-constant', 'nearest', 'mirror', 'wrap', 'grid-wrap'}, optional
+        scipy.ndimage's interpolation meaning, for both interpolations (the Green and the cubic
+        interpolant are built on the same extension and read at the same source coordinate
+        ``c = i - shift`` of each output sample ``i``): ``'reflect'`` (= ``'grid-mirror'``),
+        ``'mirror'`` and ``'nearest'`` extend the input as in :func:`green_filter`;
+        ``'grid-constant'`` extends it by ``cval`` and ``'grid-wrap'`` with period ``n``; but
+        ``'constant'`` interpolates the ``'mirror'`` extension and gives ``cval`` wherever the
+        source ``c`` lies outside ``[0, n - 1]`` (no tolerance), and ``'wrap'`` interpolates
+        the ``'mirror'`` extension at ``c`` folded into ``[0, n - 1]`` with period ``n - 1``
+        (scipy's ``map_coordinate``; :mod:`gfgpu._core.boundary`).  With
+        ``interpolation='cubic'`` every mode gives ``scipy.ndimage.shift(order=3)``'s values
+        (``'nearest'`` and ``'grid-constant'`` to about 1e-8 of the image's range at shifts of
+        more than ~10 px, where scipy pads by 12 samples only).
+    cval : float, optional
+        The value beyond the border for ``'constant'`` and ``'grid-constant'``.
     axes : sequence of int, optional
         The axes operated on, which ``shift`` refers to; default every axis other than
         ``channel_axis``.
@@ -349,25 +373,84 @@ def shift(input, shift, *, output=None, mode="reflect", cval=0.0, axes=None, cha
     equals that of the pixel-integrated kernel and the taps stay closest to the cell integrals
     ``∫_{m-1/2}^{m+1/2} G_f`` (see ``greens.shift_coefficients``).  Where the integer part is
     not zero the fractional pass runs on the translated line padded by its decay length, so
-    the boundary modes hold exactly as for the untranslated line.
+    the boundary modes hold exactly as for the untranslated line.  ``'constant'`` and
+    ``'wrap'`` run as ``'mirror'`` shifts (``'wrap'``: two per axis, by ``s`` and by
+    ``s + n - 1``) whose results are masked or selected on the host; a device array makes a
+    round trip through host memory for them.
 
     Examples
     --------
     >>> import numpy as np, gfgpu
     >>> img = np.zeros((16, 64)); img[:, 10] = 1
-    >>> out = gfgpu.shift(img, (0, 2.5), mode="constant", backend="numpy")   # (dy, dx)
+    >>> out = gfgpu.shift(img, (0, 2.5), mode="grid-constant", backend="numpy")   # (dy, dx)
     >>> round(float((out[0] * np.arange(64)).sum()), 6)
     12.5
     >>> rgb = np.zeros((16, 64, 3)); rgb[:, 10] = 1
-    >>> col = gfgpu.shift(rgb, (0, 2.5), channel_axis=-1, mode="constant", backend="numpy")
+    >>> col = gfgpu.shift(rgb, (0, 2.5), channel_axis=-1, mode="grid-constant", backend="numpy")
     >>> bool(np.allclose(col[..., 2], out))
     True
+    >>> line = np.array([4.0, 1, 3, 2])                   # scipy's interpolation-only modes
+    >>> gfgpu.shift(line, 0.5, mode="constant", interpolation="cubic", backend="numpy").round(6).tolist()
+    [0.0, 2.625, 1.75, 2.625]
+    >>> gfgpu.shift(line, 1, mode="wrap", interpolation="cubic", backend="numpy").tolist()
+    [3.0, 4.0, 1.0, 3.0]
     """
-    check_mode(mode)
+    engine_mode, rule = interpolation_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
     program = shift_program(job.ndim, shift, axes=axes, channel_axis=channel_axis, interpolation=interpolation)
-    return apply_program(job, program, mode, cval)
+    if rule is None:
+        return apply_program(job, program, engine_mode, cval)
+    return _shift_by_rule(job, program, shift, axes, channel_axis, interpolation, rule, cval)
+
+
+def shift_branches(shape, shift, rule, *, axes=None, channel_axis=None):
+    """Per axis operated on, ``(axis, amount, branch)`` of scipy's interpolation-only ``rule``.
+
+    ``branch`` is :func:`gfgpu._core.boundary.interpolation_branch` of the source coordinates
+    ``arange(n) - amount`` of that axis: -1 where the output is ``cval`` (``'constant'``),
+    1 where it reads the ``mirror`` interpolant shifted by ``amount + n - 1`` (``'wrap'``),
+    0 where it reads the ``mirror`` interpolant shifted by ``amount``.
+    """
+    ax = operated_axes(len(shape), axes, channel_axis)
+    amounts = per_axis(shift, ax, "shift")
+    return [(a, s, interpolation_branch(np.arange(shape[a]) - s, shape[a], rule)) for a, s in zip(ax, amounts)]
+
+
+def _along(branch, axis, ndim):
+    return branch.reshape([-1 if d == axis else 1 for d in range(ndim)])
+
+
+def _shift_by_rule(job, program, shift, axes, channel_axis, interpolation, rule, cval):
+    """scipy's interpolation-only ``constant``/``wrap``: the ``mirror`` interpolant read where
+    :func:`shift_branches` says, on the host (masks and selections of whole index ranges)."""
+    be = job.backend
+    x = np.ascontiguousarray(job.source if job.host_input else be.to_host(job.data), dtype=job.dtype)
+
+    def run(data, prog):      # numpy in, numpy out, on the job's backend (the input is checked)
+        return apply_program(Job(data, None, be, finite=True), prog, "mirror", cval)
+
+    branches = shift_branches(job.shape, shift, rule, axes=axes, channel_axis=channel_axis)
+    if rule == "constant":
+        out = run(x, program)
+        for a, _, branch in branches:
+            out = np.where(_along(branch < 0, a, job.ndim), out.dtype.type(cval), out)
+    else:
+        # one axis at a time: an odd fold reads the interpolant at c - (n - 1) instead of c
+        out = x
+        for a, s, branch in branches:
+            near = run(out, shift_program(job.ndim, [s], axes=[a], interpolation=interpolation))
+            if branch.any():
+                far = run(out, shift_program(job.ndim, [s + job.shape[a] - 1], axes=[a],
+                                             interpolation=interpolation))
+                near = np.where(_along(branch > 0, a, job.ndim), far, near)
+            out = near
+    out = np.ascontiguousarray(out, dtype=job.dtype)
+    if job.host_input:
+        if job.output is not None:
+            job.output[...] = out
+        return job.deliver(out)
+    return job.finish(be.asarray(out))
 
 
 def shift_program(ndim, shift, *, axes=None, channel_axis=None, interpolation="green"):
@@ -375,6 +458,10 @@ def shift_program(ndim, shift, *, axes=None, channel_axis=None, interpolation="g
     ax = operated_axes(ndim, axes, channel_axis)
     if np.ndim(shift) == 1 and len(shift) != len(ax):
         hint = "" if channel_axis is not None or axes is not None else "; for a colour image pass channel_axis"
+        if channel_axis is not None and axes is None and len(shift) == ndim:
+            # the shift fits the whole array: the channel axis is the mistake, not the shift
+            hint = (f"; channel_axis={channel_axis!r} takes one of the input's {ndim} axes as colour, "
+                    f"which a {ndim}-D grey image does not have: drop channel_axis (or pass a colour image)")
         raise ValueError(f"shift must have one value per axis operated on ({len(ax)}: axes {ax}, in "
                          f"array-axis order), got {len(shift)}{hint}")
     amounts = per_axis(shift, ax, "shift")
@@ -468,7 +555,7 @@ def derivative(input, u, *, axis=None, axes=None, channel_axis=None, output=None
     >>> round(float(d[4, 128]), 6)
     1.0
     """
-    check_mode(mode)
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
     program = derivative_program(job.ndim, u, axis=axis, axes=axes, channel_axis=channel_axis, a=a, eta=eta,
@@ -514,7 +601,7 @@ def projection(input, u, *, axis=None, channel_axis=None, output=None, mode="ref
     >>> round(float(p.sum()), 6), bool(np.allclose(p[:128], p[:128:-1]))
     (1.0, True)
     """
-    check_mode(mode)
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, output, backend, device)
     program = projection_program(job.ndim, u, axis=axis, channel_axis=channel_axis, a=a, eta=eta,
@@ -565,7 +652,7 @@ def gradient(input, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0
     >>> gy.shape, [round(float(v), 6) for v in gx[128, 128]]
     ((256, 256, 3), [0.0, 1.0, 1.0])
     """
-    check_mode(mode)
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     job = make_job(input, None, backend, device)
     ax = operated_axes(job.ndim, axes, channel_axis)

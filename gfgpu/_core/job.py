@@ -225,7 +225,7 @@ def apply_program(job, program, mode, cval):
     in strips (exact, :mod:`gfgpu._core.strips`).
     """
     if job.host_input and strips.needs_strips(job):
-        return strips.run_job(job, program, mode, cval)
+        return job.deliver(strips.run_job(job, program, mode, cval))
     steps = program.steps
     if not steps:
         return job.finish(copy_of_input(job))

@@ -293,8 +293,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     if return_gradient:
         with np.errstate(over="ignore"):    # only a magnitude beyond the dtype's range: inf
             mag = np.ldexp(magnitude, exponent).astype(job.dtype, copy=False)
-        return edges, mag, np.arctan2(hy, hx)
-    return edges
+        return job.deliver((edges, mag, np.arctan2(hy, hx)))
+    return job.deliver(edges)
 
 
 def edge_gradient(image, u=1.0, *, mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_ETA, single_scale=False,
@@ -337,5 +337,5 @@ def edge_gradient(image, u=1.0, *, mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_
 def _nothing(job, return_gradient):
     edges = np.zeros(job.shape, bool)
     if return_gradient:
-        return edges, np.zeros(job.shape, job.dtype), np.zeros(job.shape, job.dtype)
-    return edges
+        return job.deliver((edges, np.zeros(job.shape, job.dtype), np.zeros(job.shape, job.dtype)))
+    return job.deliver(edges)

@@ -11,7 +11,8 @@ import math
 
 import numpy as np
 
-from .._core.validation import finite_scalar
+from .._core.arrays import as_kind, host_array, kind_of
+from .._core.validation import finite_scalar, integer
 
 __all__ = ["U1_MIN", "pair", "velocity_pair", "zoom_u1", "zoom_factors", "center_point", "move_channels"]
 
@@ -63,11 +64,12 @@ def move_channels(image, channel_axis):
     """Put a colour axis first (numpy input only); returns (array, undo)."""
     if channel_axis is None:
         return image, lambda out: out
-    arr = np.asarray(image)
-    ax = int(channel_axis)
+    kind = kind_of(image)     # torch in, torch out: the result goes back as the caller's kind
+    arr = host_array(image, "image")
+    ax = integer("channel_axis", channel_axis)     # not int(): 1.5, True and '-1' are errors
     if not -arr.ndim <= ax < arr.ndim or arr.ndim < 3:
         raise ValueError(f"channel_axis={channel_axis} is out of range for an input of shape {arr.shape} "
                          f"(a colour image needs 3 dimensions)")
     ax %= arr.ndim
     moved = np.ascontiguousarray(np.moveaxis(arr, ax, 0))
-    return moved, lambda out: np.moveaxis(out, 0, ax)
+    return moved, lambda out: as_kind(np.moveaxis(out, 0, ax), kind, image)

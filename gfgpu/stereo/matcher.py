@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._core.arrays import as_kind, kind_of
 from .._core.validation import flag
 from ..backends import resolve_backend
 from . import matching
@@ -149,4 +150,5 @@ class StereoMatcher:
         if not self._subpixel:
             disp = np.rint(disp * self._steps) / self._steps
         disp = disp.astype(np.float32)
-        return (disp, conf) if return_confidence else disp
+        # torch in, torch out (numpy and device arrays: numpy, as disparity() returns)
+        return as_kind((disp, conf) if return_confidence else disp, kind_of(left), left)
