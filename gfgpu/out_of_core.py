@@ -15,7 +15,7 @@ import numpy as np
 from . import filters
 from ._core.recursion import check_mode
 from ._core.strips import FiniteStore, NpyStore, Strips, get_working_set, parse_bytes, strip_rows
-from ._core.validation import finite_cval, work_dtype
+from ._core.validation import finite_cval, float_dtype, wide_integer, work_dtype
 from .backends import resolve_backend
 from .io import write_atomic
 from .motion import uniform_motion_program
@@ -60,7 +60,8 @@ def filter_npy(operator, source, destination, *, mode="reflect", cval=0.0, worki
     backend, device : str, optional
         As in :func:`gfgpu.green_filter`.
     dtype : {float32, float64}, optional
-        Computation and output dtype; default the input's float type (integers -> float32).
+        Computation and output dtype; default the input's float type (integers of up to 16 bits
+        and bools -> float32, wider integers -> float64; ``float32`` may be asked for them).
     progress : bool
         Show a progress bar over strips.
 
@@ -107,9 +108,10 @@ def filter_npy(operator, source, destination, *, mode="reflect", cval=0.0, worki
         raise ValueError(f"destination {destination!r} is the source file; it is never overwritten")
     src = NpyStore.open(source)
     try:
-        work = work_dtype(src.dtype if dtype is None else dtype, "dtype" if dtype is not None else "input")
-        if dtype is not None and np.dtype(dtype).itemsize < work_dtype(src.dtype).itemsize:
-            raise TypeError(f"dtype {np.dtype(dtype)} would downcast the {src.dtype} input")
+        work = work_dtype(src.dtype, "input") if dtype is None else float_dtype("dtype", dtype)
+        # float32 for a wide integer input is an explicit choice of float32's rounding above 2**24
+        if work.itemsize < work_dtype(src.dtype).itemsize and not wide_integer(src.dtype):
+            raise TypeError(f"dtype {work} would downcast the {src.dtype} input")
         if not src.shape or 0 in src.shape:
             raise ValueError(f"input is empty (shape {src.shape})")
         be = resolve_backend(backend, device, None)

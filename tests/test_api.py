@@ -204,3 +204,118 @@ def test_host_views_outlive_the_callers_reference(backend, rng):
         outs.append(out)
     for out, ref in zip(outs, expect):
         assert np.abs(backend.to_host(out)[0] - ref).max() <= 1e-5
+
+
+WIDE = 2_000_000_003      # float32 rounds it to 2,000,000,000
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.uint32, np.int64, np.uint64])
+def test_wide_integers_are_computed_in_float64(backend, dtype):
+    # float32 holds integers exactly only up to 2**24: int32/uint32/int64/uint64 images were
+    # computed (and returned) in float32, so shift(img, (0, 0)) lost the last digits
+    img = (WIDE + np.arange(48).reshape(6, 8) % 5).astype(dtype)
+    same = gfgpu.shift(img, (0, 0), backend=backend)
+    assert same.dtype == np.float64
+    np.testing.assert_array_equal(same, img.astype(np.float64))
+    ref = img.astype(np.float64)
+    calls = [lambda x: gfgpu.shift(x, (0.5, -1.5), backend=backend),
+             lambda x: gfgpu.green_filter(x, G, backend=backend),
+             lambda x: gfgpu.derivative(x, 1.0, backend=backend),
+             lambda x: gfgpu.projection(x, 1.0, backend=backend),
+             lambda x: gfgpu.gradient(x, 1.0, backend=backend)[1],
+             lambda x: gfgpu.motion_blur(x, (1.0, 2.5), backend=backend),
+             lambda x: gfgpu.synthesize_motion(x, (1.0, 2.5), 2, backend=backend)[1],
+             lambda x: gfgpu.interpolate_frames(x, x, 1, velocity=(0.5, 1.0), backend=backend)[0]]
+    for call in calls:
+        out = call(img)
+        assert out.dtype == np.float64
+        np.testing.assert_array_equal(out, call(ref))
+
+
+def test_wide_integers_in_the_other_entry_points(tmp_path):
+    img = (WIDE + np.arange(48).reshape(6, 8) % 5).astype(np.int32)
+    np.save(tmp_path / "in.npy", img)
+    info = gfgpu.filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(0, 0), backend="numpy")
+    assert info["dtype"] == "float64"
+    np.testing.assert_array_equal(np.load(tmp_path / "out.npy"), img)
+    gfgpu.filter_npy("shift", tmp_path / "in.npy", tmp_path / "o32.npy", shift=(0, 0), dtype="float32",
+                     backend="numpy")       # asked for: float32's rounding
+    assert np.load(tmp_path / "o32.npy").dtype == np.float32
+    from gfgpu.shading.params import checked_image
+    assert checked_image(img).dtype == np.float64
+    da = pytest.importorskip("dask.array")
+    import gfgpu.dask as gd
+    out = gd.shift(da.from_array(img, chunks=(3, 4)), (0, 0), backend="numpy").compute()
+    assert out.dtype == np.float64
+    np.testing.assert_array_equal(out, img)
+
+
+def test_wide_integers_on_a_device_without_fp64_need_output_float32():
+    from gfgpu.backends.numpy import NumpyBackend
+    no_fp64 = NumpyBackend()
+    no_fp64.supports_float64 = False
+    img = np.full((4, 4), WIDE, np.int32)
+    with pytest.raises(TypeError, match="output=numpy.float32"):
+        gfgpu.shift(img, (0, 0), backend=no_fp64)
+    out = gfgpu.shift(img, (0, 0), output=np.float32, backend=no_fp64)
+    assert out.dtype == np.float32
+    np.testing.assert_array_equal(gfgpu.shift(img.astype(np.int16) * 0 + 7, 1.0, backend=no_fp64), 7)
+
+
+# --------------------------------------------------------------------------------------
+# the lazy top level (PEP 562): import gfgpu loads nothing heavy, every public name is reachable
+# --------------------------------------------------------------------------------------
+_IMPORT_GFGPU = """
+import sys
+import gfgpu
+print(" ".join(sorted(m for m in sys.modules if m.split(".")[0] in ("gfgpu", "numpy", "scipy"))))
+"""
+
+
+def test_import_gfgpu_loads_no_operator(tmp_path):
+    """``import gfgpu`` took ~5 s (numpy, scipy, every operator; issue 31): now only its version."""
+    out = subprocess.run([sys.executable, "-c", _IMPORT_GFGPU], capture_output=True, text=True, check=True,
+                         timeout=120, cwd=tmp_path).stdout.split()
+    assert out == ["gfgpu", "gfgpu._version"]
+
+
+def test_every_public_name_is_reachable_and_is_its_modules_object():
+    import importlib
+
+    sources = gfgpu._SOURCES
+    assert set(sources) == set(gfgpu.__all__) - {"__version__"} and len(gfgpu.__all__) == len(set(gfgpu.__all__))
+    for name, (module, attribute) in sources.items():
+        owner = importlib.import_module(f"gfgpu.{module}")
+        expected = owner if attribute is None else getattr(owner, attribute)
+        assert getattr(gfgpu, name) is expected, name
+    assert set(gfgpu.__all__) <= set(dir(gfgpu))
+    assert not {"_SOURCES", "_SUBMODULES", "_importlib", "__getattr__"} & set(dir(gfgpu))
+    from gfgpu import StereoMatcher, shift
+    assert shift is gfgpu.filters.shift and StereoMatcher is gfgpu.stereo.StereoMatcher
+    namespace = {}
+    exec("from gfgpu import *", namespace)
+    assert set(gfgpu.__all__) <= set(namespace)
+    with pytest.raises(AttributeError, match="module 'gfgpu' has no attribute 'no_such_name'"):
+        gfgpu.no_such_name  # noqa: B018
+    with pytest.raises(ImportError, match="cannot import name 'no_such_name'"):
+        exec("from gfgpu import no_such_name", {})
+
+
+_DIR_AND_SUBMODULES = """
+import gfgpu
+print(" ".join(dir(gfgpu)))
+print(gfgpu.io.__name__, gfgpu.stereo.__name__, gfgpu._core.__name__)
+"""
+
+
+def test_dir_and_submodules_are_as_after_an_eager_import(tmp_path):
+    """``dir(gfgpu)`` in a fresh interpreter lists what the eager ``import gfgpu`` listed: the public
+    names, the dunders and the subpackages it loaded (``gfgpu.io`` works without importing it)."""
+    out = subprocess.run([sys.executable, "-c", _DIR_AND_SUBMODULES], capture_output=True, text=True, check=True,
+                         timeout=120, cwd=tmp_path).stdout.splitlines()
+    expected = set(gfgpu.__all__) | {"_core", "_version", "backends", "edges", "filters", "greens", "io", "motion",
+                                     "out_of_core", "shading", "stereo"}
+    dunders = {"__all__", "__builtins__", "__cached__", "__doc__", "__file__", "__loader__", "__name__",
+               "__package__", "__path__", "__spec__"}
+    assert set(out[0].split()) == expected | dunders
+    assert out[1] == "gfgpu.io gfgpu.stereo gfgpu._core"

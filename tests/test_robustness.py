@@ -382,3 +382,48 @@ def test_threads_launching_one_kernel_at_once_get_their_own_results(require_back
     finally:
         sys.setswitchinterval(saved)
     assert not bad
+
+
+@pytest.mark.parametrize("bad", [1.5, True, "-1", np.float64(0.0)])
+@pytest.mark.parametrize("call", [
+    lambda img, bad: gfgpu.motion_blur(img, (1, 2), channel_axis=bad),
+    lambda img, bad: gfgpu.synthesize_motion(img, (1, 2), 2, channel_axis=bad),
+    lambda img, bad: gfgpu.interpolate_frames(img, img, 1, velocity=(1, 2), channel_axis=bad),
+    lambda img, bad: gfgpu.interpolate_frames(img, img, 1, channel_axis=bad),     # estimated velocity
+    lambda img, bad: gfgpu.shift(img, (1, 2), channel_axis=bad),
+])
+def test_a_channel_axis_that_is_not_an_integer_is_an_error(call, bad):
+    # int() made motion_blur take 1.5 and True as axis 1 and '-1' as the last axis
+    with pytest.raises(TypeError, match="channel_axis must be an integer"):
+        call(np.ones((6, 7, 3)), bad)
+
+
+def test_a_channel_axis_on_a_grey_image_is_named_as_the_mistake():
+    with pytest.raises(ValueError, match="drop channel_axis"):
+        gfgpu.shift(np.ones((6, 7)), (1.0, 2.0), channel_axis=-1)
+    with pytest.raises(ValueError, match="shift must have one value per axis") as err:
+        gfgpu.shift(np.ones((6, 7, 3)), (1.0, 2.0, 0.0, 1.0), channel_axis=-1)
+    assert "drop channel_axis" not in str(err.value)
+
+
+def test_an_unknown_gfgpu_backend_variable_is_named(monkeypatch):
+    monkeypatch.setenv("GFGPU_BACKEND", "bogus")
+    with pytest.raises(ValueError, match="GFGPU_BACKEND='bogus'.*numpy, warp, opencl"):
+        gfgpu.shift(np.ones((4, 4)), 1.0)
+    with pytest.raises(ValueError, match="backend must be one of"):
+        gfgpu.shift(np.ones((4, 4)), 1.0, backend="bogus")     # an argument: named as one
+    gfgpu.shift(np.ones((4, 4)), 1.0, backend="numpy")          # an argument overrides the variable
+
+
+@pytest.mark.parametrize("dtype, exc, message", [
+    ("bogus", TypeError, "dtype must be float32 or float64"),
+    (np.int32, TypeError, "dtype must be float32 or float64"),
+    (True, TypeError, "dtype must be float32 or float64"),
+    ("float16", TypeError, "dtype must be float32 or float64"),
+])
+def test_filter_npy_names_a_bad_dtype(tmp_path, dtype, exc, message):
+    np.save(tmp_path / "in.npy", np.ones((8, 9), np.float32))
+    with pytest.raises(exc, match=message):
+        gfgpu.filter_npy("shift", tmp_path / "in.npy", tmp_path / "out.npy", shift=(1, 0), dtype=dtype,
+                         backend="numpy")
+    assert not (tmp_path / "out.npy").exists()

@@ -3,8 +3,11 @@
 Every public function validates its arguments here before any work starts, so that a bad
 value raises one ``TypeError``/``ValueError`` that names the argument and the allowed range.
 
-Dtype policy: float32 and float64 are preserved; integer and boolean images are converted to
-float32; float16 is computed in float32; complex and other types raise ``TypeError``.
+Dtype policy: float32 and float64 are preserved; boolean images and integers of up to 16 bits
+(which float32 holds exactly) are converted to float32; wider integers (int32, uint32, int64,
+uint64) are computed in float64, since float32 rounds integers above 2**24 (a backend without
+float64 refuses them unless ``output=numpy.float32`` asks for float32); float16 is computed in
+float32; complex and other types raise ``TypeError``.
 """
 
 from __future__ import annotations
@@ -13,8 +16,8 @@ import math
 
 import numpy as np
 
-__all__ = ["finite_scalar", "positive", "scale", "work_dtype", "host_all_finite", "finite_cval", "flag", "integer",
-           "SCALE_RANGE"]
+__all__ = ["finite_scalar", "positive", "scale", "work_dtype", "wide_integer", "float_dtype", "host_all_finite",
+           "finite_cval", "flag", "integer", "SCALE_RANGE"]
 
 #: the scales (pixels) a Green's-function kernel can take: below, exp(-1/u) underflows and the
 #: sampled kernel is a delta (its normalisations divide by zero); above, exp(-1/u) lies within
@@ -75,15 +78,37 @@ def finite_cval(cval):
     return finite_scalar("cval", cval)
 
 
+def wide_integer(dtype):
+    """True for an integer dtype float32 cannot hold exactly (wider than 16 bits)."""
+    dtype = np.dtype(dtype)
+    return dtype.kind in "iu" and dtype.itemsize > 2
+
+
 def work_dtype(dtype, name="input"):
     """The dtype an array of ``dtype`` is computed in (see the module docstring)."""
     dtype = np.dtype(dtype)
     if dtype.kind == "f" and dtype.itemsize in (4, 8):
         return np.dtype(dtype.type)          # native byte order: the devices compute natively
+    if wide_integer(dtype):
+        return np.dtype(np.float64)          # float32 rounds integers above 2**24
     if dtype.kind in "biu" or dtype == np.float16:
         return np.dtype(np.float32)
-    raise TypeError(f"{name} must have a real numeric dtype (float32/float64, or integer/bool "
-                    f"converted to float32); got {dtype}")
+    raise TypeError(f"{name} must have a real numeric dtype (float32/float64, or integer/bool: up to 16 "
+                    f"bits converted to float32, wider integers to float64); got {dtype}")
+
+
+def float_dtype(name, value):
+    """``value`` (a dtype, type or name) as float32 or float64; ``TypeError`` naming ``name``
+    for anything else (an unknown name such as ``'bogus'`` included)."""
+    if isinstance(value, (bool, np.bool_)):
+        raise TypeError(f"{name} must be float32 or float64, got {value!r}")
+    try:
+        dtype = np.dtype(value)
+    except (TypeError, ValueError):
+        raise TypeError(f"{name} must be float32 or float64 (a numpy dtype or its name), got {value!r}") from None
+    if dtype.kind != "f" or dtype.itemsize not in (4, 8):
+        raise TypeError(f"{name} must be float32 or float64, got {dtype}")
+    return np.dtype(dtype.type)
 
 
 def host_all_finite(arr, block=1 << 22):

@@ -8,9 +8,9 @@ in the units of the baseline.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+
+from .._core.validation import finite_scalar, positive
 
 __all__ = ["disparity_to_depth", "stereo_q", "reproject_to_3d"]
 
@@ -24,23 +24,15 @@ def _disparity_map(disparity):
     return d.astype(np.float64)
 
 
-def _positive(value, name):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise TypeError(f"{name} must be a real number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
-    return v
-
-
 def disparity_to_depth(disparity, focal_px, baseline, *, doffs=0.0):
     """Depth ``Z = focal_px * baseline / (d + doffs)`` of every pixel of a disparity map.
 
     Parameters
     ----------
     disparity : (H, W) array_like
-        Disparities in px (NaN = no match), as returned by :func:`gfgpu.stereo.disparity`.
+        Disparities in px (NaN = no match), as returned by :func:`gfgpu.stereo.disparity`;
+        ``+inf``/``-inf`` also mean no match (Middlebury's PFM ground truth marks unknown
+        pixels with ``+inf``).
     focal_px : float
         Focal length in px (> 0), of the rectified pair.
     baseline : float
@@ -52,8 +44,11 @@ def disparity_to_depth(disparity, focal_px, baseline, *, doffs=0.0):
     Returns
     -------
     (H, W) float32 ndarray
-        Depth in the units of ``baseline``; NaN where the disparity is NaN or where
-        ``d + doffs <= 0`` (a point at or beyond infinity).
+        Depth in the units of ``baseline``; NaN where the disparity is NaN or infinite (no
+        match: not a point at the camera, as ``f b / inf = 0`` would say; the same pixels are
+        NaN in :func:`reproject_to_3d`) or where ``d + doffs <= 0`` (a point at or beyond
+        infinity); ``+inf`` where the depth exceeds float32's range (``d + doffs`` below about
+        ``f b / 3.4e38``).
 
     Raises
     ------
@@ -61,7 +56,7 @@ def disparity_to_depth(disparity, focal_px, baseline, *, doffs=0.0):
         ``focal_px`` or ``baseline`` not finite and positive, ``doffs`` not finite, or
         ``disparity`` not a non-empty 2-D array.
     TypeError
-        Non-numeric arguments.
+        Non-numeric arguments (strings and bools included), each named.
 
     Examples
     --------
@@ -70,17 +65,17 @@ def disparity_to_depth(disparity, focal_px, baseline, *, doffs=0.0):
     >>> disparity_to_depth(d, focal_px=800, baseline=0.1)      # metres
     array([[ 8., nan],
            [nan,  2.]], dtype=float32)
+    >>> disparity_to_depth(np.array([[np.inf, 40.0]]), 800, 0.1)   # +inf: unknown (Middlebury PFM)
+    array([[nan,  2.]], dtype=float32)
     """
     d = _disparity_map(disparity)
-    f = _positive(focal_px, "focal_px")
-    b = _positive(baseline, "baseline")
-    off = float(doffs)
-    if not math.isfinite(off):
-        raise ValueError(f"doffs must be finite, got {doffs!r}")
+    f = positive("focal_px", focal_px)
+    b = positive("baseline", baseline)
+    off = finite_scalar("doffs", doffs)
     den = d + off
-    with np.errstate(divide="ignore", invalid="ignore"):
-        z = np.where(den > 0, f * b / den, np.nan)
-    return z.astype(np.float32)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        z = np.where(np.isfinite(d) & (den > 0), f * b / den, np.nan)
+        return z.astype(np.float32)       # a depth beyond float32's range is +inf (documented)
 
 
 def stereo_q(focal_px, baseline, center, *, cx_right=None):
@@ -108,6 +103,8 @@ def stereo_q(focal_px, baseline, center, *, cx_right=None):
     ------
     ValueError
         ``focal_px``/``baseline`` not finite and positive, ``center`` not two finite numbers.
+    TypeError
+        Non-numeric arguments (strings and bools included), each named.
 
     Examples
     --------
@@ -117,15 +114,12 @@ def stereo_q(focal_px, baseline, center, *, cx_right=None):
            [   0.,    0.,    0.,  800.],
            [   0.,    0.,   10.,   -0.]])
     """
-    f = _positive(focal_px, "focal_px")
-    b = _positive(baseline, "baseline")
-    c = np.asarray(center, np.float64)
-    if c.shape != (2,) or not np.isfinite(c).all():
+    f = positive("focal_px", focal_px)
+    b = positive("baseline", baseline)
+    if isinstance(center, (str, bytes)) or np.ndim(center) != 1 or len(center) != 2:
         raise ValueError(f"center must be (row, col), two finite numbers; got {center!r}")
-    cy, cx = c
-    cxr = cx if cx_right is None else float(cx_right)
-    if not math.isfinite(cxr):
-        raise ValueError(f"cx_right must be finite, got {cx_right!r}")
+    cy, cx = (finite_scalar("center", v) for v in center)
+    cxr = cx if cx_right is None else finite_scalar("cx_right", cx_right)
     return np.array([[1.0, 0, 0, -cx], [0, 1, 0, -cy], [0, 0, 0, f], [0, 0, 1 / b, -(cx - cxr) / b]])
 
 
@@ -144,7 +138,8 @@ def reproject_to_3d(disparity, q):
     -------
     (H, W, 3) float32 ndarray
         ``(X, Y, Z)`` per pixel (X along the columns, Y along the rows, Z forward), in the
-        units of the baseline folded into ``q``; NaN where the disparity is NaN or ``W = 0``.
+        units of the baseline folded into ``q``; NaN where the disparity is NaN or infinite
+        (no match, as in :func:`disparity_to_depth`) or ``W = 0``.
         (OpenCV puts a large Z there instead, with ``handleMissingValues``.)
 
     Raises
@@ -171,8 +166,9 @@ def reproject_to_3d(disparity, q):
         raise ValueError(f"q must be a finite 4x4 matrix, got shape {qm.shape}")
     h, w = d.shape
     yy, xx = np.mgrid[:h, :w].astype(np.float64)
-    hom = np.stack([xx, yy, d, np.ones_like(d)], axis=-1) @ qm.T
+    known = np.isfinite(d)
+    hom = np.stack([xx, yy, np.where(known, d, 0.0), np.ones_like(d)], axis=-1) @ qm.T
     with np.errstate(divide="ignore", invalid="ignore"):
         pts = hom[..., :3] / hom[..., 3:]
-    pts[~np.isfinite(pts).all(axis=-1)] = np.nan
+    pts[~(np.isfinite(pts).all(axis=-1) & known)] = np.nan
     return pts.astype(np.float32)

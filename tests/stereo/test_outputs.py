@@ -121,3 +121,46 @@ def test_cli_ply_png16_confidence(tmp_path):
     assert conf.shape == left.shape and 0 <= conf.min() and conf.max() <= 1
     assert main(["disparity", str(tmp_path / "l.png"), str(tmp_path / "r.png"), "-o", str(tmp_path / "e.png"),
                  "--ply", str(tmp_path / "e.ply"), "--backend", "numpy"]) != 0     # no camera given
+
+
+def test_infinite_disparities_are_unknown_in_depth_and_points():
+    # Middlebury PFMs mark unknown pixels with +inf: f b / inf = 0 put them at the camera
+    d = np.array([[np.inf, 16.0], [-np.inf, 8.0]], np.float32)
+    z = stereo.disparity_to_depth(d, 400, 0.2)
+    np.testing.assert_allclose(z, [[np.nan, 5], [np.nan, 10]], equal_nan=True)
+    np.testing.assert_allclose(stereo.disparity_to_depth(d, 400, 0.2, doffs=-4.0), [[np.nan, 80 / 12],
+                                                                                   [np.nan, 20]], equal_nan=True)
+    pts = stereo.reproject_to_3d(d, stereo.stereo_q(400, 0.2, (0.0, 0.0)))
+    assert (np.isnan(z) == np.isnan(pts).all(axis=-1)).all()     # the same pixels unknown in both
+    np.testing.assert_allclose(pts[..., 2], z, rtol=1e-6, equal_nan=True)
+
+
+@pytest.mark.parametrize("call, exc, message", [
+    (lambda d: stereo.disparity_to_depth(d, True, 1), TypeError, "focal_px must be a real number"),
+    (lambda d: stereo.disparity_to_depth(d, 1, np.True_), TypeError, "baseline must be a real number"),
+    (lambda d: stereo.disparity_to_depth(d, 1, 1, doffs="a"), TypeError, "doffs must be a real number"),
+    (lambda d: stereo.disparity_to_depth(d, "800", 1), TypeError, "focal_px must be a real number"),
+    (lambda d: stereo.stereo_q(1, 1, "ab"), ValueError, "center must be"),
+    (lambda d: stereo.stereo_q(1, 1, (1, "a")), TypeError, "center must be a real number"),
+    (lambda d: stereo.stereo_q(1, 1, (1, True)), TypeError, "center must be a real number"),
+    (lambda d: stereo.stereo_q(True, 1, (1, 2)), TypeError, "focal_px must be a real number"),
+    (lambda d: stereo.stereo_q(1, 1, (1, 2), cx_right="x"), TypeError, "cx_right must be a real number"),
+])
+def test_geometry_arguments_of_the_wrong_type_are_named(call, exc, message):
+    with pytest.raises(exc, match=message):
+        call(np.ones((2, 3)))
+
+
+@pytest.mark.parametrize("kwargs, exc, message", [
+    ({"lr_check": "False"}, TypeError, "lr_check must be True or False"),
+    ({"lr_check": 0}, TypeError, "lr_check must be True or False"),
+    ({"subpixel": "no"}, TypeError, "subpixel must be True or False"),
+    ({"method": "affine", "sigma": "a"}, TypeError, "sigma must be a real number"),
+    ({"method": "affine", "sigma": True}, TypeError, "sigma must be a real number"),
+    ({"method": "affine", "sigma": -1.0}, ValueError, "sigma must be > 0"),
+    ({"method": "affine", "lr_check": "False"}, TypeError, "lr_check must be True or False"),
+])
+def test_disparity_flags_and_sigma_are_checked(kwargs, exc, message):
+    left = right = np.ones((24, 40))
+    with pytest.raises(exc, match=message):
+        stereo.disparity(left, right, 8, backend="numpy", **kwargs)
