@@ -50,10 +50,11 @@ import numpy as np
 
 from . import filters, greens
 from ._core import carry
+from ._core.boundary import filter_mode, interpolation_mode
 from ._core.docstrings import docfiller
 from ._core.lines import normalize_axis
 from ._core.program import is_axis_angle, run_steps
-from ._core.recursion import check_mode, plan_pass
+from ._core.recursion import plan_pass
 from ._core.translation import decay_length, step_offset, window_index, without_offset
 from ._core.validation import finite_cval, flag, work_dtype
 from .backends import Backend, backend_request, check_backend_name, resolve_backend
@@ -78,11 +79,23 @@ _DOCS = {
             Axis of colour channels, each filtered on its own (never an axis operated on).
         """,
     "mode_cval": """
-        mode : {'reflect', 'constant', 'nearest', 'mirror', 'wrap'}, optional
-            How the image continues beyond its border (scipy.ndimage's names; default
-            ``'reflect'``), see :func:`gfgpu.green_filter`.
+        mode : {'reflect', 'grid-mirror', 'constant', 'grid-constant', 'nearest', 'mirror', 'wrap',
+                'grid-wrap'}, optional
+            How the image continues beyond its border (scipy.ndimage's names and filter
+            meaning, ``grid-*`` the same as their plain twins; default ``'reflect'``), see
+            :func:`gfgpu.green_filter`.
         cval : float, optional
             The value beyond the border for ``mode='constant'`` (default 0).
+        """,
+    "shift_mode_cval": """
+        mode : {'reflect', 'grid-mirror', 'constant', 'grid-constant', 'nearest', 'mirror', 'wrap',
+                'grid-wrap'}, optional
+            scipy.ndimage's interpolation meaning, as in :func:`gfgpu.shift` (``'constant'``:
+            ``cval`` where the source lies outside ``[0, n - 1]``; ``'wrap'``: period
+            ``n - 1``; ``'grid-constant'``/``'grid-wrap'``: the ``cval``/period-``n``
+            extension); default ``'reflect'``.
+        cval : float, optional
+            The value beyond the border for ``'constant'`` and ``'grid-constant'`` (default 0).
         """,
     "differentiator": """
         a, eta, single_scale : optional
@@ -291,7 +304,7 @@ def run_program(x, program, *, mode="reflect", cval=0.0, backend=None, device=No
         is built.
     """
     dtype = _check_array(x)
-    check_mode(mode)
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     spec = _backend_spec(backend, device)
     x = x.astype(dtype) if x.dtype != dtype else x
@@ -399,7 +412,7 @@ def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, i
     axes, interpolation
         As in :func:`gfgpu.shift`.
     %(channel_axis)s
-    %(mode_cval)s
+    %(shift_mode_cval)s
     %(backend_device)s
 
     Returns
@@ -410,10 +423,37 @@ def shift(x, shift, *, mode="reflect", cval=0.0, axes=None, channel_axis=None, i
     ------
     %(raises)s
     """
-    _check_array(x)
+    dtype = _check_array(x)
+    engine_mode, rule = interpolation_mode(mode)
     program = filters.shift_program(x.ndim, shift, axes=axes, channel_axis=channel_axis,
                                     interpolation=interpolation)
-    return run_program(x, program, mode=mode, cval=cval, backend=backend, device=device)
+    if rule is None:
+        return run_program(x, program, mode=engine_mode, cval=cval, backend=backend, device=device)
+    # scipy's interpolation-only modes: 'mirror' shifts, masked or selected lazily (gfgpu.shift)
+    cval = finite_cval(cval)
+    _backend_spec(backend, device)
+    branches = filters.shift_branches(x.shape, shift, rule, axes=axes, channel_axis=channel_axis)
+    kw = dict(mode="mirror", cval=cval, backend=backend, device=device)
+    fill = np.asarray(cval, dtype)
+
+    def along(mask, axis):
+        return mask.reshape([-1 if d == axis else 1 for d in range(x.ndim)])
+
+    if rule == "constant":
+        out = run_program(x, program, **kw)
+        for a, _, branch in branches:
+            if (branch < 0).any():
+                out = da.where(along(branch < 0, a), fill, out)
+        return out
+    out = x
+    for a, s, branch in branches:
+        near = run_program(out, filters.shift_program(x.ndim, [s], axes=[a], interpolation=interpolation), **kw)
+        if branch.any():
+            far = run_program(out, filters.shift_program(x.ndim, [s + x.shape[a] - 1], axes=[a],
+                                                         interpolation=interpolation), **kw)
+            near = da.where(along(branch > 0, a), far, near)
+        out = near
+    return out
 
 
 @_docfiller
@@ -564,7 +604,7 @@ def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displa
     motion = motion_kind(kind, velocity)
     psf = psf_name(psf)
     displace = flag("displace", displace)
-    check_mode(mode)
+    mode = filter_mode(mode)       # the engine's name for scipy's grid-* aliases
     cval = finite_cval(cval)
     spec = _backend_spec(backend, device)
     if channel_axis is not None:

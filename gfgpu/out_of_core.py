@@ -13,7 +13,7 @@ import os
 import numpy as np
 
 from . import filters
-from ._core.recursion import check_mode
+from ._core.boundary import filter_mode
 from ._core.strips import FiniteStore, NpyStore, Strips, get_working_set, parse_bytes, strip_rows
 from ._core.validation import finite_cval, float_dtype, wide_integer, work_dtype
 from .backends import resolve_backend
@@ -102,7 +102,12 @@ def filter_npy(operator, source, destination, *, mode="reflect", cval=0.0, worki
     builders = _operators()
     if operator not in builders:
         raise ValueError(f"operator must be one of {', '.join(OPERATORS)}; got {operator!r}")
-    check_mode(mode)
+    if operator == "shift" and mode in ("constant", "wrap"):
+        # scipy's interpolation meaning of these two (cval beyond [0, n-1]; period n - 1) is not
+        # streamed in strips: refused rather than given the grid meaning under scipy's name
+        raise ValueError(f"mode={mode!r} (scipy's interpolation meaning) is not available to filter_npy('shift'); "
+                         f"use mode='grid-{mode}' (cval beyond the grid; period n) or another mode")
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     if os.path.exists(destination) and os.path.samefile(source, destination):
         raise ValueError(f"destination {destination!r} is the source file; it is never overwritten")

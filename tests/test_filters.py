@@ -112,7 +112,7 @@ def test_shift_moments(backend, u):
     line[0, x0] = 1.0
     for s in (u, -u):
         src = line if s > 0 else line[:, ::-1].copy()
-        out = gfgpu.shift(src, (0.0, s), mode="constant", backend=backend)[0]
+        out = gfgpu.shift(src, (0.0, s), mode="grid-constant", backend=backend)[0]
         pos = np.arange(n) if s > 0 else np.arange(n)[::-1]
         total = out.sum()
         mean = (out * (pos - x0)).sum() / total
@@ -126,7 +126,7 @@ def test_shift_moves_a_smooth_image(backend):
     """
     yy, xx = np.mgrid[:64, :96].astype(np.float64)
     f = lambda y, x: np.sin(2 * np.pi * x / 96) * np.cos(2 * np.pi * y / 64)
-    out = gfgpu.shift(f(yy, xx), (1.3, 2.6), mode="wrap", backend=backend)
+    out = gfgpu.shift(f(yy, xx), (1.3, 2.6), mode="grid-wrap", backend=backend)
     ref = f(yy - 1.3, xx - 2.6)
     bound = (2.6 * 2 * np.pi / 96) ** 3 / 6 + (1.3 * 2 * np.pi / 64) ** 3 / 6
     assert np.abs(out - ref).max() < 1.5 * bound

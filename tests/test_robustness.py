@@ -336,11 +336,11 @@ def test_nonfinite_input_is_refused_and_the_output_left_untouched(backend, where
 
 
 @pytest.mark.parametrize("shift", [(0, 3), (-5, 0), (0, -400), (2, -1)])
-@pytest.mark.parametrize("mode", ["reflect", "constant", "wrap", "nearest", "mirror"])
+@pytest.mark.parametrize("mode", ["reflect", "constant", "grid-wrap", "nearest", "mirror"])
 def test_integer_translation_is_index_arithmetic_on_every_backend(backend, shift, mode, rng):
     # numpy.pad builds each mode's extension independently of the translate primitive
     img = rng.random((37, 300)).astype(np.float32)
-    pad_mode = {"reflect": "symmetric", "mirror": "reflect", "nearest": "edge", "wrap": "wrap",
+    pad_mode = {"reflect": "symmetric", "mirror": "reflect", "nearest": "edge", "grid-wrap": "wrap",
                 "constant": "constant"}[mode]
     big = 450
     ext = np.pad(img, big, mode=pad_mode, **({"constant_values": 1.25} if mode == "constant" else {}))

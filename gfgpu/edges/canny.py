@@ -14,8 +14,8 @@ import numpy as np
 from scipy import ndimage
 
 from .._core import strips
+from .._core.boundary import filter_mode
 from .._core.job import Job, apply_program
-from .._core.recursion import check_mode
 from .._core.validation import finite_cval, finite_scalar, flag
 from ..filters import make_job
 from ..greens import EDGE_A, EDGE_ETA
@@ -134,7 +134,7 @@ def check_arguments(u=1.0, low_threshold=None, high_threshold=None, *, mask=None
     high, high_q = _threshold(high_threshold, "high_threshold", use_quantiles, DEFAULT_HIGH)
     if low_q == high_q and low > high:   # quantiles are monotone: the same order holds after
         raise ValueError(f"low_threshold ({low}) must not exceed high_threshold ({high})")
-    check_mode(mode)
+    filter_mode(mode)       # scipy's names; canny takes the filter meaning (grid-* as their twins)
     cval = finite_cval(cval)
     operator.gradient_programs(u, a, eta, single_scale, projection_scale)   # checks u, a, eta, the ratio
     if mask is not None and shape is not None:
@@ -245,6 +245,7 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
                            return_gradient=return_gradient)
     low, low_q, high, high_q, cval = args.low, args.low_q, args.high, args.high_q, args.cval
     single_scale, return_gradient = args.single_scale, args.return_gradient
+    mode = filter_mode(mode)
     job = make_job(image, None, backend, device, min_ndim=2)
     if job.ndim != 2:
         raise ValueError(f"image must be 2-D (H, W), got shape {job.shape}")
@@ -325,7 +326,7 @@ def edge_gradient(image, u=1.0, *, mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_
     dtype give an overflowing gradient magnitude, not an overflowing gradient.
     """
     single_scale = flag("single_scale", single_scale)
-    check_mode(mode)
+    mode = filter_mode(mode)
     cval = finite_cval(cval)
     programs = operator.gradient_programs(u, a, eta, single_scale, projection_scale)
     job = make_job(image, None, backend, device, min_ndim=2)

@@ -6,7 +6,7 @@ reference entry point that the others (frames, Dask, batch, the commands) agree 
 
 from __future__ import annotations
 
-from .._core.recursion import check_mode
+from .._core.boundary import filter_mode
 from .._core.validation import finite_cval, flag
 from ..filters import make_job
 from .kinds import motion_kind, psf_name
@@ -161,7 +161,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     """
     motion = motion_kind(kind, velocity)
     psf = psf_name(psf)
-    check_mode(mode)
+    mode = filter_mode(mode)    # scipy's names; a blur takes the filter meaning (grid-* as their twins)
     cval = finite_cval(cval)
     displace = flag("displace", displace)
     if channel_axis is not None:
