@@ -505,3 +505,15 @@ def test_readme_pytorch_pipeline_runs(tmp_path):
     rows = [line for line in res.stdout.splitlines() if line.startswith("torch.Size")]
     assert rows == ["torch.Size([2, 64, 96]) torch.Size([2, 64, 96]) [4.0, 5.0]",
                     "torch.Size([2, 64, 96]) torch.Size([2, 64, 96]) [6.0, 7.0]"]
+
+
+def test_light_estimate_takes_a_dlpack_only_object():
+    """estimate_illuminant reads any array kind on the host (not "dtype object")."""
+    from gfgpu.shading import estimate_illuminant
+    yy, xx = np.mgrid[:64, :64]
+    r2 = ((yy - 32.0) ** 2 + (xx - 32.0) ** 2) / 20.0 ** 2
+    nz = np.sqrt(np.clip(1 - r2, 0, None))
+    img = np.where(r2 < 1, nz, 1.0)           # a frontally lit sphere on a frontal plane
+    (want, want_albedo), (got, got_albedo) = estimate_illuminant(img), estimate_illuminant(DLPackOnly(img))
+    np.testing.assert_array_equal(got, want)
+    assert got_albedo == want_albedo

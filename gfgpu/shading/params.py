@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 
+from .._core.arrays import host_array
 from .._core.validation import work_dtype
 
 __all__ = ["MIN_SLANT", "checked_image", "checked_mask", "check_contrast", "parse_light", "tilt_slant"]
@@ -16,7 +17,8 @@ MIN_SLANT = math.radians(1.0)
 
 
 def checked_image(image, name="image"):
-    arr = np.asarray(image)
+    # any array kind (torch, DLPack, device arrays) is read on the host once, never "dtype object"
+    arr = host_array(image, name)
     if arr.dtype == object or arr.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be a real numeric array, got dtype {arr.dtype}")
     if arr.ndim != 2:
@@ -33,7 +35,7 @@ def checked_image(image, name="image"):
 def checked_mask(mask, shape):
     if mask is None:
         return np.ones(shape, bool)
-    m = np.asarray(mask)
+    m = host_array(mask, "mask")
     if m.shape != shape:
         raise ValueError(f"mask must have the image's shape {shape}, got {m.shape}")
     if m.dtype != bool:
