@@ -10,17 +10,51 @@ Every per-axis tuple is in array-axis order (``..., row, col``), as in scipy.ndi
 scikit-image: ``shift(img, (dy, dx))``; see ``docs/architecture.md``.
 """
 
-from . import greens
-from ._core.strips import get_working_set, set_working_set, working_set
+# The public names are loaded on first use (PEP 562): ``import gfgpu`` (and so the ``gfgpu``
+# command's start and ``--help``) does not pay for numpy, scipy and every operator's module.
+# ``gfgpu.shift``, ``from gfgpu import shift``, ``from gfgpu import *`` and ``dir(gfgpu)`` are as
+# with eager imports; a name is added here and to ``__all__`` together (tests/test_api.py checks).
+
+import importlib as _importlib
+
 from ._version import __version__
-from .backends import BACKENDS, devices, get_backend, use_backend
-from .edges import canny
-from .filters import derivative, gradient, green_filter, projection, shift
-from .greens import AffineGreen, AffineGreenApprox, HomogeneousGreen, UniformGreen
-from .motion import estimate_translation, interpolate_frames, motion_blur, synthesize_motion
-from .out_of_core import filter_npy
-from .shading import estimate_illuminant, photometric_motion, shape_from_shading
-from .stereo import disparity
+
+#: the module of each public name (``greens`` is the module itself)
+_SOURCES = {
+    "greens": ("greens", None),
+    "working_set": ("_core.strips", "working_set"),
+    "set_working_set": ("_core.strips", "set_working_set"),
+    "get_working_set": ("_core.strips", "get_working_set"),
+    "BACKENDS": ("backends", "BACKENDS"),
+    "devices": ("backends", "devices"),
+    "get_backend": ("backends", "get_backend"),
+    "use_backend": ("backends", "use_backend"),
+    "canny": ("edges", "canny"),
+    "derivative": ("filters", "derivative"),
+    "gradient": ("filters", "gradient"),
+    "green_filter": ("filters", "green_filter"),
+    "projection": ("filters", "projection"),
+    "shift": ("filters", "shift"),
+    "AffineGreen": ("greens", "AffineGreen"),
+    "AffineGreenApprox": ("greens", "AffineGreenApprox"),
+    "HomogeneousGreen": ("greens", "HomogeneousGreen"),
+    "UniformGreen": ("greens", "UniformGreen"),
+    "estimate_translation": ("motion", "estimate_translation"),
+    "interpolate_frames": ("motion", "interpolate_frames"),
+    "motion_blur": ("motion", "motion_blur"),
+    "synthesize_motion": ("motion", "synthesize_motion"),
+    "filter_npy": ("out_of_core", "filter_npy"),
+    "estimate_illuminant": ("shading", "estimate_illuminant"),
+    "photometric_motion": ("shading", "photometric_motion"),
+    "shape_from_shading": ("shading", "shape_from_shading"),
+    "StereoMatcher": ("stereo", "StereoMatcher"),
+    "disparity": ("stereo", "disparity"),
+}
+
+#: the subpackages an eager ``import gfgpu`` used to leave as attributes (``gfgpu.io`` after
+#: ``import gfgpu``); ``gfgpu.cli``, ``gfgpu.batch`` and ``gfgpu.dask`` are imported by name
+_SUBMODULES = ("_core", "_version", "backends", "edges", "filters", "greens", "io", "motion", "out_of_core",
+               "shading", "stereo")
 
 __all__ = [
     "__version__", "greens", "BACKENDS", "devices", "get_backend", "use_backend",
@@ -28,5 +62,28 @@ __all__ = [
     "UniformGreen", "HomogeneousGreen", "AffineGreen", "AffineGreenApprox",
     "shape_from_shading", "photometric_motion", "estimate_illuminant",
     "motion_blur", "synthesize_motion", "interpolate_frames", "estimate_translation",
-    "disparity", "working_set", "set_working_set", "get_working_set", "filter_npy",
+    "disparity", "StereoMatcher", "working_set", "set_working_set", "get_working_set", "filter_npy",
 ]
+
+
+def __getattr__(name):
+    """A public name or subpackage, imported on first access and then kept in the module."""
+    if name in _SOURCES:
+        module, attribute = _SOURCES[name]
+        value = _importlib.import_module(f".{module}", __name__)
+        if attribute is not None:
+            value = getattr(value, attribute)
+    elif name in _SUBMODULES:
+        value = _importlib.import_module(f".{name}", __name__)
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = value
+    return value
+
+
+#: this module's lazy-loading machinery, left out of ``dir(gfgpu)`` (which lists what eager imports listed)
+_MACHINERY = frozenset({"_importlib", "_SOURCES", "_SUBMODULES", "_MACHINERY", "__getattr__", "__dir__"})
+
+
+def __dir__():
+    return sorted((set(globals()) - _MACHINERY) | set(__all__) | set(_SUBMODULES))

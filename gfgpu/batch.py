@@ -29,11 +29,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ._core.validation import finite_scalar
+from ._core.boundary import SCIPY_MODES
+from ._core.validation import finite_scalar, work_dtype
 from .backends import resolve_backend
 from .edges import canny
 from .filters import gradient, shift
 from .io import (
+    conversion_note,
     gradient_to_rgb,
     has_alpha,
     premultiply,
@@ -64,7 +66,7 @@ BLUR_MOTIONS = {kind: "velocity" if kind == "uniform" else kind for kind in KIND
 #: the parameters each operator takes; pairs are in array-axis order (rows, cols)
 PARAMETERS = {"shift": ("shift",), "gradient": ("u",), "canny": ("u", "low", "high"),
               "blur": (*BLUR_MOTIONS.values(), "keep_position", "center", "psf")}
-_MODES = ("reflect", "constant", "nearest", "mirror", "wrap")
+_MODES = SCIPY_MODES      # each operator gives a name its scipy meaning (filter or interpolation)
 
 
 @dataclass
@@ -97,6 +99,7 @@ class Result:
     message: str = ""
     seconds: float = 0.0
     ran_on: str = ""       # "backend NAME on DEVICE" of the process that computed it
+    note: str = ""         # what the output did to the values (gfgpu.io.conversion_note), "" if nothing
 
 
 # --------------------------------------------------------------------------------------
@@ -385,8 +388,10 @@ def _colour_filter(img, apply):
 
 
 def _working(img):
-    """float32 (float64 kept: never cast down); integers and bool -> float32 as in the API."""
-    return img if img.dtype == np.float64 else img.astype(np.float32)
+    """The float array an operator filters, by the API's dtype policy (gfgpu._core.validation.work_dtype):
+    float32/float64 kept, bool and integers of up to 16 bits float32, wider integers float64 (float32 would
+    round them above 2**24: 2,000,000,003 read as 2,000,000,000)."""
+    return img.astype(work_dtype(img.dtype), copy=False)
 
 
 def _channel_axis(img):
@@ -410,11 +415,13 @@ def _op_gradient(img, p, kw):
 
 def _op_canny(img, p, kw):
     _check_keys("canny", p)
-    img = work = _no_alpha(img)
-    if img.dtype.kind in "iu":   # canny's convention: integers scaled to [0, 1] by the dtype's maximum
-        work = img.astype(np.float32) / np.iinfo(img.dtype).max
-    work = _working(work)
-    grey = work.mean(axis=-1) if work.ndim == 3 else work
+    img = _no_alpha(img)
+    work = _working(img)
+    if img.dtype.kind in "iu":
+        # canny's convention: integers scaled to [0, 1] by the dtype's maximum, in float64 (a float32
+        # division rounds int32 values), then in the working type, as gfgpu canny and gfgpu.canny
+        work = (img.astype(np.float64) / np.iinfo(img.dtype).max).astype(work.dtype, copy=False)
+    grey = work.mean(axis=-1, dtype=work.dtype) if work.ndim == 3 else work
     edges = canny(grey, p.get("u", 1.0), p.get("low"), p.get("high"), use_quantiles=True, **kw)
     return edges, lambda: edges.astype(np.uint8) * np.uint8(255)
 
@@ -480,12 +487,13 @@ def process_file(job):
     tifffile: upright, CMYK as RGB; animations, multi-page TIFFs, complex samples and anything
     but a regular file fail the file).  ``shift`` and ``blur`` keep an alpha channel, filtered
     premultiplied (colour x alpha and alpha alike, then divided by the filtered alpha where it
-    is > 0: no dark fringes); ``gradient`` and ``canny`` ignore it.  Integer and bool images
-    are filtered in float32, float32/float64 in their own type.  ``png`` writes the image at
+    is > 0: no dark fringes); ``gradient`` and ``canny`` ignore it.  Bool and integer images of
+    up to 16 bits are filtered in float32, wider integers (int32, uint32, int64) in float64,
+    float32/float64 in their own type (the API's dtype policy).  ``png`` writes the image at
     the input's depth (:func:`gfgpu.io.to_output`: uint8 and uint16 rounded and clipped, 16-bit
     PNG for 16-bit input; other types the 8-bit display conversion
-    :func:`gfgpu.io.to_display_8bit`); ``npy`` and ``tiff`` the raw result.  The output's
-    folder is created if needed.
+    :func:`gfgpu.io.to_display_8bit`, stated in :attr:`Result.note` for ``shift`` and ``blur``);
+    ``npy`` and ``tiff`` the raw result.  The output's folder is created if needed.
 
     Parameters
     ----------
@@ -537,7 +545,15 @@ def process_file(job):
         return result("failed", f"{type(exc).__name__}: {exc}")
     done = result("ok")
     done.ran_on = f"backend {be.name} on {be.device}"
+    if job.fmt == "png" and job.op in _KEEPS_VALUES:
+        done.note = conversion_note(img, job.output) or ""
     return done
+
+
+#: the operators whose ``png`` output is the image's values at the input's depth (:func:`gfgpu.io.to_output`;
+#: float and wide-integer input then 8-bit, which :func:`gfgpu.io.conversion_note` states); gradient's and
+#: canny's are renderings (colour-coded, 0/255) of a result that has no depth of its own
+_KEEPS_VALUES = ("shift", "blur")
 
 
 # --------------------------------------------------------------------------------------
@@ -643,7 +659,8 @@ def _run_on_dask(jobs, workers, scheduler, bar):
 
 def summarize(results, seconds=None):
     """``(text, exit_code)``: counts, each failure with its reason, each input left out before
-    planning (a skipped result without output, e.g. a FIFO) with its reason; exit code 1 if any
+    planning (a skipped result without output, e.g. a FIFO) with its reason, each conversion note
+    (float or wide-integer input written as 8-bit PNG: :attr:`Result.note`); exit code 1 if any
     failed."""
     counts = {s: sum(r.status == s for r in results) for s in ("ok", "skipped", "failed")}
     head = f"{len(results)} file(s): {counts['ok']} ok, {counts['skipped']} skipped, {counts['failed']} failed"
@@ -653,4 +670,5 @@ def summarize(results, seconds=None):
     lines = [head] + [f"  ran on {where}" for where in ran_on]
     lines += [f"  skipped: {r.input}: {r.message}" for r in results if r.status == "skipped" and not r.output]
     lines += [f"  failed: {r.input}: {r.message}" for r in results if r.status == "failed"]
+    lines += [f"  note: {r.input}: {r.note}" for r in results if r.status == "ok" and r.note]
     return "\n".join(lines), int(counts["failed"] > 0)

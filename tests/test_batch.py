@@ -440,3 +440,69 @@ def test_batch_keeps_depth_and_alpha(tmp_path, rng):
     assert run_cli("shift", folder / "rgba.png", "-o", tmp_path / "npy", "--dx", 1, "--format", "npy",
                    "--backend", "numpy") == 0
     assert np.load(tmp_path / "npy" / "rgba.npy").shape == (12, 16, 4)
+
+
+# --------------------------------------------------------------------------------------
+# wide integers (int32, uint32, int64) keep their values; float -> 8-bit PNG is stated
+# --------------------------------------------------------------------------------------
+WIDE = 2_000_000_003          # float32 holds it as 2,000,000,000
+
+
+@pytest.mark.parametrize("dtype", [np.int32, np.uint32, np.int64])
+def test_wide_integers_are_filtered_in_float64_as_in_the_api(tmp_path, backend, dtype):
+    """issue 31: batch cast every integer image to float32 (``shift`` by (0, 0) of 2,000,000,003 gave
+    2,000,000,000); now the API's dtype policy: the same values as ``gfgpu.shift``/``gfgpu.motion_blur``."""
+    import tifffile
+    img = np.full((12, 16), WIDE, dtype)
+    img[:, 8:] -= 1000
+    tifffile.imwrite(tmp_path / "w.tif", img)
+    assert run_cli("shift", tmp_path / "w.tif", "-o", tmp_path / "s", "--dx", 0, "--format", "npy",
+                   "--backend", backend.name) == 0
+    got = np.load(tmp_path / "s" / "w.npy")
+    assert got.dtype == np.float64
+    np.testing.assert_array_equal(got, img.astype(np.float64))
+    assert run_cli("blur", tmp_path / "w.tif", "-o", tmp_path / "b", "--dx", 3.5, "--format", "npy",
+                   "--backend", backend.name) == 0
+    np.testing.assert_array_equal(np.load(tmp_path / "b" / "w.npy"), gfgpu.motion_blur(img, (0.0, 3.5),
+                                                                                      backend=backend.name))
+
+
+def test_canny_scales_wide_integers_in_float64(tmp_path):
+    """A step of one count at 2**24 (int32): batch canny divided in float32, where 2**24 + 1 rounds to
+    2**24, and found no edge; now it equals ``gfgpu.canny`` of the integer image."""
+    import tifffile
+    img = np.full((24, 32), 2 ** 24, np.int32)
+    img[:, 16:] += 1
+    tifffile.imwrite(tmp_path / "step.tif", img)
+    assert run_cli("canny", tmp_path / "step.tif", "-o", tmp_path / "e", "--low", 0.7, "--high", 0.9,
+                   "--format", "npy", "--backend", "numpy") == 0
+    got = np.load(tmp_path / "e" / "step.npy")
+    ref = gfgpu.canny(img, 1.0, 0.7, 0.9, use_quantiles=True, backend="numpy")
+    assert ref.any() and set(np.nonzero(ref.any(axis=0))[0]) == {16}
+    np.testing.assert_array_equal(got, ref)
+
+
+def test_float_and_wide_integer_png_outputs_are_stated(tmp_path, capsys, rng):
+    """The single-image commands print gfgpu.io.conversion_note; batch did not (float TIFF -> PNG was
+    rescaled silently).  Now each such file has a note line, in the command's options."""
+    import tifffile
+    inputs = tmp_path / "in"
+    inputs.mkdir()
+    tifffile.imwrite(inputs / "unit.tif", (0.031 + 0.942 * rng.random((12, 16))).astype(np.float32))
+    tifffile.imwrite(inputs / "wide.tif", (rng.random((12, 16)) * 1e9).astype(np.int32))
+    iio.imwrite(inputs / "u8.png", (rng.random((12, 16)) * 255).astype(np.uint8))
+    iio.imwrite(inputs / "u16.png", (rng.random((12, 16)) * 65535).astype(np.uint16))
+    for op in (("shift", "--dx", 1), ("blur", "--dx", 2)):
+        assert run_cli(*op, inputs, "-o", tmp_path / op[0], "--backend", "numpy") == 0
+        out = capsys.readouterr().out
+        notes = [line for line in out.splitlines() if line.startswith("  note: ")]
+        assert len(notes) == 2, out
+        assert f"{inputs / 'unit.tif'}: float32 input in [0, 1]" in notes[0] and "round(v * 255)" in notes[0]
+        assert f"{inputs / 'wide.tif'}: int32 input written as 8-bit PNG stretched" in notes[1]
+        assert all(line.endswith("values") and "--format tiff keeps" in line for line in notes)
+        assert run_cli(*op, inputs, "-o", tmp_path / f"{op[0]}_tiff", "--format", "tiff", "--backend",
+                       "numpy") == 0
+        assert "note:" not in capsys.readouterr().out
+    for op in (("gradient",), ("canny",)):      # renderings (colour-coded, 0/255), not the values
+        assert run_cli(*op, inputs, "-o", tmp_path / op[0], "--backend", "numpy") == 0
+        assert "note:" not in capsys.readouterr().out

@@ -299,3 +299,104 @@ def test_batch_on_local_workers_prints_no_dask_log_lines_on_ctrl_c(tmp_path, rng
         assert err == "", err
     else:
         assert proc.returncode == 130 and err.strip() == "gfgpu batch blur: interrupted", (proc.returncode, err)
+
+
+# a module that sends the process a real SIGINT (what Ctrl-C does) while it is being imported
+_CTRL_C_ON_IMPORT = """
+import os, signal, time
+os.kill(os.getpid(), signal.SIGINT)
+time.sleep(60)
+"""
+#: the ``gfgpu`` script's own lines (pip's console-script wrapper for ``gfgpu.cli:main``)
+_SCRIPT = "import sys; from gfgpu.cli import main; sys.exit(main())"
+
+
+@pytest.mark.parametrize("entry", ["python -m gfgpu", "gfgpu script"])
+@pytest.mark.parametrize("module", ["numpy", "argparse"])   # loaded by the commands / by the parser
+def test_ctrl_c_during_start_up_is_exit_130_in_one_line(tmp_path, entry, module):
+    """Ctrl-C while the command is still importing (issue 31: a KeyboardInterrupt traceback and exit
+    status -2): one line, exit status 130, from ``python -m gfgpu`` and from the ``gfgpu`` script."""
+    import signal
+    fake = tmp_path / "fake"
+    fake.mkdir()
+    (fake / f"{module}.py").write_text(_CTRL_C_ON_IMPORT)
+    argv = ["-m", "gfgpu"] if entry == "python -m gfgpu" else ["-c", _SCRIPT]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(fake), *filter(None, [os.environ.get("PYTHONPATH")])]))
+    proc = subprocess.run([sys.executable, *argv, "shift", "x.png", "-o", "y.png", "--dx", "1"], cwd=tmp_path,
+                          env=env, capture_output=True, text=True, timeout=120,
+                          preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert (proc.returncode, proc.stderr) == (130, "gfgpu: interrupted\n"), (proc.returncode, proc.stderr)
+    assert sorted(os.listdir(tmp_path)) == ["fake"]
+
+
+_HELP_MODULES = """
+import contextlib, io, sys
+from gfgpu.cli import main
+script = sorted(m for m in sys.modules if m.split(".")[0] in ("gfgpu", "numpy", "argparse"))
+with contextlib.redirect_stdout(io.StringIO()):
+    try:
+        main(sys.argv[1:])
+    except SystemExit:
+        pass
+print(" ".join(script))
+print(" ".join(sorted(sys.modules)))
+"""
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["depth", "--help"], ["disparity", "--help"], ["batch", "--help"]])
+def test_help_does_not_load_the_operators(tmp_path, argv):
+    """``gfgpu --help`` took ~4 s importing every operator (issue 31): the script's first line loads
+    only ``gfgpu.cli``, and help loads no shape-from-shading (scipy.optimize) or stereo matcher."""
+    out = subprocess.run([sys.executable, "-c", _HELP_MODULES, *argv], capture_output=True, text=True,
+                         check=True, timeout=120, cwd=tmp_path).stdout.splitlines()
+    assert out[0].split() == ["gfgpu", "gfgpu._version", "gfgpu.cli"]
+    loaded = set(out[1].split())
+    assert not loaded & {"gfgpu.shading", "gfgpu.stereo", "scipy.optimize", "warp", "pyopencl", "dask"}, loaded
+
+
+@pytest.mark.parametrize("u, words", [("1e10", "must lie in (0, 1e+09] pixels"), ("1e300", "must lie in (0, 1e+09]"),
+                                      ("0", "must be > 0"), ("nan", "finite")])
+def test_depth_u_is_refused_with_its_range_before_reading(tmp_path, capsys, u, words):
+    """``-u`` beyond the library's kernel-scale range (1e9 px, as every other ``-u``; beyond it GSFS
+    is its integrator limit, and a float32 image's kernel overflowed past 3.4e38 into "the shape
+    estimate is flat") is an option error naming ``-u``, before the (missing) image is read."""
+    with pytest.raises(SystemExit) as exit_:
+        cli(["depth", tmp_path / "missing.png", "-o", tmp_path / "d.png", "-u", u])
+    err = capsys.readouterr().err.strip()
+    assert exit_.value.code == 2 and len(err.splitlines()) == 1, err
+    assert err.startswith("gfgpu depth: argument -u: ") and words in err and "missing" not in err, err
+    assert sorted(os.listdir(tmp_path)) == []
+
+
+def _shading(tmp_path, name, image):
+    iio.imwrite(tmp_path / name, np.clip(image, 0, 255).astype(np.uint8))
+    return tmp_path / name
+
+
+def test_depth_light_and_u_messages_name_the_options(tmp_path, capsys, rng):
+    """The light estimate's refusals said "pass light=" and the lower limit of u "u must", the API's
+    names: now ``--light`` and ``-u``."""
+    from scipy import ndimage
+    texture = _shading(tmp_path, "t.png", 128 + 60 * ndimage.gaussian_filter(rng.standard_normal((48, 64)), 3)
+                       / 0.1)                        # fills the frame: no flat background to fix the slant
+    line = one_line(capsys, cli(["depth", texture, "-o", tmp_path / "d.png", "--backend", "numpy", "-q"]), 2,
+                    "depth")
+    assert "pass --light L1 L2 L3 (or TILT SLANT)" in line and "light=" not in line and "mask=" not in line, line
+    y, x = np.mgrid[:48, :64]
+    sphere = _shading(tmp_path, "s.png", np.clip(1 - ((x - 32) ** 2 + (y - 24) ** 2) / 400, 0, 1) ** 0.5 * 200 + 20)
+    line = one_line(capsys, cli(["depth", sphere, "-o", tmp_path / "d.png", "--light", 1, 0, 1, "-u", 1,
+                                 "--backend", "numpy", "-q"]), 2, "depth")
+    assert line.startswith("gfgpu depth: -u must be at least "), line
+    assert cli(["depth", sphere, "-o", tmp_path / "d.png", "--light", 1, 0, 1, "-u", "1e9", "--backend", "numpy",
+                "-q"]) == 0
+    assert sorted(os.listdir(tmp_path)) == ["d.png", "s.png", "t.png"]
+
+
+def test_depth_light_help_names_the_default_estimator(capsys):
+    """The --light help named Zheng & Chellappa (1991), no longer the default estimator."""
+    with pytest.raises(SystemExit):
+        cli(["depth", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    start = text.index("--light L [L ...]", text.index("options:"))
+    light = text[start:text.index("-u U", start)]
+    assert "Zheng" not in light and "'background' method" in light and "flat frontal background" in light

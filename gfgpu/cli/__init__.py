@@ -27,35 +27,42 @@ Every command checks its options, inputs and outputs before any work, and an err
 
 from __future__ import annotations
 
-import argparse
 import sys
 
 from .._version import __version__
-from ..backends import BackendUnavailable
-from ..io import OutputError
-from . import batch, blur, canny, depth, devices, disparity, frames, gradient, shift
-from .common import CommandError, check_source, in_cli_terms
 
 __all__ = ["main", "build_parser"]
 
-COMMANDS = (disparity, gradient, canny, shift, blur, frames, depth, batch, devices)
+
+def commands():
+    """The command modules, in the order ``gfgpu --help`` lists them.
+
+    Imported here, not at the top: ``from gfgpu.cli import main`` (the ``gfgpu`` script's first
+    line) then loads next to nothing, so a Ctrl-C during start-up reaches :func:`main`'s handler
+    (exit status 130, one line) instead of printing a traceback."""
+    from . import batch, blur, canny, depth, devices, disparity, frames, gradient, shift
+    return (disparity, gradient, canny, shift, blur, frames, depth, batch, devices)
+
 
 #: the command's one-line description (not read from the docstring, which ``python -OO`` drops)
 DESCRIPTION = "The gfgpu command: Green's-function filters on image files."
 
 
-class _Parser(argparse.ArgumentParser):
-    """Usage errors as one line, ``gfgpu COMMAND: message`` (exit status 2), like every other error."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
-
-
 def build_parser():
+    """The ``gfgpu`` command's argparse parser, every command's subparser added."""
+    # imported here, like the commands (see commands())
+    import argparse
+
+    class _Parser(argparse.ArgumentParser):
+        """Usage errors as one line, ``gfgpu COMMAND: message`` (exit status 2), like every other error."""
+
+        def error(self, message):
+            self.exit(2, f"{self.prog}: {message} (see {self.prog} --help)\n")
+
     parser = _Parser(prog="gfgpu", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"gfgpu {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for command in COMMANDS:
+    for command in commands():
         command.add_parser(sub)
     return parser
 
@@ -65,22 +72,38 @@ def main(argv=None):
     130: interrupted; see the module's documentation)."""
     name, args = "gfgpu", None
     try:
+        # inside the try: a Ctrl-C while the commands are imported is an interruption like any other
+        from .common import check_source
         args = build_parser().parse_args(argv)
         name = args.command if getattr(args, "op", None) is None else f"{args.command} {args.op}"
         check_source(args)
         return args.func(args)
-    except OutputError as exc:
+    except KeyboardInterrupt:
+        print(f"{'gfgpu ' if name != 'gfgpu' else ''}{name}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        status = _report(exc, name, args)
+        if status is None:
+            raise
+        return status
+
+
+def _report(exc, name, args):
+    """The exit status of a failed command, its one-line message printed; None for an exception that is
+    not a reported failure (a bug: it propagates with its traceback)."""
+    from ..backends import BackendUnavailable
+    from ..io import OutputError
+    from .common import CommandError, in_cli_terms
+    if isinstance(exc, OutputError):
         print(f"gfgpu {name}: {exc}", file=sys.stderr)
         return 1
-    except (CommandError, BackendUnavailable, OSError, ValueError, TypeError) as exc:
+    if isinstance(exc, (CommandError, BackendUnavailable, OSError, ValueError, TypeError)):
         # a library error, in the command's terms (CommandErrors are written in them already)
         terms = () if isinstance(exc, CommandError) else \
             getattr(sys.modules.get(getattr(getattr(args, "func", None), "__module__", "")), "CLI_TERMS", ())
         print(f"gfgpu {name}: {in_cli_terms(str(exc), terms)}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"{'gfgpu ' if name != 'gfgpu' else ''}{name}: interrupted", file=sys.stderr)
-        return 130
+    return None
 
 
 if __name__ == "__main__":

@@ -26,12 +26,14 @@ import time
 from ..batch import BLUR_MOTIONS, FORMATS, Result, check_parameters, discover_inputs, plan_jobs, run_batch, summarize
 from ..io import remove_stale_temporaries
 from ..motion.kinds import MOTIONS, PSFS
-from .common import CommandError, announce_backend, backend_args
+from .common import CommandError, announce_backend, backend_args, in_cli_terms
 from .motion_args import CLI_TERMS as _MOTION_TERMS
 from .motion_args import MOTION_OPTIONS, check_motion, psf_help
 
 #: the library's argument names in its messages -> the options of ``gfgpu batch``
 CLI_TERMS = _MOTION_TERMS
+#: the conversion notes of the summary (gfgpu.io.conversion_note) in this command's options
+NOTE_TERMS = (("write a .tif to keep", "--format tiff keeps"),)
 
 _EPILOG = """\
 Outputs are OUTDIR/<input stem>.<format>, written atomically (temporary file + rename), so an
@@ -186,5 +188,5 @@ def run(args):
     results += [Result(path, "", "skipped", reason) for path, reason in left_out
                 if reason != "inside the output folder"]
     text, code = summarize(results, time.perf_counter() - t0)
-    print(text)
+    print(in_cli_terms(text, NOTE_TERMS))
     return code

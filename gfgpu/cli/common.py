@@ -18,11 +18,14 @@ import sys
 import numpy as np
 
 from .. import io
+from .._core.boundary import SCIPY_MODES
 from ..backends import BackendUnavailable, resolve_backend
 
-MODES = ("reflect", "constant", "nearest", "mirror", "wrap")
+MODES = SCIPY_MODES
 #: help of --mode (scipy.ndimage's names and meanings)
-MODE_HELP = "how the image continues beyond its border (scipy.ndimage's modes; default reflect)"
+MODE_HELP = ("how the image continues beyond its border (scipy.ndimage's modes and meanings: for a shift "
+             "'wrap' has period n - 1 and 'constant' fills beyond [0, n - 1]; grid-wrap / grid-constant are "
+             "the periodic and padded ones; default reflect)")
 
 
 class CommandError(Exception):

@@ -8,6 +8,7 @@ Examples::
 
 from __future__ import annotations
 
+import argparse
 import math
 import time
 
@@ -15,7 +16,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .. import io
-from ..shading import lambertian_shading, photometric_motion, shape_from_shading
+from .._core.validation import SCALE_RANGE
 from .common import (
     IMAGE_OUTPUT,
     NPY_OUTPUT,
@@ -34,7 +35,23 @@ CLI_TERMS = (
     ("Pass direction= (radians)", "Pass --direction DEGREES"),
     ("or use photometric_motion", "or use --method photometric-motion"),
     ("direction= (radians)", "--direction (degrees)"),
+    # the light estimate's refusals (the command has no mask option: that advice is the library's)
+    ("pass light= explicitly, or mask= the object on its background", "pass --light L1 L2 L3 (or TILT SLANT)"),
+    ("pass light= explicitly", "pass --light L1 L2 L3 (or TILT SLANT)"),
+    ("pass light=", "pass --light L1 L2 L3 (or TILT SLANT)"),
+    ("u must be at least", "-u must be at least"),
 )
+
+
+def gsfs_u(text):
+    """argparse type of ``-u``: pixels in (0, 1e9], the library's range of a kernel scale (as ``gfgpu
+    gradient -u``; beyond, the result no longer changes: the integrator limit).  The lower limit, a
+    quarter of the image's line along the light, is the library's check once the light is known."""
+    value = positive_float(text)
+    if value > SCALE_RANGE[1]:
+        raise argparse.ArgumentTypeError(f"must lie in (0, {SCALE_RANGE[1]:g}] pixels (at least a quarter of the "
+                                         f"image's line along the light), got {text!r}")
+    return value
 
 
 def add_parser(subparsers):
@@ -46,8 +63,11 @@ def add_parser(subparsers):
     p.add_argument("--method", choices=("gsfs", "photometric-motion"), default="gsfs")
     p.add_argument("--light", nargs="+", type=finite_float, metavar="L",
                    help="light as L1 L2 L3 (x right, y down, z toward the viewer) or TILT SLANT in "
-                        "degrees; default: estimated (Zheng & Chellappa 1991)")
-    p.add_argument("-u", type=positive_float, default=None, help="GSFS matching constant in pixels (default: rule)")
+                        "degrees; default: estimated from an object on a flat frontal background (its "
+                        "brightest point against the background's level; gfgpu.estimate_illuminant's "
+                        "'background' method), refused with the reason when the image has none")
+    p.add_argument("-u", type=gsfs_u, default=None, help="GSFS matching constant in pixels, from a quarter of "
+                   "the image's line along the light to 1e9 (default: one line)")
     p.add_argument("--boundary", choices=("auto", "background", "free"), default="auto",
                    help="GSFS line constants: an object on a flat background, a textured surface "
                         "filling the frame, or chosen from the image border (default)")
@@ -77,6 +97,9 @@ def _to_png(values):
 
 
 def run(args):
+    # imported here: gfgpu --help does not load the shading package (and scipy.optimize)
+    from ..shading import lambertian_shading, photometric_motion, shape_from_shading
+
     light = _light(args.light)
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--relief", args.relief, IMAGE_OUTPUT),
                                  ("--npy", args.npy, NPY_OUTPUT)])

@@ -18,7 +18,6 @@ import numpy as np
 from tqdm import tqdm
 
 from .. import io
-from ..stereo import disparity, disparity_work, estimate_max_disparity, fill_holes, reproject_to_3d, stereo_q
 from .common import (
     IMAGE_OUTPUT,
     NPY_OUTPUT,
@@ -39,6 +38,13 @@ CLI_TERMS = (("max_disparity", "--max-disparity"), ("min_disparity", "--min-disp
 
 #: the largest disparity a KITTI 16-bit PNG holds: round(d * 256) <= 65535
 PNG16_MAX = 65535 / 256
+
+
+def disparity(*args, **kwargs):
+    """:func:`gfgpu.stereo.disparity`, imported on first call (``gfgpu --help`` does not load the matcher;
+    a module attribute, so that tests can replace the matching)."""
+    from ..stereo import disparity as compute
+    return compute(*args, **kwargs)
 
 
 def _read_pair(args):
@@ -100,6 +106,7 @@ def _q_matrix(args, shape):
         return q
     if args.focal is None or args.baseline is None:
         raise CommandError("--ply needs --focal and --baseline, or --q")
+    from ..stereo import stereo_q
     h, w = shape
     return stereo_q(args.focal, args.baseline, ((h - 1) / 2, (w - 1) / 2))
 
@@ -120,6 +127,8 @@ def _check_png16(args, d_max):
 
 def run(args):
     """Handle ``gfgpu disparity`` (parsed ``args``); returns the exit status."""
+    from ..stereo import disparity_work, estimate_max_disparity, fill_holes, reproject_to_3d
+
     check_outputs([args.left, args.right], [
         ("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT), ("--pfm", args.pfm, (".pfm",)),
         ("--png16", args.png16, (".png",)), ("--confidence", args.confidence, NPY_OUTPUT),
