@@ -578,11 +578,20 @@ class OpenCLBackend(Backend):
         n, lines = (cols, rows) if axis == 2 else (rows, cols)
         line_stride, step = (cols, 1) if axis == 2 else (1, cols)
         item = dtype.itemsize
-        knl = launch.kernel(self, __package__, "recurse_lines.cl", "recurse_lines", dtype)
         args = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
                 lam, kap, tap, reverse, omega, omega_c, np.int32(plans.omega.shape[1]), np.int32(n),
                 np.int32(lines), np.int64(line_stride), np.int64(step), np.int64(rows * cols), dtype.type(cval))
-        group = 1 if self.kind == "cpu" else launch.group_size(self)
+        if self.kind == "cpu":
+            # a line's recursion is one chain of dependent multiply-adds: 2 x 32 bytes of adjacent
+            # lines per work-item, in two vectors of lanes (recurse_lines_lanes; a vector of lines
+            # of both directions runs line by line)
+            lanes, vecs = 32 // item, 2
+            knl = launch.kernel(self, __package__, "recurse_lines.cl", "recurse_lines_lanes", dtype,
+                                LANES=lanes, VECS=vecs, ROWS=int(axis == 2))
+            launch.launch(self, knl, (-(-lines // (lanes * vecs)), b), (1, 1), [src], [dst], args)
+            return dst
+        knl = launch.kernel(self, __package__, "recurse_lines.cl", "recurse_lines", dtype)
+        group = launch.group_size(self)
         gsize = (-(-lines // group) * group, b)
         launch.launch(self, knl, gsize, (group, 1), [src], [dst], args)
         return dst
