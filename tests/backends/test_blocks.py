@@ -172,3 +172,42 @@ def test_windowed_passes_gpu_shaped(gpu_shaped, rng):
             want = gfgpu.shift(x.astype(np.float64), s, mode=mode, cval=0.5, backend="numpy")
             got = gfgpu.shift(x, s, mode=mode, cval=0.5, backend=gpu_shaped)
             assert np.abs(got - want).max() <= 2e-6 * np.abs(want).max(), (shape, s, mode)
+
+
+def _many_line_passes():
+    """52 per-line passes: runs of one direction longer than a CPU work-item's lanes (16 float32,
+    8 float64), groups that mix directions, identity lines and a partial last group."""
+    forward = [greens.shift_pass(0.05 + 0.02 * i) for i in range(20)]
+    backward = [greens.shift_pass(-0.05 - 0.02 * i) for i in range(16)]
+    mixed = [greens.UniformGreen(1.3).line_pass() if i % 2 else greens.HomogeneousGreen(2.0).line_pass(reverse=True)
+             for i in range(8)]
+    tail = [None, greens.shift_pass(0.35), None, greens.shift_pass(-2.7), greens.shift_pass(9.5), None, None,
+            greens.shift_pass(0.2)]
+    return forward + backward + mixed + tail
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("axis", [1, 2])
+def test_per_line_passes_in_vector_lanes(backend, dtype, axis, rng):
+    """recurse_lines' CPU path runs adjacent lines in vector lanes, each with its own coefficients:
+    against the float64 specification, for lines of one direction, mixed groups and the tail."""
+    from gfgpu._core.recursion import plan_lines, run_reference_lines
+    passes = _many_line_passes()
+    m = len(passes)
+    shape = (2, 23, m) if axis == 1 else (2, m, 29)
+    n = shape[axis]
+    for mode in ["reflect", "wrap", "constant", "nearest", "mirror"]:
+        src = (1.0 + rng.standard_normal(shape)).astype(dtype)
+        plans = plan_lines(passes, n, mode, dtype)
+        plans64 = plan_lines(passes, n, mode, np.float64)
+        x = src.astype(np.float64)
+        ref = np.stack([run_reference_lines(x[i] if axis == 1 else x[i].T, plans64, -0.5) for i in range(2)])
+        ref = ref if axis == 1 else ref.transpose(0, 2, 1)
+        tol = 2e-6 if dtype == np.float32 else 1e-12
+        out = backend.empty(shape, dtype)
+        backend.recurse_lines(backend.asarray(src), out, axis, plans, cval=-0.5)
+        got = backend.to_host(out)
+        assert np.abs(got - ref).max() <= tol * np.abs(ref).max(), mode
+        same = backend.asarray(src.copy())
+        backend.recurse_lines(same, same, axis, plans, cval=-0.5)
+        assert np.abs(backend.to_host(same) - ref).max() <= tol * np.abs(ref).max(), (mode, "in place")
