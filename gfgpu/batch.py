@@ -628,6 +628,22 @@ def _environ_restored(keys):
                 os.environ[k] = v
 
 
+@contextlib.contextmanager
+def _sigint_ignored():
+    """SIGINT ignored in this process while the block runs (children started there inherit it);
+    the handler is restored after, also when the block raises.  A no-op outside the main thread."""
+    import signal
+    import threading
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
 def _run_on_dask(jobs, workers, scheduler, bar):
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
@@ -638,7 +654,10 @@ def _run_on_dask(jobs, workers, scheduler, bar):
         else:
             spawn_env = [*dask.config.get("distributed.nanny.pre-spawn-environ"), "PYTHONHASHSEED"]
             stack.enter_context(_environ_restored(spawn_env))   # restored after the cluster closes
-            with dask.config.set(_LOCAL_WORKER_CONFIG):
+            # the worker processes start with SIGINT ignored (Python then installs no KeyboardInterrupt
+            # handler in them): a Ctrl-C reaches the whole process group, and only this process, which
+            # closes the cluster, should act on it -- else each worker prints its own traceback
+            with dask.config.set(_LOCAL_WORKER_CONFIG), _sigint_ignored():
                 cluster = stack.enter_context(LocalCluster(n_workers=int(workers), threads_per_worker=1,
                                                            processes=True, dashboard_address=":0"))  # any free port
             client = stack.enter_context(Client(cluster))
