@@ -38,7 +38,7 @@ from .boundary import period as mode_period
 from .passes import LinePass
 
 __all__ = ["MODES", "TOL", "check_mode", "PassPlan", "plan_pass", "run_reference", "block_powers",
-           "run_reference_blocks",
+           "packed_block_powers", "run_reference_blocks",
            "LinePlans", "plan_lines", "line_plans", "run_reference_lines"]
 
 TOL = {np.dtype(np.float32): 1e-10, np.dtype(np.float64): 1e-18}
@@ -182,6 +182,13 @@ def block_powers(plan: PassPlan, block: int):
     pad = np.ones((lam.shape[0], blocks * block), np.complex128)
     pad[:, :plan.n] = lam
     return pad.reshape(lam.shape[0], blocks, block).prod(axis=2)
+
+
+def packed_block_powers(plan: PassPlan, block: int, dtype):
+    """:func:`block_powers` as a real ``(S, blocks, 2)`` array of ``dtype`` (real, imaginary
+    parts), the layout the device kernels read, as :meth:`PassPlan.packed` gives the plan's."""
+    powers = block_powers(plan, block)
+    return np.ascontiguousarray(np.stack([powers.real, powers.imag], axis=-1).astype(dtype))
 
 
 def run_reference_blocks(lines, plan: PassPlan, block: int, cval=0.0):

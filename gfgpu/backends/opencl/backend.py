@@ -23,7 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..._core.recursion import block_powers
+from ..._core.recursion import packed_block_powers
 from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 from . import launch
@@ -632,8 +632,7 @@ class OpenCLBackend(Backend):
         if hit is not None and hit[0] is plan:
             self._plans.move_to_end(key)
             return hit[1]
-        powers = block_powers(plan, block)
-        packed = np.ascontiguousarray(np.stack([powers.real, powers.imag], axis=-1).astype(dtype))
+        packed = packed_block_powers(plan, block, dtype)
         mf = self._cl.mem_flags
         buf = self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=packed)
         self._plans[key] = (plan, buf)

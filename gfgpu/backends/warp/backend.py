@@ -19,7 +19,7 @@ from functools import cache
 
 import numpy as np
 
-from ..._core.recursion import block_powers
+from ..._core.recursion import packed_block_powers
 from ..._core.translation import _flat_index
 from ..._core.validation import host_all_finite
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
@@ -367,13 +367,13 @@ class WarpBackend(Backend):
         return block_split(shape, axis, self.kind)
 
     def _block_powers(self, plan, dtype, block, blocks):
+        """(S, blocks, 2) products of each block's lam on the device, cached per plan and block."""
         key = (id(plan), dtype, "pow", block)
         hit = self._plans.get(key)
         if hit is not None and hit[0] is plan:
             self._plans.move_to_end(key)
             return hit[1]
-        powers = block_powers(plan, block)
-        packed = np.ascontiguousarray(np.stack([powers.real, powers.imag], axis=-1).astype(dtype))
+        packed = packed_block_powers(plan, block, dtype)
         arr = self._wp.array(packed, dtype=self._wp.dtype_from_numpy(dtype), device=self._device)
         self._plans[key] = (plan, arr)
         if len(self._plans) > _PLAN_CACHE_SIZE:
