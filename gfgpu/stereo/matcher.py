@@ -7,7 +7,7 @@ import numpy as np
 from .._core.arrays import as_kind, kind_of
 from .._core.validation import flag
 from ..backends import resolve_backend
-from . import matching
+from . import matching, postfilter
 
 __all__ = ["StereoMatcher"]
 
@@ -37,6 +37,9 @@ class StereoMatcher:
         As for :func:`gfgpu.stereo.disparity` (``"sgm"``): default block 3, half-pixel
         samples, penalties :func:`gfgpu.stereo.matching.default_penalties`, 4 paths,
         10 % uniqueness, the left-right check.
+    speckle_size, speckle_range, min_confidence : optional
+        The post-filters of :func:`gfgpu.stereo.disparity` (default off), applied to every
+        frame's map on the host.
     backend, device : optional
         Where the kernels run (as for :func:`gfgpu.stereo.disparity`).
 
@@ -76,8 +79,8 @@ class StereoMatcher:
     """
 
     def __init__(self, shape, max_disparity, *, min_disparity=0, window=None, subpixel=True, lr_check=True,
-                 subpixel_steps=2, census_radius=3, p1=None, p2=None, paths=4, uniqueness=10, backend=None,
-                 device=None):
+                 subpixel_steps=2, census_radius=3, p1=None, p2=None, paths=4, uniqueness=10, speckle_size=0,
+                 speckle_range=1.0, min_confidence=0.0, backend=None, device=None):
         shp = tuple(shape) if isinstance(shape, (tuple, list)) else None
         if shp is None or len(shp) != 2:
             raise ValueError(f"shape must be (H, W), got {shape!r}")
@@ -94,6 +97,7 @@ class StereoMatcher:
         self._subpixel, self._lr_check = flag("subpixel", subpixel), flag("lr_check", lr_check)
         (self._window, self._steps, self._radius, self._p1, self._p2, self._paths,
          self._uniqueness) = matching._sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniqueness)
+        self._post = postfilter.check_postfilter(speckle_size, speckle_range, min_confidence)
         self.shape = (h, w)
         self.min_disparity, self.max_disparity = d_min, d_max
         self.backend = resolve_backend(backend, device)
@@ -150,5 +154,7 @@ class StereoMatcher:
         if not self._subpixel:
             disp = np.rint(disp * self._steps) / self._steps
         disp = disp.astype(np.float32)
+        if self._post[0] or self._post[2]:
+            disp, conf = postfilter.apply_postfilter(disp, conf, *self._post)
         # torch in, torch out (numpy and device arrays: numpy, as disparity() returns)
         return as_kind((disp, conf) if return_confidence else disp, kind_of(left), left)
