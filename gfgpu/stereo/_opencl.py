@@ -48,6 +48,16 @@ def _stereo_kernel(be, name, n_disp=None, cost_bytes=False, padded=False, steps=
     return _build(be, name, **defines)
 
 
+def _bucket_kernel(be, name, bucket):
+    """A kernel of the CPU band matcher, built for ``bucket = (samples, nv_full, block, steps)``
+    (:func:`gfgpu.stereo.band_plan.sample_bucket`): one program for the interleave, block_cost,
+    sgm_band and select_disparity kernels of a bucket, window and sub-pixel step (one build
+    instead of four)."""
+    nb, nv_full, block, steps = bucket
+    return _build(be, name, N_DISP=int(nb), NV_FULL=int(nv_full), BLOCK=int(block),
+                  COST_SHIFT=specs.cost_shift(int(block)), STEPS=int(steps), COST_BYTES=1, PADDED_PIXELS=1)
+
+
 def _empty(be, workspace, name, shape, dtype):
     """``be.empty(shape, dtype)``, or the buffer of that name, shape and dtype that ``workspace``
     (a dict kept by the caller across calls, :class:`gfgpu.stereo.StereoMatcher`) already holds."""
@@ -91,9 +101,11 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     return out
 
 
-def _interleave(be, cr, h, w, steps, n, workspace=None):
+def _interleave(be, cr, h, w, steps, n, workspace=None, bucket=None):
     ri = _empty(be, workspace, "interleaved", (h, w * steps), np.uint64)
-    ocl.launch(be, _stereo_kernel(be, "census_interleave", n), (w, h), None, [cr], [ri],
+    knl = _stereo_kernel(be, "census_interleave", n) if bucket is None else _bucket_kernel(be, "census_interleave",
+                                                                                          bucket)
+    ocl.launch(be, knl, (w, h), None, [cr], [ri],
                (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
     return ri
 
@@ -113,24 +125,32 @@ def _block_scratch(be, w, n, block, workspace=None):
     return _empty(be, workspace, "ring", (splits * (block + 2) * cols * padded_samples(n),), np.uint8), cols
 
 
-def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block, workspace=None):
+def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block, workspace=None,
+               bucket=None):
     """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows], int16 or
     byte costs as ``out``'s dtype, n samples per pixel (``out`` of :func:`_padded` where its
-    last axis is longer).  CPUs: straight from the census codes, each column range's rows in
+    last axis is longer; CPUs: with ``bucket`` (:func:`_bucket_kernel`) the bucket's kernel, n an
+    argument).  CPUs: straight from the census codes, each column range's rows in
     sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
     ``ham`` (one work-item per pixel), then block sums."""
     padded = out.shape[2] != n
     group = ocl.group_size(be)
     gsize = (-(-rows // group) * group,)
     if ham is None:
-        knl = _build(be, "block_cost", N_DISP=n, BLOCK=int(block), COST_SHIFT=specs.cost_shift(int(block)),
-                     **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}), **({"PADDED_PIXELS": 1} if padded else {}))
+        if bucket is None:
+            nb = n
+            knl = _build(be, "block_cost", N_DISP=n, BLOCK=int(block), COST_SHIFT=specs.cost_shift(int(block)),
+                         **({"COST_BYTES": 1} if out.dtype == np.uint8 else {}),
+                         **({"PADDED_PIXELS": 1} if padded else {}))
+        else:
+            nb = bucket[0]
+            knl = _bucket_kernel(be, "block_cost", bucket)
         splits = _cost_splits(be, w)
-        scratch, cols = _block_scratch(be, w, n, block, workspace)
+        scratch, cols = _block_scratch(be, w, nb, block, workspace)
         ocl.launch(be, knl, (splits,), (1,), [cl_, ri], [out, scratch],
                    (cl_.data, ri.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(first_step),
                     np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0), np.int32(splits),
-                    np.int32(cols)))
+                    np.int32(cols), np.int32(n)))
         return
     if padded:
         raise ValueError("padded volumes are the CPU band matcher's")
@@ -178,20 +198,23 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
     return disp, disp_right, margin
 
 
-def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness):
+def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness, bucket=None):
     """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows], whose rows are
     stored right to left as sgm_band's up sums), n samples per pixel (volumes of
-    :func:`_padded` where their last axis is longer)."""
+    :func:`_padded` where their last axis is longer; ``bucket`` as for :func:`_band_cost`)."""
     padded = agg.shape[2] != n
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     group = ocl.group_size(be)
     second = agg if agg2 is None else agg2
-    knl = _stereo_kernel(be, "select_disparity", n, padded=padded, steps=steps)
+    if bucket is None:
+        knl = _stereo_kernel(be, "select_disparity", n, padded=padded, steps=steps)
+    else:
+        knl = _bucket_kernel(be, "select_disparity", bucket)
     ocl.launch(be, knl, (-(-rows // group) * group,), (group,), [agg, second], [disp, disp_right, margin],
                (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
                 np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
-                np.int32(y0)))
+                np.int32(y0), np.int32(n)))
 
 
 def _sgm_state(be, w, n, workspace=None):
@@ -201,21 +224,24 @@ def _sgm_state(be, w, n, workspace=None):
 
 
 def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
-                 init, active, view, write_up=True):
+                 init, active, view, write_up=True, bucket=None):
     """One launch of sgm_band on volumes of :func:`_padded` with n samples per pixel; ``view`` =
     (block, first_step, steps): which samples are in view; ``bound``: the horizontal paths'
-    states at the column tiles' edges."""
+    states at the column tiles' edges; ``bucket`` as for :func:`_band_cost`."""
+    nb = n if bucket is None else bucket[0]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
     # one work-item initialises (a cell's guard lanes are read from the neighbouring column)
     split = not write_up and paths == 4 and w >= 2 and not init
-    ocl.launch(be, _stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True), (2,), (1,), [cost],
+    knl = (_stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True) if bucket is None
+           else _bucket_kernel(be, "sgm_band", bucket))
+    ocl.launch(be, knl, (2,), (1,), [cost],
                [down, up, state, state_min, bound],
                (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
                 np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
                 np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
-                np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(n) + 16)))), bound.data))
+                np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(nb) + 16)))), bound.data, np.int32(n)))
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -246,12 +272,16 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # volumes.  The byte costs of the whole image are kept between the two sweeps when
     # ``budget`` allows (H W D bytes), else computed again for each band.
     k, keep, _ = band_plan.match_plan(h, w, n, paths, block, budget)
-    ri = _interleave(be, cr, h, w, steps, n, workspace)
-    cost = _padded(be, h if keep else k, w, n, np.uint8, workspace, "cost")
-    down = _padded(be, k, w, n, np.int16, workspace, "down")
-    up = _padded(be, k, w, n, np.int16, workspace, "up")
-    state, state_min = _sgm_state(be, w, n, workspace)
-    bound = _empty(be, workspace, "bound", (2, k, padded_samples(n) + 1), np.int16)
+    # the kernels are built for the bucket of n (nb samples, the rest padding), n an argument: a
+    # new range within a built bucket builds nothing
+    nb, nv_full = band_plan.sample_bucket(n)
+    bucket = (nb, nv_full, block, steps)
+    ri = _interleave(be, cr, h, w, steps, nb, workspace, bucket)
+    cost = _padded(be, h if keep else k, w, nb, np.uint8, workspace, "cost")
+    down = _padded(be, k, w, nb, np.int16, workspace, "down")
+    up = _padded(be, k, w, nb, np.int16, workspace, "up")
+    state, state_min = _sgm_state(be, w, nb, workspace)
+    bound = _empty(be, workspace, "bound", (2, k, nb + 1), np.int16)
     bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
     view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
@@ -267,12 +297,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         ocl.copy_bytes(be, dst, src, nbytes, dst_off, src_off)
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
-        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block, workspace)
+        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block, workspace, bucket)
 
     def band_cost(y0, rows):
         if keep:
             return y0
-        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace)
+        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket)
         return 0
 
     # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep
@@ -281,7 +311,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         y0, rows = bands[b]
         row0 = band_cost(y0, rows)
         _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
-                     init=2 if b == len(bands) - 1 else 0, active=2, view=view, write_up=False)
+                     init=2 if b == len(bands) - 1 else 0, active=2, view=view, write_up=False,
+                     bucket=bucket)
         copy(ckpt, state, st_len, (b - 1) * st_len, st_off)
         copy(ckpt_min, state_min, mn_len, (b - 1) * mn_len, mn_off)
     # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
@@ -292,8 +323,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             copy(state, ckpt, st_len, st_off, b * st_len)
             copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
         _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
-                     init=(1 if b == 0 else 0) | (2 if last else 0), active=3, view=view)
-        _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps, uniqueness)
+                     init=(1 if b == 0 else 0) | (2 if last else 0), active=3, view=view, bucket=bucket)
+        _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps, uniqueness, bucket)
     return disp, disp_right, margin
 
 

@@ -10,8 +10,8 @@ from __future__ import annotations
 import math
 import os
 
-__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "padded_samples", "band_rows",
-           "match_plan", "match_memory"]
+__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "BUCKET_VECTORS", "padded_samples",
+           "sample_bucket", "band_rows", "match_plan", "match_memory"]
 
 #: the band sweeps' column tiles (4 paths): as many columns as hold this many bytes of vertical
 #: path states, so that they stay in a core's L2 cache while the tile's rows are swept
@@ -21,6 +21,41 @@ TILE_BYTES = 128 * 2**10
 def padded_samples(n):
     """A pixel's samples padded to whole short16 vectors (stereo.cl's NP)."""
     return -(-n // 16) * 16
+
+
+def _bucket_ladder():
+    # every count of vectors up to 12, then steps of at most 1/8 (so that at most ~11 % of the
+    # samples swept are padding) through 32 and 64, where stereo.cl's loops stop unrolling
+    ladder = list(range(1, 13)) + [14, 16, 18, 20, 22, 24, 27, 30, 32, 36, 40, 45, 50, 56, 64]
+    while ladder[-1] < 1025:         # MAX_RANGE * 4 + 1 samples = 1025 vectors
+        ladder.append(-(-ladder[-1] * 9 // 8))
+    return tuple(ladder)
+
+
+#: the bucket sizes of the CPU band matcher, in short16 vectors (16 samples) per pixel: a range
+#: of n samples runs in the smallest that holds it (27 buckets up to 1024 samples, 33 up to 2048:
+#: max_disparity 1024 with half-pixel samples)
+BUCKET_VECTORS = _bucket_ladder()
+
+
+def sample_bucket(n):
+    """The build of the CPU band matcher that runs ``n`` disparity samples: ``(samples, full)``,
+    its padded sample count (stereo.cl's ``N_DISP``, a multiple of 16) and the vectors that hold
+    only samples below every count of the bucket (``NV_FULL``: no lane test there).  The true
+    ``n`` is a kernel argument, so every ``n`` of a bucket shares one build of the kernels.
+
+    Examples
+    --------
+    >>> sample_bucket(383)       # 1000 x 1500, max_disparity 191, half-pixel samples: 24 vectors
+    (384, 22)
+    >>> sample_bucket(321)
+    (352, 20)
+    """
+    nv = -(-int(n) // 16)
+    for i, size in enumerate(BUCKET_VECTORS):
+        if size >= nv:
+            return 16 * size, BUCKET_VECTORS[i - 1] if i else 0
+    raise ValueError(f"{n} disparity samples exceed the largest bucket ({16 * BUCKET_VECTORS[-1]})")
 
 
 #: rows of a band of the CPU matcher: at least this many (fewer launches) ...
@@ -68,12 +103,13 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     path states and their checkpoints, the horizontal paths' states at the column tiles' edges;
     bands of ``rows`` rows (default :func:`band_rows`)."""
     k = band_rows(h, paths, w, n) if rows is None else int(rows)
-    cell = padded_samples(n) + 16                          # stereo.cl's CELL
+    nb = sample_bucket(n)[0]                               # the build's padded samples
+    cell = nb + 16                                         # stereo.cl's CELL
     state_row = 2 * (16 + (w + 2) * cell)
     c = 1 if paths == 4 else 4
     checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
-    npix = padded_samples(n)                               # a pixel's samples in _padded
+    npix = nb                                              # a pixel's samples in _padded
     cost = h * w * npix if keep_cost else k * w * npix
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
-    ring = splits * (block + 2) * (-(-w // splits) + block) * padded_samples(n)
+    ring = splits * (block + 2) * (-(-w // splits) + block) * nb
     return cost + ring + 14 * w * n + 4 * k * w * npix + 10 * state_row + checkpoints + 4 * k * cell

@@ -105,6 +105,13 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 #define TAIL (N_DISP - 16 * (NV - 1))      // lanes of the last vector that are disparities, 1..16
 // PAD_COST (a define): path cost of the padding lanes and of samples out of view, never a minimum
 #define NP (16 * NV)                       // padded disparities of a state vector
+// Sample-count buckets (the CPU band matcher, gfgpu/stereo/band_plan.py): built once with N_DISP =
+// the bucket's padded size, the true count n a kernel argument (n_valid): the samples n .. N_DISP - 1
+// are padding, as the lanes past TAIL are.  Vectors 0 .. NV_FULL - 1 hold samples below every n of
+// the bucket (no lane test); the default, NV - 1, is an exact build (n = N_DISP).
+#ifndef NV_FULL
+#define NV_FULL (NV - 1)
+#endif
 // The pixel stride of the volumes: N_DISP (whole volumes, the public kernels), or NP with
 // -D PADDED_PIXELS (the CPU band matcher's own buffers): every pixel then starts on a 32-byte
 // boundary (short) and owns its padding lanes.  With an odd N_DISP (every default sub-pixel
@@ -307,11 +314,12 @@ static inline void view_range(const int x, const int r, const int w, const int f
 }
 
 // Whether every sample of column x is in view
-static inline int all_in_view(const int x, const int r, const int w, const int first_step, const int steps)
+static inline int all_in_view(const int x, const int r, const int w, const int first_step, const int steps,
+                              const int n)
 {
     long lo, hi;
     view_range(x, r, w, first_step, steps, &lo, &hi);
-    return x >= 0 && x < w && lo <= 0 && hi >= N_DISP - 1;
+    return x >= 0 && x < w && lo <= 0 && hi >= n - 1;
 }
 
 // Output pixel x's block sums, shifted right by COST_SHIFT bits (spec.cost_shift of the block, defined by
@@ -322,14 +330,17 @@ static inline int all_in_view(const int x, const int r, const int w, const int f
 #endif
 #ifdef COST_SHIFT
 static ALWAYS_INLINE void store_block_costs(const ushort16 *sum, __global cost_t *dst, const int x, const int r,
-                                            const int w, const int first_step, const int steps)
+                                            const int w, const int first_step, const int steps, const int n)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     long lo, hi;
     view_range(x, r, w, first_step, steps, &lo, &hi);
-    const short16 k_hi = (short16)((short)CLAMPI(hi, -1L, (long)N_DISP));
+    // samples n .. N_DISP - 1 (a bucket's padding) are out of view
+    const short16 k_hi = (short16)((short)CLAMPI(IMIN(hi, (long)n - 1), -1L, (long)N_DISP));
     const short16 k_lo = (short16)((short)CLAMPI(lo, -1L, (long)N_DISP));
-    if (lo <= 0 && hi >= N_DISP - 1) {      // every sample in view (most pixels): no mask
+    // every sample in view (most pixels): no mask (a bucket's padding samples n .. then hold sums that
+    // every reader masks as padding: sgm_band's path_vec and the selection)
+    if (lo <= 0 && hi >= n - 1) {
         UNROLL_NV
         for (int j = 0; j < NV; ++j)
             STORE_COST(VMIN(as_short16(sum[j] >> (ushort16)(COST_SHIFT)), (short16)(COST_MAX)), dst, j);
@@ -367,7 +378,7 @@ __kernel void block_sum(__global const uchar *ham, __global cost_t *out, const i
             if (moved)
                 sum[j] += window_column(ham, y, add, h, w, r, j, ham_row0) -
                           window_column(ham, y, sub, h, w, r, j, ham_row0);
-        store_block_costs(sum, dst, x, r, w, first_step, steps);
+        store_block_costs(sum, dst, x, r, w, first_step, steps, N_DISP);
     }
 }
 #endif  // COST_SHIFT
@@ -422,12 +433,13 @@ static ALWAYS_INLINE void hamming16_reversed(__global uchar *dst, const ulong lc
 #endif
 
 static void hamming_row(__global uchar *dst, __global const ulong *cl, __global const ulong *ri, const int y,
-                        const int ca, const int cb, const int w, const int first_step, const int steps)
+                        const int ca, const int cb, const int w, const int first_step, const int steps,
+                        const int n)
 {
     const int ws = w * steps;
     for (int c = ca; c < cb; ++c, dst += NP) {
         const int j0 = c * steps + steps - 1 - first_step;      // right code of sample k: j0 - k
-        const int k_hi = CLAMPI(j0 + 1, 0, N_DISP), k_lo = CLAMPI(j0 - ws + 1, 0, k_hi);
+        const int k_hi = CLAMPI(j0 + 1, 0, n), k_lo = CLAMPI(j0 - ws + 1, 0, k_hi);
         const ulong lc = cl[(size_t)y * w + c];
         __global const ulong *row = ri + (size_t)y * ws;
         int k = 0;
@@ -463,7 +475,7 @@ static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size
 __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
                          __global uchar *scratch, const int h, const int w, const int first_step,
                          const int steps, const int y0, const int rows, const int out_row0, const int splits,
-                         const int slot_cols)
+                         const int slot_cols, const int n_valid)
 {
     const int g = get_global_id(0), r = BLOCK / 2;
     if (g >= splits)
@@ -480,7 +492,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
         // the rows entering the window: all b at the first row, then y + r
         for (int t = i == 0 ? y - r : y + r; t <= y + r; ++t) {
             const int sl = ((t % BLOCK) + BLOCK) % BLOCK;
-            hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps);
+            hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps, n_valid);
         }
         for (int c = 0; c < cb - ca; ++c) {
             UNROLL_NV
@@ -503,7 +515,7 @@ __kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __g
                 for (int j = 0; j < NV; ++j)
                     sum[j] += VLOAD(ushort, 16, pa + 16 * j) - VLOAD(ushort, 16, ps + 16 * j);
             }
-            store_block_costs(sum, dst, x, r, w, first_step, steps);
+            store_block_costs(sum, dst, x, r, w, first_step, steps, n_valid);
         }
     }
 }
@@ -611,7 +623,7 @@ __kernel void sgm_line_pair(__global const short *cost, __global short *total, c
 // not a pixel's NV (which spilled from registers and made the sweep super-linear in N_DISP).
 static ALWAYS_INLINE short16
 path_vec(__global const short *in, const int j, const short16 vm, const short16 cv, short16 *run,
-         short16 *sum, const short16 vp1, const short16 vp2, const int enter, const int masked)
+         short16 *sum, const short16 vp1, const short16 vp2, const int enter, const int masked, const int n)
 {
     const short16 pad = (short16)(PAD_COST);
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
@@ -623,8 +635,8 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
     short16 v = cv + VMIN(stay - vm, vp2);
     if (masked)
         v = out_of_view ? pad : v;
-    if (j == NV - 1)
-        v = lane >= (short16)(TAIL) ? pad : v;
+    if (j >= NV_FULL)      // the lanes past the last sample: padding
+        v = lane >= (short16)(n - 16 * j) ? pad : v;
     *run = VMIN(*run, v);
     *sum += masked ? (out_of_view ? (short16)(0) : v) : v;
     return v;
@@ -635,7 +647,7 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
 #define PATH_STEP(P, j, ENTER, MASKED)                                                         \
     do {                                                                                      \
         const short16 v_ = path_vec(in_##P, (j), vm_##P, cv, &run_##P, &sum, vp1, vp2, (ENTER),  \
-                                    (MASKED));                                                \
+                                    (MASKED), n_valid);                                       \
         if ((j) > 0)                                                                          \
             VSTORE(short, 16, pend_##P, out_##P + 16 * ((j) - 1));                            \
         pend_##P = v_;                                                                        \
@@ -691,7 +703,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        const int y0, const int rows, const short p1, const short p2,
                        const int diagonals, const int init, const int active, const int write_up,
                        const int cost_row0, const int split, const int r, const int first_step,
-                       const int steps, const int tile, __global short *bound)
+                       const int steps, const int tile, __global short *bound, const int n_valid)
 {
     // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
     // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2); the state is
@@ -770,7 +782,8 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             // out of view or entering it, the masks drop out.  The vertical path never needs
             // the entering rule: its predecessor is the same column, whose samples in view are
             // the same.
-            if (all_in_view(x - 1, r, w, first_step, steps) && all_in_view(x + 1, r, w, first_step, steps))
+            if (all_in_view(x - 1, r, w, first_step, steps, n_valid) &&
+                all_in_view(x + 1, r, w, first_step, steps, n_valid))
                 if (!diagonals && write)
                     BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)), 1, 0);
                 else if (!diagonals)
@@ -855,7 +868,7 @@ static inline int right_winner(const short16 ev, const short16 ei, const int t0)
 // right view's F_x from F_(x+1) in ev, ei (one shift by STEPS lanes).
 static ALWAYS_INLINE void select_pass(__global const short *agg, __global const short *agg2, const int y,
                                       const int w, const int x, const int two, short16 *ev, short16 *ei,
-                                      short16 *m1_, short16 *m2_, short16 *i1_)
+                                      short16 *m1_, short16 *m2_, short16 *i1_, const int n)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
     const short16 none = (short16)(SHRT_MAX);
@@ -867,7 +880,9 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
         const short16 k = lane + (short16)(16 * j);
         const short16 v = LOAD_SMAX(s, j);
         // (padding lanes read SHRT_MAX in both: kept at none, not summed past it)
-        const short16 sv = v < (short16)(0) || v == none ? none : two ? v + LOAD_SMAX(s2, j) : v;
+        short16 sv = v < (short16)(0) || v == none ? none : two ? v + LOAD_SMAX(s2, j) : v;
+        if (j >= NV_FULL)      // a bucket's padding samples (n .. N_DISP - 1): no candidates
+            sv = k >= (short16)(n) ? none : sv;
         i1 = sv < m1 ? k : i1;
         m2 = VMIN(m2, sv < m1 ? m1 : sv);
         m1 = VMIN(m1, sv);
@@ -887,7 +902,8 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
 static ALWAYS_INLINE void select_left(__global const short *agg, __global const short *agg2, const int y,
                                       const int w, const int x, const int two, const short16 m1,
                                       const short16 m2, const short16 i1, const int t0, const int steps,
-                                      const int uniqueness, __global float *drow, __global float *mrow)
+                                      const int uniqueness, __global float *drow, __global float *mrow,
+                                      const int n)
 {
     __global const short *s = agg + ((size_t)y * w + x) * PIX;
     __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // rows right to left
@@ -898,15 +914,15 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
     const int second = hmin16(near ? m2 : m1);
     const int unique = best < SHRT_MAX && second < SHRT_MAX &&
                        (long)second * 100 > (long)best * (100 + uniqueness);
-    const int km = kb > 0 ? kb - 1 : 0, kp = kb < N_DISP - 1 ? kb + 1 : N_DISP - 1;
+    const int km = kb > 0 ? kb - 1 : 0, kp = kb < n - 1 ? kb + 1 : n - 1;
     const int sm = s[km] < 0 || !two ? s[km] : s[km] + s2[km];
     const int sp = s[kp] < 0 || !two ? s[kp] : s[kp] + s2[kp];
-    const int cut = (kb > 0 && sm < 0) || (kb < N_DISP - 1 && sp < 0);
+    const int cut = (kb > 0 && sm < 0) || (kb < n - 1 && sp < 0);
     const float den = (float)(sm - 2 * best + sp);
     float delta = 0.0f;
-    if (kb > 0 && kb < N_DISP - 1 && den > 0.0f)
+    if (kb > 0 && kb < n - 1 && den > 0.0f)
         delta = (float)(sm - sp) / (2.0f * den);
-    if (steps == 2 && kb >= 2 && kb <= N_DISP - 3) {
+    if (steps == 2 && kb >= 2 && kb <= n - 3) {
         // half-pixel samples: one baseline per phase (spec._half_pixel_fit)
         const int sm2 = s[kb - 2] < 0 || !two ? s[kb - 2] : s[kb - 2] + s2[kb - 2];
         const int sp2 = s[kb + 2] < 0 || !two ? s[kb + 2] : s[kb + 2] + s2[kb + 2];
@@ -924,7 +940,7 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
 __kernel void select_disparity(__global const short *agg, __global const short *agg2, __global float *disp,
                                __global int *right, __global float *margin, const int h, const int w,
                                const int d_min, const int steps, const int uniqueness, const int two,
-                               const int y_out0)
+                               const int y_out0, const int n_valid)
 {
     const int y = get_global_id(0);
     if (y >= h)
@@ -953,16 +969,17 @@ __kernel void select_disparity(__global const short *agg, __global const short *
             if (q < cnt) {
                 // `two` as a constant: no test per vector (1000 x 1500 x 383: -38 %)
                 if (two)
-                    select_pass(agg, agg2, y, w, x - q, 1, ev, ei, &m1[q], &m2[q], &i1[q]);
+                    select_pass(agg, agg2, y, w, x - q, 1, ev, ei, &m1[q], &m2[q], &i1[q], n_valid);
                 else
-                    select_pass(agg, agg2, y, w, x - q, 0, ev, ei, &m1[q], &m2[q], &i1[q]);
+                    select_pass(agg, agg2, y, w, x - q, 0, ev, ei, &m1[q], &m2[q], &i1[q], n_valid);
                 if (x - q - n0 >= 0 && x - q - n0 < w)
                     rrow[x - q - n0] = right_winner(ev[0], ei[0], t0);
             }
         }
         for (int q = 0; q < 4; ++q)
             if (q < cnt)
-                select_left(agg, agg2, y, w, x - q, two, m1[q], m2[q], i1[q], t0, steps, uniqueness, drow, mrow);
+                select_left(agg, agg2, y, w, x - q, two, m1[q], m2[q], i1[q], t0, steps, uniqueness, drow, mrow,
+                            n_valid);
     }
     // right pixels whose diagonals start left of the image enter it at pixel 0, entries
     // g STEPS .. g STEPS + STEPS - 1 with g = -xr - n0
@@ -977,7 +994,7 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         for (int xr = 0; xr < xr_end; ++xr) {
             const int k0 = (-xr - n0) * STEPS;
             int best = SHRT_MAX, kb = 0;
-            for (int k = k0; k < IMIN(k0 + STEPS, N_DISP); ++k)
+            for (int k = k0; k < IMIN(k0 + STEPS, n_valid); ++k)
                 if (val[k] < best || (val[k] == best && idx[k] < kb)) {
                     best = val[k];
                     kb = idx[k];
