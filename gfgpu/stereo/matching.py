@@ -177,24 +177,59 @@ def grey_image(image, name):
     if arr.dtype == object or arr.dtype.kind not in "biuf":
         raise TypeError(f"{name} must be a real numeric image, got dtype {arr.dtype}")
     integer = arr.dtype.kind in "biu"         # always finite, also as float32
+    # int32/uint32/int64/uint64 beyond float32's exact integers (2**24) stay float64 here, so
+    # that no value is lost: _exact_views moves the pair to float32 exactly or keeps float64
+    real = np.float64 if _wide_integers(arr) else np.float32
     if arr.ndim == 3 and arr.shape[-1] in (1, 3, 4):
         if arr.shape[-1] == 4:
             arr = arr[..., :3]     # alpha is not image content
         # Rec. 601 luminance (OpenCV's grey): measured better than the channel mean and than
         # a census per channel on every Middlebury scene of benchmarks/stereo.py (docs/stereo.md)
-        chans = arr.astype(np.float32)
+        chans = arr.astype(real)
         if chans.shape[-1] == 1:
             arr = chans[..., 0]
         else:
-            arr = (chans[..., 0] * np.float32(LUMA[0]) + chans[..., 1] * np.float32(LUMA[1])
-                   + chans[..., 2] * np.float32(LUMA[2]))
+            arr = (chans[..., 0] * real(LUMA[0]) + chans[..., 1] * real(LUMA[1])
+                   + chans[..., 2] * real(LUMA[2]))
     elif arr.ndim != 2:
         raise ValueError(f"{name} must be (H, W) grey or (H, W, C) colour with C in 1, 3, 4; "
                          f"got shape {arr.shape}")
-    out = np.ascontiguousarray(arr, dtype=np.float32)
+    if real is np.float64 and arr.dtype.kind in "iu":
+        # the pair's exact offset is taken in _exact_views; integers beyond 2**53 (int64 only)
+        # round here, relative 1e-16
+        arr = arr.astype(np.float64)
+    out = np.ascontiguousarray(arr, dtype=real)
     if not integer and not np.isfinite(out).all():
         raise ValueError(f"{name} contains NaN or infinite values")
     return out
+
+
+#: the largest magnitude below which every integer is a float32
+_FLOAT32_EXACT = 2**24
+
+
+def _wide_integers(arr):
+    """Whether ``arr`` holds integers that float32 cannot hold exactly (int32/uint32/int64/uint64
+    values of magnitude 2**24 or more)."""
+    if arr.dtype.kind not in "iu" or arr.dtype.itemsize < 4 or arr.size == 0:
+        return False
+    return int(arr.max()) >= _FLOAT32_EXACT or int(arr.min()) <= -_FLOAT32_EXACT
+
+
+def _exact_views(left, right):
+    """A pair from :func:`grey_image` in the precision that loses no value: float32 views as they
+    are; float64 views (wide integers) moved by their joint minimum (exact for integers), then
+    float32 where that holds them exactly (every integer below 2**24: values near 2e9 that differ
+    by 3 keep their difference) and float64 otherwise (the census is then taken on the host, in
+    float64: :func:`_sgm`)."""
+    if left.dtype == np.float32 and right.dtype == np.float32:
+        return left, right
+    low = min(float(left.min()), float(right.min()))
+    lft, rgt = np.asarray(left, np.float64) - low, np.asarray(right, np.float64) - low
+    top = max(float(lft.max()), float(rgt.max()))
+    if top < _FLOAT32_EXACT and (lft == np.round(lft)).all() and (rgt == np.round(rgt)).all():
+        return lft.astype(np.float32), rgt.astype(np.float32)
+    return lft, rgt
 
 
 def _int_arg(value, name):
@@ -281,6 +316,18 @@ def matching_views(left, right, steps):
     """
     top = max(float(np.abs(left).max(initial=0.0)), float(np.abs(right).max(initial=0.0)))
     exp = 1 - math.frexp(top)[1] if top > 0 else 0
+    if left.dtype == np.float64:
+        # wide integers (_exact_views): float64 views and planes, no flush (the census of float64
+        # views runs on the host, the same bits for every backend)
+        lft, rgt = np.ldexp(left, exp), np.ldexp(right, exp)
+        planes = np.empty((steps,) + rgt.shape, np.float64)
+        planes[0] = rgt
+        for f in range(1, steps):
+            moved = _green_shift_rows(rgt, f / steps)
+            if 2 * f == steps:
+                moved = 0.5 * (moved + _green_shift_rows(rgt, -0.5, 1))
+            planes[f] = moved
+        return lft, planes
     lft = _flush(np.ldexp(left, exp, dtype=np.float32))
     rgt = _flush(np.ldexp(right, exp, dtype=np.float32))
     planes = np.empty((steps,) + rgt.shape, np.float32)
@@ -371,12 +418,18 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
          lr_check, progress, buffers=None, workspace=None):
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
-    lft, planes = matching_views(left, right, steps)
-    cen_l = _buffer(be, buffers, "census_left", (1, h, w), np.uint64)
-    kernels.census(be, be.asarray(lft), cen_l, 0, census_radius)
-    cen_r = _buffer(be, buffers, "census_right", (steps, h, w), np.uint64)
-    for f in range(steps):
-        kernels.census(be, be.asarray(planes[f]), cen_r, f, census_radius)
+    lft, planes = matching_views(*_exact_views(left, right), steps)
+    if lft.dtype == np.float64:
+        # wide integers that float32 cannot hold: the census of the float64 views on the host
+        # (its numpy specification), the same codes for every backend
+        cen_l = be.asarray(specs.census_transform_reference(lft, census_radius)[None])
+        cen_r = be.asarray(np.stack([specs.census_transform_reference(p, census_radius) for p in planes]))
+    else:
+        cen_l = _buffer(be, buffers, "census_left", (1, h, w), np.uint64)
+        kernels.census(be, be.asarray(lft), cen_l, 0, census_radius)
+        cen_r = _buffer(be, buffers, "census_right", (steps, h, w), np.uint64)
+        for f in range(steps):
+            kernels.census(be, be.asarray(planes[f]), cen_r, f, census_radius)
     progress(1)
     disp = _buffer(be, buffers, "disp", (h, w), np.float32)
     right_steps = _buffer(be, buffers, "disp_right", (h, w), np.int32)
@@ -423,6 +476,9 @@ def _green_shift(be, image, amount, method, sigma):
 
 def _sweep(be, left, right, d_min, d_max, step, method, radius, sigma, lr_check, progress):
     h, w = left.shape
+    # the sweeps run in float32 on every backend: wide integers moved by the pair's minimum first
+    # (exact below 2**24 of range), then rounded
+    left, right = (np.asarray(v, np.float32) for v in _exact_views(left, right))
     lft, rgt = be.asarray(left), be.asarray(right)
     init = np.full((SWEEP_PLANES, h, w), np.nan, np.float32)
     init[[0, 5, 6, 7]] = np.inf         # best, second, older, the right view's best
