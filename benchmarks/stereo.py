@@ -202,6 +202,56 @@ def stage_times(scene_images, d_max, backend, repeat, steps=2, paths=4):
     return times
 
 
+def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4):
+    """Seconds per OpenCL kernel and per host step of one steady ``disparity`` call (the best of
+    ``repeat`` after a warm-up): every launch is waited for and timed by its kernel's name (so the
+    kernels do not overlap, as they do not in the band matcher's queue), and the host's
+    grey conversion, view preparation (scaling, Green-shifted planes) and read-back are timed around
+    their functions.  Returns ({name: seconds}, whole call seconds)."""
+    from gfgpu import stereo
+    from gfgpu.backends.opencl import launch as ocl
+    from gfgpu.stereo import matching
+    be_name = "opencl"
+    acc = {}
+    real_launch, real_views, real_grey = ocl.launch, matching.matching_views, matching.grey_image
+
+    def add(name, t0):
+        acc[name] = acc.get(name, 0.0) + time.perf_counter() - t0
+
+    def launch(be, knl, *a):
+        t0 = time.perf_counter()
+        evt = real_launch(be, knl, *a)
+        evt.wait()
+        add("kernel " + knl.function_name, t0)
+        return evt
+
+    def views(*a):
+        t0 = time.perf_counter()
+        out = real_views(*a)
+        add("host: matching_views (scale, Green-shifted planes)", t0)
+        return out
+
+    def grey(*a):
+        t0 = time.perf_counter()
+        out = real_grey(*a)
+        add("host: grey_image", t0)
+        return out
+
+    ocl.launch, matching.matching_views, matching.grey_image = launch, views, grey
+    try:
+        best, best_total = None, np.inf
+        for _ in range(repeat + 1):
+            acc.clear()
+            t0 = time.perf_counter()
+            stereo.disparity(*scene_images, d_max, subpixel_steps=steps, paths=paths, backend=be_name)
+            total = time.perf_counter() - t0
+            if total < best_total:
+                best, best_total = dict(acc), total
+    finally:
+        ocl.launch, matching.matching_views, matching.grey_image = real_launch, real_views, real_grey
+    return best, best_total
+
+
 def _programs(be):
     """Programs built so far in this process (OpenCL; Warp builds its module once, not per size)."""
     if be.name != "opencl":
@@ -292,6 +342,8 @@ def main():
     ap.add_argument("--stream", metavar="SCENE", help="StereoMatcher.compute on --frames noisy copies of this "
                     "scene's pair against disparity() on the same frames, instead of the scene table")
     ap.add_argument("--frames", type=int, default=20)
+    ap.add_argument("--kernels", metavar="SCENE", help="print the time of each OpenCL kernel and host step of "
+                    "the default sgm on this scene (each launch waited for)")
     ap.add_argument("--windows", nargs="+", type=int, metavar="W", help="bad-2 of the default sgm with each "
                     "block side W (default penalties) on --scenes, instead of the scene table")
     args = ap.parse_args()
@@ -313,6 +365,19 @@ def main():
                   f"then median {r['median'] * 1e3:.1f} ms (max {r['max'] * 1e3:.1f}; {r['built_after']} built); "
                   f"disparity() steady median {r['disparity'] * 1e3:.1f} ms: "
                   f"{r['median'] / r['disparity']:.2f}x", flush=True)
+        return
+    if args.kernels:
+        left, right, _, _, top = load_scene(args.kernels)
+        num_disp = 16 * int(np.ceil((top + 1) / 16))
+        parts, total = kernel_profile((left, right), num_disp - 1, max(args.repeat, 3))
+        print(f"\n{args.kernels}, {left.shape[1]}x{left.shape[0]}, d = 0..{num_disp - 1}, opencl, "
+              f"load {os.getloadavg()[0]:.1f}\n")
+        print("| step | ms | share |\n|---|---|---|")
+        for name, sec in sorted(parts.items(), key=lambda kv: -kv[1]):
+            print(f"| {name} | {sec * 1e3:.1f} | {sec / total:.0%} |")
+        print(f"| rest (host: checks, census buffers, left-right, read-back) | "
+              f"{(total - sum(parts.values())) * 1e3:.1f} | {1 - sum(parts.values()) / total:.0%} |")
+        print(f"| whole call | {total * 1e3:.1f} | |")
         return
     if args.stages:
         left, right, _, _, top = load_scene(args.stages)
