@@ -38,8 +38,8 @@ class StereoMatcher:
         samples, penalties :func:`gfgpu.stereo.matching.default_penalties`, 4 paths,
         10 % uniqueness, the left-right check.
     speckle_size, speckle_range, min_confidence : optional
-        The post-filters of :func:`gfgpu.stereo.disparity` (default off), applied to every
-        frame's map on the host.
+        The post-filters of :func:`gfgpu.stereo.disparity` (default: its ``"sgm"`` defaults, the
+        speckle filter on, 25 px / 0.5 px), applied to every frame's map on the host.
     backend, device : optional
         Where the kernels run (as for :func:`gfgpu.stereo.disparity`).
 
@@ -79,8 +79,9 @@ class StereoMatcher:
     """
 
     def __init__(self, shape, max_disparity, *, min_disparity=0, window=None, subpixel=True, lr_check=True,
-                 subpixel_steps=2, census_radius=3, p1=None, p2=None, paths=4, uniqueness=10, speckle_size=0,
-                 speckle_range=1.0, min_confidence=0.0, backend=None, device=None):
+                 subpixel_steps=2, census_radius=3, p1=None, p2=None, paths=4, uniqueness=10,
+                 speckle_size=postfilter.SPECKLE_SIZE, speckle_range=postfilter.SPECKLE_RANGE, min_confidence=0.0,
+                 backend=None, device=None):
         shp = tuple(shape) if isinstance(shape, (tuple, list)) else None
         if shp is None or len(shp) != 2:
             raise ValueError(f"shape must be (H, W), got {shape!r}")

@@ -62,14 +62,35 @@ def test_speckles_equal_flood_fill(seed, max_size, max_diff):
         assert np.isnan(out).sum() > np.isnan(d).sum()        # the cases do remove something
 
 
-def test_speckle_labels_sizes():
+def ramp_map(seed, shape=(19, 27)):
+    # slopes that cross a bin of floor(d / max_diff) every few pixels while every step stays
+    # within max_diff: regions that no single run of equal bins covers
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[:shape[0], :shape[1]]
+    d = 0.3 * xx + 0.2 * yy + rng.uniform(-0.05, 0.05, shape)
+    d[:, shape[1] // 2] = np.nan                    # a cut: two regions
+    d[rng.random(shape) < 0.05] = 50.0              # single-pixel outliers (joined where adjacent)
+    return d.astype(np.float32)
+
+
+@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("max_size,max_diff", [(1, 0.5), (3, 0.5), (200, 0.5), (250, 0.4), (5, 0.0)])
+def test_speckles_on_ramps_equal_flood_fill(seed, max_size, max_diff):
+    d = ramp_map(seed)
+    np.testing.assert_array_equal(postfilter.filter_speckles(d, max_size, max_diff),
+                                  flood_fill_speckles(d, max_size, max_diff))
+
+
+def test_small_regions_by_hand():
     d = np.array([[1.0, 1.2, np.nan, 5.0],
                   [1.1, np.nan, 5.5, 5.0],
                   [9.0, 9.0, np.nan, 0.0]])
-    labels, sizes = postfilter.speckle_labels(d, 0.5)
-    assert (labels[np.isnan(d)] == -1).all()
-    got = sorted(int(sizes[labels[y, x]]) for y, x in [(0, 0), (0, 3), (2, 0), (2, 3)])
-    assert got == [1, 2, 3, 3]
+    # regions: {1.0, 1.2, 1.1} (3), {5.0, 5.5, 5.0} (3), {9, 9} (2), {0} (1)
+    np.testing.assert_array_equal(postfilter.small_regions(d, 2, 0.5),
+                                  [[0, 0, 0, 0], [0, 0, 0, 0], [1, 1, 0, 1]])
+    np.testing.assert_array_equal(postfilter.small_regions(d, 1, 0.5), [[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 0, 1]])
+    assert postfilter.small_regions(d, 3, 0.5).sum() == 9
+    assert postfilter.small_regions(d, 3, 0.4).sum() == 9      # 5.0 - 5.5 cut: {5.0, 5.0} and {5.5}
 
 
 def test_speckles_match_opencv():
@@ -146,7 +167,8 @@ OPTIONS = {"speckle_size": 40, "speckle_range": 1.0, "min_confidence": 0.1}
 @pytest.mark.parametrize("method", ["sgm", "uniform"])
 def test_filters_on_every_backend(backend, method):
     left, right, _ = noisy_pair()
-    plain, conf = stereo.disparity(left, right, 16, method=method, return_confidence=True, backend=backend)
+    plain, conf = stereo.disparity(left, right, 16, method=method, return_confidence=True, backend=backend,
+                                   speckle_size=0)
     out, out_conf = stereo.disparity(left, right, 16, method=method, return_confidence=True, backend=backend,
                                      **OPTIONS)
     # the filters compose as documented: threshold, then speckles on what is left
@@ -175,10 +197,26 @@ def test_speckle_filter_removes_wrong_islands():
     # on the noisy square the islands the filter removes are mostly wrong: the error of what it
     # keeps is lower than the error of what it removes
     left, right, truth = noisy_pair()
-    d = stereo.disparity(left, right, 16, backend="numpy")
+    d = stereo.disparity(left, right, 16, backend="numpy", speckle_size=0)
     out = postfilter.filter_speckles(d, 40, 1.0)
     removed = np.isfinite(d) & np.isnan(out)
     kept = np.isfinite(out)
     assert removed.sum() >= 20
     err = np.abs(d - truth)
     assert np.mean(err[removed] > 2) > 3 * np.mean(err[kept] > 2)
+
+
+def test_defaults(backend):
+    # "sgm" runs the speckle filter by default (SPECKLE_SIZE, SPECKLE_RANGE), the sweeps do not;
+    # StereoMatcher has disparity's defaults
+    left, right, _ = noisy_pair()
+    raw, conf = stereo.disparity(left, right, 16, speckle_size=0, return_confidence=True, backend=backend)
+    ref = postfilter.filter_speckles(raw, postfilter.SPECKLE_SIZE, postfilter.SPECKLE_RANGE)
+    assert np.isnan(ref).sum() > np.isnan(raw).sum()
+    d, c = stereo.disparity(left, right, 16, return_confidence=True, backend=backend)
+    np.testing.assert_array_equal(d, ref)
+    np.testing.assert_array_equal(c, np.where(np.isfinite(ref), conf, 0))
+    np.testing.assert_array_equal(stereo.StereoMatcher(left.shape, 16, backend=backend).compute(left, right), ref)
+    sweep = stereo.disparity(left, right, 16, method="uniform", backend=backend)
+    np.testing.assert_array_equal(sweep, stereo.disparity(left, right, 16, method="uniform", speckle_size=0,
+                                                          backend=backend))
