@@ -381,6 +381,83 @@ static inline REAL spline2(__global const REAL *src, const long plane, const int
     return acc + base;
 }
 
+static inline void support(const int psf, POS *t0, POS *t1)
+{
+    const POS tail = (POS)GREEN_TAIL;
+    // spec.psf_support
+    *t0 = psf == PSF_BOX ? (POS)0 : psf == PSF_GREEN ? (POS)0 : psf == PSF_BOX_CENTRED ? (POS)-0.5 : -tail / 2;
+    *t1 = psf == PSF_BOX ? (POS)1 : psf == PSF_GREEN ? tail : psf == PSF_BOX_CENTRED ? (POS)0.5 : tail / 2;
+}
+
+// spec.psf_cdf
+static inline POS cdf(const int psf, const POS t, const POS t0, const POS t1)
+{
+    if (t <= t0)
+        return 0;
+    if (t >= t1)
+        return 1;
+    if (psf == PSF_BOX || psf == PSF_BOX_CENTRED)
+        return (t - t0) / (t1 - t0);
+    if (psf == PSF_GREEN)
+        return (POS)1 - exp(-t) * (sin(t) + cos(t));
+    const POS s = (POS)2 * fabs(t);
+    const POS c = (POS)0.5 * ((POS)1 - exp(-s) * cos(s));
+    return t < 0 ? (POS)0.5 - c : (POS)0.5 + c;
+}
+
+// G_u's density at t (spec.psf_density; psf PSF_GREEN or PSF_GREEN_CENTRED)
+static inline POS density(const int psf, const POS t)
+{
+    if (psf == PSF_GREEN)
+        return (POS)2 * exp(-t) * sin(t);
+    const POS s = (POS)2 * fabs(t);
+    return exp(-s) * (cos(s) + sin(s));
+}
+
+// One work-item per output pixel: its own path x - t v(x), in cells of three Gauss-Legendre nodes.
+__kernel void field_blur(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
+                         const int w, const int planes, const int psf, const POS density_px, const int mode,
+                         const REAL cval, const long out_off)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const long pix = (long)y * w + x, hw = (long)h * w;
+    const POS vy = (POS)field[pix], vx = (POS)field[hw + pix];
+    POS t0, t1;
+    support(psf, &t0, &t1);
+    const POS span = t1 - t0, length = fmax(fabs(vy), fabs(vx));
+    const int fewest = psf == PSF_GREEN ? MIN_CELLS_G : (psf == PSF_GREEN_CENTRED ? MIN_CELLS_CG : 1);
+    const int n = length > 0 ? max(fewest, (int)ceil(length * span * density_px - (POS)1e-9)) : 1;
+    const POS u[3] = {(POS)GAUSS_U0, (POS)GAUSS_U1, (POS)GAUSS_U2};
+    const POS g[3] = {(POS)GAUSS_W0, (POS)GAUSS_W1, (POS)GAUSS_W2};
+    for (int b = 0; b < planes; ++b) {
+        REAL acc = 0;
+        POS prev = 0;
+        for (int k = 0; k < n; ++k) {
+            const POS ta = t0 + span * (POS)k / (POS)n, tb = t0 + span * (POS)(k + 1) / (POS)n;
+            const POS c = cdf(psf, tb, t0, t1), mass = c - prev;
+            prev = c;
+            POS t[3], wt[3];
+            for (int i = 0; i < 3; ++i)
+                t[i] = ta + u[i] * (tb - ta);
+            if (psf == PSF_BOX || psf == PSF_BOX_CENTRED) {
+                for (int i = 0; i < 3; ++i)
+                    wt[i] = g[i] * mass;
+            } else {          // Gauss-Legendre on the density, the cell's exact mass restored
+                for (int i = 0; i < 3; ++i)
+                    wt[i] = (tb - ta) * g[i] * density(psf, t[i]);
+                const POS rest = mass - (wt[0] + wt[1] + wt[2]);
+                for (int i = 0; i < 3; ++i)
+                    wt[i] += g[i] * rest;
+            }
+            for (int i = 0; i < 3; ++i)
+                acc += (REAL)wt[i] * spline2(coef, b * hw, h, w, (POS)y - t[i] * vy, (POS)x - t[i] * vx, mode, mode, cval);
+        }
+        out[out_off + b * hw + pix] = acc;
+    }
+}
+
 #ifdef MODE_X
 // spline2 for the polar kernels, with the modes as build constants (MODE_Y along the rows, MODE_X
 // along the columns: nearest, on coefficients that pad_coef extended by PAD beyond every border;
