@@ -37,7 +37,6 @@ resampling blur of what moves is measured in ``docs/motion.md``.
 from __future__ import annotations
 
 import math
-from functools import lru_cache
 
 import numpy as np
 from scipy import ndimage
@@ -227,24 +226,6 @@ def apply_spin(job, degrees, cy, cx, psf, displace, mode, cval):
                       math.radians(degrees), split=True)
 
 
-@lru_cache(maxsize=4)
-def _ray_maps(planes, n_r, n_phi, inward):
-    """Gather maps polar grid ``(planes, n_r, n_phi)`` -> duplicated ray layout ``(planes, n_phi, 2 n_r)``
-    and back (:func:`gfgpu.motion.zoom.ray_zoom_pass`); read-only (backends cache their upload)."""
-    k = np.arange(n_r)
-    sample = (n_r - 1 - k) if inward else k                  # the ring at positions 2k, 2k + 1
-    plane = np.arange(planes)[:, None, None]
-    itype = np.int32 if planes * n_phi * 2 * n_r < 2**31 else np.int64
-    spread = (plane * n_r * n_phi + np.repeat(sample, 2)[None, None, :] * n_phi
-              + np.arange(n_phi)[None, :, None]).astype(itype).reshape(-1)
-    read = 2 * ((n_r - 1 - k) if inward else k) + 1           # where ring k's output is
-    collect = ((plane * n_phi + np.arange(n_phi)[None, None, :]) * (2 * n_r)
-               + read[None, :, None]).astype(itype).reshape(-1)
-    for arr in (spread, collect):
-        arr.setflags(write=False)
-    return spread, collect
-
-
 def apply_radial_green_zoom(job, u1, cy, cx, mode, cval):
     """G_U^(1) zoom of ``job``'s image planes at the rate ``u1`` about ``(cy, cx)``, along the rays.
 
@@ -257,14 +238,12 @@ def apply_radial_green_zoom(job, u1, cy, cx, mode, cval):
     reach = 1.0 if u1 > 0 else 2.0
 
     def blur(be, polar, pshape, scratch, extra, weights):
-        planes, n_r, n_phi = pshape
-        spread, collect = _ray_maps(planes, n_r, n_phi, u1 < 0)
-        rows_in = be.empty((planes, n_phi, 2 * n_r), job.dtype)
-        rows_out = be.empty((planes, n_phi, 2 * n_r), job.dtype)
-        be.gather(be.reshape(polar, (-1,)), spread, 0.0, be.reshape(rows_in, (-1,)))
-        be.recurse(rows_in, rows_out, 2, plan_pass(ray_zoom_pass(u1, n_r), 2 * n_r, "constant", job.dtype), 0.0)
-        be.gather(be.reshape(rows_out, (-1,)), collect, 0.0, be.reshape(scratch, (-1,)))
-        return add_rows(be, polar, scratch, -weights)
+        n_r = pshape[1]
+        # the rays are the columns of the polar grid: one pass along axis 1 (adjacent angles in
+        # vector lanes), then each ring's own tap and -w in one per-ring multiple
+        line_pass, own = ray_zoom_pass(u1, n_r)
+        be.recurse(polar, scratch, 1, plan_pass(line_pass, n_r, "constant", job.dtype), 0.0)
+        return add_rows(be, polar, scratch, own - weights)
 
     return _run_polar(job, cy, cx, reach, blur, mode, cval, "a zoom blur (its polar grid holds the whole image)",
                       u1 / (1.0 + u1))

@@ -169,7 +169,14 @@ def _layout(lam_full, kap_full, kap_own, d_prev, d_own):
 
 @lru_cache(maxsize=64)
 def _segment_coefficients(u1, s0, n):
-    """(lam, kap) of the two sections over one segment laid out as duplicated pixels.
+    """(lam, kap) of the two sections over one segment laid out as duplicated pixels
+    (:func:`_layout` of :func:`_segment_terms`)."""
+    return _layout(*_segment_terms(u1, s0, n))
+
+
+@lru_cache(maxsize=64)
+def _segment_terms(u1, s0, n):
+    """``(lam_full, kap_full, kap_own, d_prev, d_own)`` of one segment, in traversal order.
 
     Zoom-in: segment pixels at distances ``s_k = s0 + k`` (k < n) from the fixed point, run
     outward.  Zoom-out: ``s_k = s0 + (n - 1 - k)``, run inward from the far end, whose cell
@@ -179,7 +186,7 @@ def _segment_coefficients(u1, s0, n):
     outputs are read at the odd positions (see ``docs/motion.md``).
     """
     if u1 < 0:
-        return _segment_coefficients_inward(u1, s0, n)
+        return _segment_terms_inward(u1, s0, n)
     z, c = _affine_z(u1)
     s = s0 + np.arange(n, dtype=np.float64)
     nxt = s + 1.0
@@ -197,10 +204,10 @@ def _segment_coefficients(u1, s0, n):
         own_ratio = np.where(s > 0.5, s / np.where(s > 0.5, s - 0.5, 1.0), np.inf)
     kap_own = np.where(s > 0, -1j * (c / z) * (_power(own_ratio, z) - 1.0), 0.0)
     kap_own = np.where(s == 0, 1.0 + 0j, kap_own)   # the fixed point maps to itself
-    return _layout(lam_full, kap_full, kap_own, *_mean_correction(lam_full, kap_full, kap_own, s, u1))
+    return _terms(lam_full, kap_full, kap_own, s, u1)
 
 
-def _segment_coefficients_inward(u1, s0, n):
+def _segment_terms_inward(u1, s0, n):
     """Zoom-out coefficients: F_{k+1} = (s_{k+1}/s_k)^z F_k + [(s_{k+1}/a_k)^z - (s_{k+1}/b_k)^z] I_k."""
     z, c = _affine_z(u1)
     s = s0 + np.arange(n - 1, -1, -1, dtype=np.float64)     # decreasing: far end first
@@ -218,7 +225,14 @@ def _segment_coefficients_inward(u1, s0, n):
     kap_full = np.where(inner, -1j * (c / z) * (_power(ratio_a, z) - _power(ratio_b, z)), 0.0)
     # own half cell (s, s + 1/2); at s = 0 this is -iC/z, i.e. weight 1: the fixed point stays
     kap_own = np.where(s >= 0, -1j * (c / z) * (1.0 - _power(own, z)), 0.0)
-    return _layout(lam_full, kap_full, kap_own, *_mean_correction(lam_full, kap_full, kap_own, s, u1))
+    return _terms(lam_full, kap_full, kap_own, s, u1)
+
+
+def _terms(lam_full, kap_full, kap_own, s, u1):
+    terms = (lam_full, kap_full, kap_own, *_mean_correction(lam_full, kap_full, kap_own, s, u1))
+    for arr in terms:
+        arr.setflags(write=False)     # cached: shared by every caller
+    return terms
 
 
 @dataclass(frozen=True)
@@ -262,42 +276,53 @@ class _ZoomLine(greens.GreenKernel):
 
 @dataclass(frozen=True)
 class _RayLine(greens.GreenKernel):
-    """One section of the zoom pass along a ray from the fixed point (``s = 0, 1, ..., n - 1``),
-    laid out as duplicated samples: outward for a zoom-in, inward from the far end for a
-    zoom-out (``part`` = ``"full"`` or ``"own"``, as :class:`_ZoomLine`)."""
+    """One section of the zoom pass along a ray from the fixed point, one sample per radius
+    ``s = 0, 1, ..., n - 1``, in traversal order (outward for a zoom-in, inward from the far end
+    for a zoom-out, whose pass runs reversed): ``part`` ``"full"`` carries the full source cells
+    of the samples before the output, ``"prev"`` (no memory: ``lam = 0``) the moment correction
+    ``d_prev`` on the previous sample (:func:`_mean_correction`)."""
 
     u1: float
     n: int
     part: str
 
-    x_min = -0.5
-
-    @property
-    def length(self):
-        return 2 * self.n
+    x_min = -0.5   # no source before the ray's first sample
 
     def __call__(self, x, x0):  # pragma: no cover - see zoom_cell_weights for the closed form
         raise NotImplementedError("use zoom_cell_weights for the closed form")
 
     def coefficients(self, positions):
-        seg = _segment_coefficients(self.u1, 0.0, self.n)
-        i = 0 if self.part == "full" else 2
+        lam_full, kap_full, _, d_prev, _ = _segment_terms(self.u1, 0.0, self.n)
         idx = np.asarray(positions, np.int64)
-        return seg[i][idx], seg[i + 1][idx]
+        if self.part == "full":
+            return lam_full[idx], kap_full[idx]
+        # the state after sample k is d_prev[k + 1] I[k], read (and replaced) at sample k + 1
+        kap = np.zeros(self.n, np.complex128)
+        kap[:-1] = d_prev[1:]
+        return np.zeros(len(idx), np.complex128), kap[idx]
 
     def validate_line(self, n, reverse):
-        if n != self.length or reverse:
-            raise ValueError(f"ray layout needs {self.length} causal samples, got {n}")
+        if n != self.n or reverse != (self.u1 < 0):
+            raise ValueError(f"a ray pass needs {self.n} samples, run {'in' if self.u1 < 0 else 'out'}ward, got {n}")
 
 
 def ray_zoom_pass(u1, n):
-    """The :class:`~gfgpu._core.passes.LinePass` of G_U^(1) along rays of ``n`` samples at
-    radii ``0, 1, ..., n - 1`` from the fixed point, laid out as duplicated samples (length
-    ``2 n``): sample ``k`` at positions ``2k, 2k + 1`` for a zoom-in (``u1 > 0``), sample
-    ``n - 1 - k`` there for a zoom-out; the output of the sample at position ``2k`` is read at
-    ``2k + 1``.  The same cell-integrated taps and moment correction as the separable zoom."""
-    kernels = [_RayLine(float(u1), int(n), p) for p in ("full", "own")]
-    return greens.LinePass(tuple(greens.Section(kernel=k) for k in kernels), 0.0, False)
+    """G_U^(1) along rays of ``n`` samples at radii ``0, 1, ..., n - 1`` from the fixed point:
+    ``(line_pass, own)``.
+
+    ``line_pass`` (a :class:`~gfgpu._core.passes.LinePass`, causal for a zoom-in, anticausal for
+    a zoom-out) gives each sample the full cells of the samples before it in the traversal and
+    the moment correction on the previous one; ``own`` (float64, ``(n,)``, by radius) is the
+    weight of the sample's own half cell plus its correction, a per-position tap that the
+    primitive's constant ``tap`` cannot express: the output is ``line_pass(I) + own * I``.  The
+    same cell-integrated taps and moment correction as the separable zoom (:func:`apply_zoom`).
+    """
+    u1, n = float(u1), int(n)
+    _, _, kap_own, _, d_own = _segment_terms(u1, 0.0, n)
+    own = kap_own.real + d_own
+    kernels = [_RayLine(u1, n, p) for p in ("full", "prev")]
+    return (greens.LinePass(tuple(greens.Section(kernel=k) for k in kernels), 0.0, u1 < 0),
+            own[::-1].copy() if u1 < 0 else own.copy())
 
 
 def _zoom_pass(u1, centre, n, pad):
