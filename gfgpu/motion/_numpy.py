@@ -12,11 +12,6 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     return dst
 
 
-def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
-    out[...] = specs.field_blur_reference(coef, field, psf, density, mode, cval)
-    return out
-
-
 def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     out[...] = specs.to_polar_reference(coef, cy, cx, r0, out.shape[1], out.shape[2], mode, cval)
     return out

@@ -122,17 +122,6 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     return dst
 
 
-def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
-    coef, field = ocl.plain(be, coef, "coef"), ocl.plain(be, field, "field")
-    obuf, ooff = ocl.written(be, out, "out")
-    dtype, pos = _setup(be, coef)
-    bsz, h, w = (int(s) for s in coef.shape)
-    ocl.launch(be, _kernel(be, "field_blur", dtype, pos), (w, h), None, [coef, field], [out],
-               (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
-                np.int32(_code(mode)), dtype.type(cval), ooff))
-    return out
-
-
 def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     coef = ocl.plain(be, coef, "coef")
     obuf, ooff = ocl.written(be, out, "out")

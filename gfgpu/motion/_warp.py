@@ -1,4 +1,5 @@
-"""Warp kernels of motion blur: box windows along lines, per-pixel paths, polar resampling.
+"""Warp kernels of motion blur: box windows along lines, polar resampling (per-pixel paths:
+``field_kernels/_warp.py``, a module of their own).
 
 Executable specification: :mod:`gfgpu.motion.spec`; the OpenCL twins are in ``motion.cl``
 beside this module; :mod:`gfgpu.motion.kernels` registers the ``launch_*`` functions
@@ -18,34 +19,21 @@ import warp as wp
 from .._core.boundary import MODE_CODES
 from .._core.bspline import NEAREST_EDGE, SPLINE_POLE
 from ..backends.warp import launch as wpl
-from .spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, NARROW, PSF_CODES, PSF_MIN_CELLS
+from .spec import NARROW
 
 wp.set_module_options({"enable_backward": False})
 
-# the constants of the Python definitions (none retyped here): mode codes, spline, PSF codes
+# the constants of the Python definitions (none retyped here): mode codes, spline
 _CONSTANT = wp.constant(MODE_CODES["constant"])
 _NEAREST = wp.constant(MODE_CODES["nearest"])
 _WRAP = wp.constant(MODE_CODES["wrap"])
 _REFLECT = wp.constant(MODE_CODES["reflect"])
 _MIRROR = wp.constant(MODE_CODES["mirror"])
-_BOX = wp.constant(PSF_CODES["box", True])
-_GREEN = wp.constant(PSF_CODES["green", True])
-_BOX_CENTRED = wp.constant(PSF_CODES["box", False])
-_GREEN_CENTRED = wp.constant(PSF_CODES["green", False])
 _Z = wp.constant(wp.float64(SPLINE_POLE))
-_TAIL = wp.constant(wp.float64(GREEN_TAIL))
 _NARROW = wp.constant(wp.float64(NARROW))
 _TWO_PI = wp.constant(wp.float64(2.0 * np.pi))
 _NEAR_A = wp.constant(wp.float64(NEAREST_EDGE[0]))
 _NEAR_B = wp.constant(wp.float64(NEAREST_EDGE[1]))
-_GU0 = wp.constant(wp.float64(GAUSS_NODES[0]))
-_GU1 = wp.constant(wp.float64(GAUSS_NODES[1]))
-_GU2 = wp.constant(wp.float64(GAUSS_NODES[2]))
-_GW0 = wp.constant(wp.float64(GAUSS_WEIGHTS[0]))
-_GW1 = wp.constant(wp.float64(GAUSS_WEIGHTS[1]))
-_GW2 = wp.constant(wp.float64(GAUSS_WEIGHTS[2]))
-_MIN_G = wp.constant(PSF_MIN_CELLS[PSF_CODES["green", True]])
-_MIN_CG = wp.constant(PSF_MIN_CELLS[PSF_CODES["green", False]])
 
 
 @wp.func
@@ -340,106 +328,6 @@ def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64
     return acc + base
 
 
-@wp.func
-def _support(psf: int):
-    """spec.psf_support."""
-    if psf == _BOX:
-        return wp.float64(0.0), wp.float64(1.0)
-    if psf == _GREEN:
-        return wp.float64(0.0), _TAIL
-    if psf == _BOX_CENTRED:
-        return wp.float64(-0.5), wp.float64(0.5)
-    return -_TAIL / wp.float64(2.0), _TAIL / wp.float64(2.0)
-
-
-@wp.func
-def _cdf(psf: int, t: wp.float64, t0: wp.float64, t1: wp.float64):
-    """spec.psf_cdf."""
-    if t <= t0:
-        return wp.float64(0.0)
-    if t >= t1:
-        return wp.float64(1.0)
-    if psf == _BOX or psf == _BOX_CENTRED:
-        return (t - t0) / (t1 - t0)
-    if psf == _GREEN:
-        return wp.float64(1.0) - wp.exp(-t) * (wp.sin(t) + wp.cos(t))
-    s = wp.float64(2.0) * wp.abs(t)
-    c = wp.float64(0.5) * (wp.float64(1.0) - wp.exp(-s) * wp.cos(s))
-    if t < wp.float64(0.0):
-        return wp.float64(0.5) - c
-    return wp.float64(0.5) + c
-
-
-@wp.func
-def _density(psf: int, t: wp.float64):
-    """G_u's density at ``t`` (spec.psf_density; the G_u codes)."""
-    if psf == _GREEN:
-        return wp.float64(2.0) * wp.exp(-t) * wp.sin(t)
-    s = wp.float64(2.0) * wp.abs(t)
-    return wp.exp(-s) * (wp.cos(s) + wp.sin(s))
-
-
-@wp.func
-def _node_weight(psf: int, g: wp.float64, q: wp.float64, mass: wp.float64, rest: wp.float64):
-    """Weight of one Gauss-Legendre node: its share of the cell's mass (box), or the quadrature
-    weight ``q`` plus its share of what the quadrature missed (G_u)."""
-    if psf == _BOX or psf == _BOX_CENTRED:
-        return g * mass
-    return q + g * rest
-
-
-@wp.kernel
-def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
-               psf: int, density: wp.float64, mode: int, cval: Any):
-    """One thread per output pixel: its own path in cells of three Gauss-Legendre nodes
-    (field_blur_reference)."""
-    t = wp.tid()
-    plane = t / (h * w)
-    pix = t - plane * h * w
-    y = pix / w
-    x = pix - y * w
-    vy = wp.float64(field[pix])
-    vx = wp.float64(field[h * w + pix])
-    t0, t1 = _support(psf)
-    span = t1 - t0
-    length = wp.max(wp.abs(vy), wp.abs(vx))
-    fewest = 1
-    if psf == _GREEN:
-        fewest = _MIN_G
-    if psf == _GREEN_CENTRED:
-        fewest = _MIN_CG
-    n = 1
-    if length > wp.float64(0.0):
-        n = wp.max(fewest, int(wp.ceil(length * span * density - wp.float64(1e-9))))
-    acc = coef.dtype(0.0)
-    prev = wp.float64(0.0)
-    for k in range(n):
-        ta = t0 + span * wp.float64(k) / wp.float64(n)
-        tb = t0 + span * wp.float64(k + 1) / wp.float64(n)
-        c = _cdf(psf, tb, t0, t1)
-        mass = c - prev
-        prev = c
-        s0 = ta + _GU0 * (tb - ta)
-        s1 = ta + _GU1 * (tb - ta)
-        s2 = ta + _GU2 * (tb - ta)
-        q0 = wp.float64(0.0)
-        q1 = wp.float64(0.0)
-        q2 = wp.float64(0.0)
-        if psf == _GREEN or psf == _GREEN_CENTRED:
-            q0 = (tb - ta) * _GW0 * _density(psf, s0)
-            q1 = (tb - ta) * _GW1 * _density(psf, s1)
-            q2 = (tb - ta) * _GW2 * _density(psf, s2)
-        rest = mass - (q0 + q1 + q2)
-        base = plane * h * w
-        acc = acc + coef.dtype(_node_weight(psf, _GW0, q0, mass, rest)) * _spline(
-            coef, base, h, w, wp.float64(y) - s0 * vy, wp.float64(x) - s0 * vx, mode, mode, cval)
-        acc = acc + coef.dtype(_node_weight(psf, _GW1, q1, mass, rest)) * _spline(
-            coef, base, h, w, wp.float64(y) - s1 * vy, wp.float64(x) - s1 * vx, mode, mode, cval)
-        acc = acc + coef.dtype(_node_weight(psf, _GW2, q2, mass, rest)) * _spline(
-            coef, base, h, w, wp.float64(y) - s2 * vy, wp.float64(x) - s2 * vx, mode, mode, cval)
-    out[t] = acc
-
-
 @wp.kernel
 def to_polar(coef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int, n_r: int, n_phi: int,
              cy: wp.float64, cx: wp.float64, r0: int, mode: int, cval: Any):
@@ -501,7 +389,6 @@ def add_rows(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), scale: wp.array
 for _real in (wp.float32, wp.float64):
     _a = wp.array(dtype=_real)
     wp.overload(box_lines, {"src": _a, "dst": _a, "cval": _real, "less": _a})
-    wp.overload(field_blur, {"coef": _a, "field": _a, "out": _a, "cval": _real})
     wp.overload(to_polar, {"coef": _a, "out": _a, "cval": _real})
     wp.overload(from_polar, {"pcoef": _a, "base": _a, "out": _a, "wcoef": _a})
     wp.overload(add_rows, {"src": _a, "dst": _a, "scale": _a})
@@ -522,15 +409,6 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
                        wp.float64(a1), wp.float64(b0), wp.float64(b1), MODE_CODES[mode], real(cval),
                        _flat(be, dst if less is None else less), int(less is not None)])
     return dst
-
-
-def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
-    bsz, h, w = (int(s) for s in coef.shape)
-    real = wpl.real_type(be, coef)
-    wpl.launch(be, field_blur, dim=bsz * h * w,
-               inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, int(psf), wp.float64(density),
-                       MODE_CODES[mode], real(cval)])
-    return out
 
 
 def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):

@@ -2,7 +2,8 @@
 
 Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification is in
 :mod:`gfgpu.motion.spec`, its launchers ``launch_<name>`` in this package's ``_numpy.py``,
-``_warp.py`` and ``_opencl.py`` (with ``motion.cl``), imported on first use.  Call as
+``_warp.py`` and ``_opencl.py`` (with ``motion.cl``; the field kernel's in ``field_kernels/``), imported on
+first use.  Call as
 ``kernel(backend, *args)`` with device arrays; ``mode`` is a scipy.ndimage boundary name.
 """
 
@@ -14,8 +15,8 @@ from . import spec as specs
 __all__ = ["box_lines", "field_blur", "to_polar", "from_polar", "add_rows"]
 
 
-def _launchers(name):
-    return {backend: f"{__package__}._{backend}:launch_{name}" for backend in ("numpy", "warp", "opencl")}
+def _launchers(name, package=__package__):
+    return {backend: f"{package}._{backend}:launch_{name}" for backend in ("numpy", "warp", "opencl")}
 
 
 #: ``box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None)``: ``dst = box_lines_reference(src,
@@ -25,7 +26,9 @@ box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers
 
 #: ``field_blur(be, coef, field, out, psf, density, mode, cval)``: ``out = field_blur_reference(coef,
 #: field, psf, density, mode, cval)`` (``coef``, ``out`` (B, H, W); ``field`` (2, H, W), same dtype)
-field_blur = register("motion.field_blur", specs.field_blur_reference, **_launchers("field_blur"))
+#: (device code of its own, ``field_kernels/``: a field call builds only field code)
+field_blur = register("motion.field_blur", specs.field_blur_reference,
+                      **_launchers("field_blur", f"{__package__}.field_kernels"))
 
 #: ``to_polar(be, coef, out, cy, cx, r0, mode, cval)``: ``out = to_polar_reference(coef, cy, cx, r0,
 #: *out.shape[1:], mode, cval)`` (``out`` (B, n_r, n_phi): radius ``r0 + i`` on axis 1, angle on axis 2)

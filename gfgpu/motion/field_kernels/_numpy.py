@@ -1,0 +1,10 @@
+"""numpy launcher of the field kernel: the specification itself, written into the output."""
+
+from __future__ import annotations
+
+from .. import spec as specs
+
+
+def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
+    out[...] = specs.field_blur_reference(coef, field, psf, density, mode, cval)
+    return out

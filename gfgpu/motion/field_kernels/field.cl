@@ -1,0 +1,263 @@
+// Per-pixel velocity fields of gfgpu.motion (spec: gfgpu.motion.spec.field_blur_reference; Warp
+// twin in gfgpu/motion/field_kernels/_warp.py): only field code, so the first field call builds only
+// this.  Built with -D REAL=float|double and -D POS=float|double (positions and weights: double
+// wherever the device has it).  The launcher (gfgpu/motion/field_kernels/_opencl.py) defines the
+// constants of the Python definitions, none retyped here: the mode codes MODE_CONSTANT .. MODE_MIRROR
+// (gfgpu._core.boundary.MODE_CODES); SPLINE_POLE, NEAR_A, NEAR_B (gfgpu._core.bspline); the PSF codes
+// PSF_BOX, PSF_GREEN, PSF_BOX_CENTRED, PSF_GREEN_CENTRED (spec.PSF_CODES) and the quadrature constants.
+
+#if !defined(MODE_MIRROR) || !defined(SPLINE_POLE) || !defined(PSF_GREEN_CENTRED)
+#error "field.cl is built by gfgpu.motion.field_kernels._opencl, which defines the constants of the Python definitions"
+#endif
+
+#ifdef cl_khr_fp64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+// PoCL 3.0 (pocl-binary-distribution) calls its builtins out of line: min, max, floor, fabs,
+// sqrt, vloadn and vstoren are function calls in the compiled kernels, and so are the helpers
+// below unless forced inline; in the per-sample loops the calls cost more than the arithmetic.
+// Hence IMIN / IMAX (ints, arguments without side effects), the compiler's own floor, fabs, fmin,
+// fmax and sqrt under clang (one instruction each, the same values: exact, or correctly rounded
+// as PoCL's), and INLINE on the helpers of the loops.
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define IMAX(a, b) ((a) > (b) ? (a) : (b))
+#ifdef __clang__
+#define INLINE static inline __attribute__((always_inline))
+#define POS_IS_DOUBLE_double 1
+#define POS_IS_DOUBLE_float 0
+#define IS_DOUBLE_(t) POS_IS_DOUBLE_##t
+#define IS_DOUBLE(t) IS_DOUBLE_(t)
+#if IS_DOUBLE(POS)
+#define FLOOR_POS(x) __builtin_floor(x)
+#else
+#define FLOOR_POS(x) __builtin_floorf(x)
+#endif
+#if IS_DOUBLE(GRID)
+#define SQRT_GRID(x) __builtin_sqrt(x)
+#else
+#define SQRT_GRID(x) __builtin_sqrtf(x)
+#endif
+#define FABSF(x) __builtin_fabsf(x)
+#define FMAXF(a, b) __builtin_fmaxf(a, b)
+#define FMINF(a, b) __builtin_fminf(a, b)
+#else
+#define INLINE static inline
+#define FLOOR_POS(x) floor(x)
+#define SQRT_GRID(x) sqrt(x)
+#define FABSF(x) fabs(x)
+#define FMAXF(a, b) fmax(a, b)
+#define FMINF(a, b) fmin(a, b)
+#endif
+
+#ifndef GRID
+#define GRID POS     // positions of spline2: the polar kernels may take float for float32 images
+#endif
+
+#define POLE ((POS)(SPLINE_POLE))     // sqrt(3) - 2
+#define TWO_PI ((POS)6.283185307179586)
+
+// the modes whose extension repeats with a period (gfgpu._core.boundary.PERIODIC_MODES)
+#define IS_PERIODIC(mode) ((mode) == MODE_WRAP || (mode) == MODE_REFLECT || (mode) == MODE_MIRROR)
+
+// index of sample i of a line of n extended by mode (-1: cval): gfgpu._core.boundary.extend_index
+INLINE int extend(int i, const int n, const int mode)
+{
+    if (mode == MODE_CONSTANT)
+        return (i < 0 || i >= n) ? -1 : i;
+    if (mode == MODE_NEAREST)
+        return i < 0 ? 0 : (i >= n ? n - 1 : i);
+    if (mode == MODE_WRAP) {
+        int r = i % n;
+        return r < 0 ? r + n : r;
+    }
+    if (mode == MODE_REFLECT) {
+        int q = i % (2 * n);
+        q = q < 0 ? q + 2 * n : q;
+        return q >= n ? 2 * n - 1 - q : q;
+    }
+    if (n == 1)
+        return 0;
+    int q = i % (2 * n - 2);
+    q = q < 0 ? q + 2 * n - 2 : q;
+    return q >= n ? 2 * n - 2 - q : q;
+}
+
+// floor(x) as an int by conversion, |x| < 2^31: PoCL's floor() is a library call that stops the
+// vectorisation across work-items (two of them cost more than the rest of the spline)
+INLINE int ifloor(const GRID x)
+{
+    const int t = (int)x;
+    return t - (x < (GRID)t);
+}
+
+// z^m for m >= 0, by the bits of m (branch-free: exp and pown are library calls that stop PoCL's
+// vectorisation across work-items); 0 beyond m = 31, where |z|^m < 1e-18 (beside 1e-16 in double)
+#define POLE_2 (POLE * POLE)
+#define POLE_4 (POLE_2 * POLE_2)
+#define POLE_8 (POLE_4 * POLE_4)
+
+INLINE POS pole_power(const int m)
+{
+    return (m & 1 ? POLE : (POS)1) * (m & 2 ? POLE_2 : (POS)1) * (m & 4 ? POLE_4 : (POS)1)
+           * (m & 8 ? POLE_8 : (POS)1) * (m & 16 ? POLE_8 * POLE_8 : (POS)1) * (m > 31 ? (POS)0 : (POS)1);
+}
+
+// weights in REAL from the fraction in REAL: positions need POS, a fraction in [0, 1) does not
+INLINE REAL bweight(const REAL t, const int p)
+{
+    const REAL g = (REAL)1 - t;
+    switch (p) {
+    case 0: return g * g * g / (REAL)6;
+    case 1: return ((REAL)3 * t * t * t - (REAL)6 * t * t + (REAL)4) / (REAL)6;
+    case 2: return ((REAL)3 * g * g * g - (REAL)6 * g * g + (REAL)4) / (REAL)6;
+    default: return t * t * t / (REAL)6;
+    }
+}
+
+// coefficient i of a line of n as w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval
+// (gfgpu._core.bspline.coef_taps; cval only in constant mode): returns j0
+static inline int coef_taps(const int i, const int n, const int mode, POS *w0, int *j1, POS *w1)
+{
+    *w0 = (POS)1;
+    *w1 = (POS)0;
+    if ((unsigned)i < (unsigned)n || IS_PERIODIC(mode)) {
+        *j1 = (unsigned)i < (unsigned)n ? i : extend(i, n, mode);
+        return *j1;
+    }
+    const int left = i < 0, j = left ? 0 : n - 1;
+    const POS f = pole_power(left ? -i : i - n + 1);
+    *j1 = j;
+    if (mode == MODE_CONSTANT) {
+        *w0 = f;
+        return j;
+    }
+    *j1 = left ? IMIN(1, n - 1) : IMAX(n - 2, 0);
+    *w0 = f + ((POS)1 - f) * (POS)NEAR_A;
+    *w1 = ((POS)1 - f) * (POS)NEAR_B;
+    return j;
+}
+
+// the 2-D cubic B-spline of one plane (h x w, at `plane`) at (py, px)
+static inline REAL spline2(__global const REAL *src, const long plane, const int h, const int w, const GRID py,
+                           const GRID px, const int mode_y, const int mode_x, const REAL cval)
+{
+    const int iy = ifloor(py), ix = ifloor(px);
+    const REAL ty = (REAL)(py - (GRID)iy), tx = (REAL)(px - (GRID)ix);
+    REAL wx[4], wy[4];
+    for (int q = 0; q < 4; ++q) {
+        wx[q] = bweight(tx, q);
+        wy[q] = bweight(ty, q);
+    }
+    if (iy >= 1 && iy + 2 < h && ix >= 1 && ix + 2 < w) {    // all 16 coefficients inside: no extension
+        __global const REAL *line = src + plane + (long)(iy - 1) * w + (ix - 1);
+        REAL acc = 0;
+        for (int p = 0; p < 4; ++p, line += w)
+            acc += wy[p] * (wx[0] * line[0] + wx[1] * line[1] + wx[2] * line[2] + wx[3] * line[3]);
+        return acc;
+    }
+    // beyond the border a coefficient may weigh two ('nearest'): two columns and two rows per tap
+    const REAL base = mode_x == MODE_CONSTANT ? cval : (REAL)0;
+    int rx0[4], rx1[4];
+    REAL vx0[4], vx1[4];
+    for (int q = 0; q < 4; ++q) {
+        POS g0, g1;
+        rx0[q] = coef_taps(ix + q - 1, w, mode_x, &g0, &rx1[q], &g1);
+        vx0[q] = wx[q] * (REAL)g0;
+        vx1[q] = wx[q] * (REAL)g1;
+    }
+    REAL acc = 0;
+    for (int p = 0; p < 4; ++p) {
+        POS h0, h1;
+        int ry1;
+        const int ry0 = coef_taps(iy + p - 1, h, mode_y, &h0, &ry1, &h1);
+        for (int r = 0; r < 2; ++r) {
+            const POS g = r ? h1 : h0;
+            if (g == (POS)0)
+                continue;
+            __global const REAL *line = src + plane + (long)(r ? ry1 : ry0) * w;
+            REAL row = 0;
+            for (int q = 0; q < 4; ++q)
+                row += vx0[q] * (line[rx0[q]] - base) + vx1[q] * (line[rx1[q]] - base);
+            acc += wy[p] * (REAL)g * row;
+        }
+    }
+    return acc + base;
+}
+
+static inline void support(const int psf, POS *t0, POS *t1)
+{
+    const POS tail = (POS)GREEN_TAIL;
+    // spec.psf_support
+    *t0 = psf == PSF_BOX ? (POS)0 : psf == PSF_GREEN ? (POS)0 : psf == PSF_BOX_CENTRED ? (POS)-0.5 : -tail / 2;
+    *t1 = psf == PSF_BOX ? (POS)1 : psf == PSF_GREEN ? tail : psf == PSF_BOX_CENTRED ? (POS)0.5 : tail / 2;
+}
+
+// spec.psf_cdf
+static inline POS cdf(const int psf, const POS t, const POS t0, const POS t1)
+{
+    if (t <= t0)
+        return 0;
+    if (t >= t1)
+        return 1;
+    if (psf == PSF_BOX || psf == PSF_BOX_CENTRED)
+        return (t - t0) / (t1 - t0);
+    if (psf == PSF_GREEN)
+        return (POS)1 - exp(-t) * (sin(t) + cos(t));
+    const POS s = (POS)2 * fabs(t);
+    const POS c = (POS)0.5 * ((POS)1 - exp(-s) * cos(s));
+    return t < 0 ? (POS)0.5 - c : (POS)0.5 + c;
+}
+
+// G_u's density at t (spec.psf_density; psf PSF_GREEN or PSF_GREEN_CENTRED)
+static inline POS density(const int psf, const POS t)
+{
+    if (psf == PSF_GREEN)
+        return (POS)2 * exp(-t) * sin(t);
+    const POS s = (POS)2 * fabs(t);
+    return exp(-s) * (cos(s) + sin(s));
+}
+
+// One work-item per output pixel: its own path x - t v(x), in cells of three Gauss-Legendre nodes.
+__kernel void field_blur(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
+                         const int w, const int planes, const int psf, const POS density_px, const int mode,
+                         const REAL cval, const long out_off)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const long pix = (long)y * w + x, hw = (long)h * w;
+    const POS vy = (POS)field[pix], vx = (POS)field[hw + pix];
+    POS t0, t1;
+    support(psf, &t0, &t1);
+    const POS span = t1 - t0, length = fmax(fabs(vy), fabs(vx));
+    const int fewest = psf == PSF_GREEN ? MIN_CELLS_G : (psf == PSF_GREEN_CENTRED ? MIN_CELLS_CG : 1);
+    const int n = length > 0 ? max(fewest, (int)ceil(length * span * density_px - (POS)1e-9)) : 1;
+    const POS u[3] = {(POS)GAUSS_U0, (POS)GAUSS_U1, (POS)GAUSS_U2};
+    const POS g[3] = {(POS)GAUSS_W0, (POS)GAUSS_W1, (POS)GAUSS_W2};
+    for (int b = 0; b < planes; ++b) {
+        REAL acc = 0;
+        POS prev = 0;
+        for (int k = 0; k < n; ++k) {
+            const POS ta = t0 + span * (POS)k / (POS)n, tb = t0 + span * (POS)(k + 1) / (POS)n;
+            const POS c = cdf(psf, tb, t0, t1), mass = c - prev;
+            prev = c;
+            POS t[3], wt[3];
+            for (int i = 0; i < 3; ++i)
+                t[i] = ta + u[i] * (tb - ta);
+            if (psf == PSF_BOX || psf == PSF_BOX_CENTRED) {
+                for (int i = 0; i < 3; ++i)
+                    wt[i] = g[i] * mass;
+            } else {          // Gauss-Legendre on the density, the cell's exact mass restored
+                for (int i = 0; i < 3; ++i)
+                    wt[i] = (tb - ta) * g[i] * density(psf, t[i]);
+                const POS rest = mass - (wt[0] + wt[1] + wt[2]);
+                for (int i = 0; i < 3; ++i)
+                    wt[i] += g[i] * rest;
+            }
+            for (int i = 0; i < 3; ++i)
+                acc += (REAL)wt[i] * spline2(coef, b * hw, h, w, (POS)y - t[i] * vy, (POS)x - t[i] * vx, mode, mode, cval);
+        }
+        out[out_off + b * hw + pix] = acc;
+    }
+}
