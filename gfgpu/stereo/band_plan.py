@@ -24,16 +24,18 @@ def padded_samples(n):
 
 
 def _bucket_ladder():
-    # every count of vectors up to 12, then steps of at most 1/8 (so that at most ~11 % of the
-    # samples swept are padding) through 32 and 64, where stereo.cl's loops stop unrolling
-    ladder = list(range(1, 13)) + [14, 16, 18, 20, 22, 24, 27, 30, 32, 36, 40, 45, 50, 56, 64]
+    # every count of vectors up to 12, then steps of at most 1/6 (less than 1/9 of the samples
+    # swept are padding) through 32 and 64, where stereo.cl's loops stop unrolling: every even
+    # count to 32 and every 4th to 64, so that OpenCV-style ranges (num_disp a multiple of 16 to
+    # 256, of 32 to 512) with half-pixel samples (n = 2 num_disp - 1) have no padding at all
+    ladder = list(range(1, 13)) + list(range(14, 33, 2)) + list(range(36, 65, 4))
     while ladder[-1] < 1025:         # MAX_RANGE * 4 + 1 samples = 1025 vectors
         ladder.append(-(-ladder[-1] * 9 // 8))
     return tuple(ladder)
 
 
 #: the bucket sizes of the CPU band matcher, in short16 vectors (16 samples) per pixel: a range
-#: of n samples runs in the smallest that holds it (27 buckets up to 1024 samples, 33 up to 2048:
+#: of n samples runs in the smallest that holds it (30 buckets up to 1024 samples, 36 up to 2048:
 #: max_disparity 1024 with half-pixel samples)
 BUCKET_VECTORS = _bucket_ladder()
 

@@ -195,9 +195,9 @@ def grey_image(image, name):
         raise ValueError(f"{name} must be (H, W) grey or (H, W, C) colour with C in 1, 3, 4; "
                          f"got shape {arr.shape}")
     if real is np.float64 and arr.dtype.kind in "iu":
-        # the pair's exact offset is taken in _exact_views; integers beyond 2**53 (int64 only)
-        # round here, relative 1e-16
-        arr = arr.astype(np.float64)
+        # grey wide integers stay integers: _exact_views takes the pair's offset in integer
+        # arithmetic, exact also beyond float64's 2**53 (int64, uint64)
+        return np.ascontiguousarray(arr, dtype=np.int64 if arr.dtype.kind == "i" else np.uint64)
     out = np.ascontiguousarray(arr, dtype=real)
     if not integer and not np.isfinite(out).all():
         raise ValueError(f"{name} contains NaN or infinite values")
@@ -218,14 +218,20 @@ def _wide_integers(arr):
 
 def _exact_views(left, right):
     """A pair from :func:`grey_image` in the precision that loses no value: float32 views as they
-    are; float64 views (wide integers) moved by their joint minimum (exact for integers), then
+    are; wide integers (grey: int64/uint64; colour: float64 luminance) moved by their joint
+    minimum (exact in integer arithmetic), then
     float32 where that holds them exactly (every integer below 2**24: values near 2e9 that differ
     by 3 keep their difference) and float64 otherwise (the census is then taken on the host, in
     float64: :func:`_sgm`)."""
     if left.dtype == np.float32 and right.dtype == np.float32:
         return left, right
-    low = min(float(left.min()), float(right.min()))
-    lft, rgt = np.asarray(left, np.float64) - low, np.asarray(right, np.float64) - low
+    if left.dtype.kind in "iu" and right.dtype.kind in "iu":
+        # v - low in uint64 arithmetic (modulo 2**64, and 0 <= v - low < 2**64): exact
+        low = np.uint64(min(int(left.min()), int(right.min())) % 2**64)
+        lft, rgt = ((v.astype(np.uint64) - low).astype(np.float64) for v in (left, right))
+    else:
+        low = min(float(left.min()), float(right.min()))
+        lft, rgt = np.asarray(left, np.float64) - low, np.asarray(right, np.float64) - low
     top = max(float(lft.max()), float(rgt.max()))
     if top < _FLOAT32_EXACT and (lft == np.round(lft)).all() and (rgt == np.round(rgt)).all():
         return lft.astype(np.float32), rgt.astype(np.float32)

@@ -21,7 +21,10 @@ def test_buckets_cover_every_count_with_little_padding():
     assert (full < sizes // 16).all()
     wide = counts > 16 * 12                         # below 13 vectors every count is a bucket
     assert (sizes[wide] / (16 * np.ceil(counts[wide] / 16)) <= 1.125).all()
-    assert len(set(sizes[counts <= 1024])) <= 27
+    assert len(set(sizes[counts <= 1024])) <= 30
+    for num_disp in list(range(16, 257, 16)) + list(range(288, 513, 32)):     # OpenCV-style ranges
+        n = 2 * num_disp - 1                        # half-pixel samples of 0 .. num_disp - 1
+        assert band_plan.sample_bucket(n)[0] == 16 * -(-n // 16)
     with pytest.raises(ValueError, match="largest bucket"):
         band_plan.sample_bucket(16 * band_plan.BUCKET_VECTORS[-1] + 1)
 
@@ -34,13 +37,13 @@ def _codes(rng, h, w, steps, shift, flip):
 
 
 def test_every_count_of_a_bucket_matches_the_specification(require_backend):
-    # counts of one bucket (49..64: 4 vectors, NV_FULL 3) and of a wider one (417..432, 27
-    # vectors, NV_FULL 24), with ranges inside, straddling and beyond the image (masked paths
+    # counts of one bucket (49..64: 4 vectors, NV_FULL 3) and of a wider one (417..448, 28
+    # vectors, NV_FULL 26), with ranges inside, straddling and beyond the image (masked paths
     # and entering samples), 4 and 8 paths, 1..4 sub-pixel steps
     be = require_backend("opencl")
     rng = np.random.default_rng(5)
     assert band_plan.sample_bucket(49) == band_plan.sample_bucket(64) == (64, 3)
-    assert band_plan.sample_bucket(417)[0] == band_plan.sample_bucket(432)[0] == 432
+    assert band_plan.sample_bucket(417) == band_plan.sample_bucket(431) == (448, 26)
     cases = [(49, 1, 0, 4), (50, 2, -10, 8), (57, 3, 3, 4), (64, 4, -32, 8), (417, 1, -400, 4), (431, 2, 0, 4)]
     for n, steps, first, paths in cases:
         h, w = 7, 40

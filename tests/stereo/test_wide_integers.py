@@ -35,6 +35,16 @@ def test_values_near_2e9_that_differ_by_3_are_matched_exactly(backend, dtype):
     np.testing.assert_array_equal(matcher.compute(*wide), got)
 
 
+@pytest.mark.parametrize("dtype, base", [(np.int64, 2**62), (np.int64, -2**62), (np.uint64, 2**63 + 5)])
+def test_values_beyond_float64_integers_that_differ_by_3(dtype, base):
+    # near 2**62 float64 holds only multiples of 1024: the offset is taken in integer arithmetic
+    q = _quantised_pair()
+    wide = [(np.array(base, dtype) + (3 * v).astype(dtype)) for v in q]
+    got = disparity(*wide, 14, backend="numpy")
+    want = disparity(*[(3 * v).astype(np.float32) for v in q], 14, backend="numpy")
+    np.testing.assert_array_equal(got, want)
+
+
 def test_wide_range_is_matched_in_float64_identically_on_every_backend(backend):
     # an int64 range beyond 2**24 after the offset: no float32 holds it; the census runs on the
     # float64 views, the same codes for every backend
@@ -42,6 +52,7 @@ def test_wide_range_is_matched_in_float64_identically_on_every_backend(backend):
     wide = [(2**40 + 100_003 * v).astype(np.int64) for v in q]
     lft, rgt = matching._exact_views(*(matching.grey_image(v, n) for v, n in zip(wide, ("l", "r"))))
     assert lft.dtype == np.float64 and float(max(lft.max(), rgt.max())) >= 2**24
+    assert matching.grey_image(wide[0], "l").dtype == np.int64
     got = disparity(*wide, 14, backend=backend)
     np.testing.assert_array_equal(got, disparity(*wide, 14, backend="numpy"))
     d = got[np.isfinite(got)]
@@ -56,5 +67,5 @@ def test_narrow_integers_keep_the_float32_path():
     q = _quantised_pair()
     img = matching.grey_image(q[0].astype(np.int32), "left")
     assert img.dtype == np.float32
-    assert matching.grey_image((q[0] + 2**24).astype(np.int32), "left").dtype == np.float64
+    assert matching.grey_image((q[0] + 2**24).astype(np.int32), "left").dtype == np.int64
     assert stereo.disparity is disparity
