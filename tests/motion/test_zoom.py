@@ -249,3 +249,34 @@ def test_polar_cost_budget_admits_square_images_and_moderate_strips():
     strip = np.tile(np.linspace(0.0, 1.0, 300), (16, 1))
     out = motion_blur(strip, 0.2, kind="zoom", psf="box", backend="numpy")
     assert out.shape == strip.shape and np.isfinite(out).all()
+
+
+@pytest.mark.parametrize("u1", [0.3, -0.4])
+def test_ray_pass_along_the_polar_columns_equals_the_duplicated_ray_layout(backend, u1):
+    """The radial G_U^(1) zoom runs along the columns of the polar grid (one recursion with
+    per-position coefficients on axis 1, then each ring's own tap): the same outputs as the
+    duplicated layout that the primitive's constant tap once needed (sample k at positions 2k,
+    2k + 1, outputs read at 2k + 1; zoom-out laid out from the far end), run by the numpy
+    specification of the primitive."""
+    from gfgpu._core.recursion import PassPlan, plan_pass, run_reference
+    from gfgpu.motion.zoom import _layout, _segment_terms, ray_zoom_pass
+
+    n, m = 40, 9
+    dtype = float_dtype(backend)
+    rays = np.random.default_rng(11).random((n, m))            # ray sample k (radius k) on row k
+    lam_a, kap_a, lam_b, kap_b = _layout(*_segment_terms(u1, 0.0, n))
+    zeros = np.zeros((2, 0), np.complex128)
+    plan = PassPlan(np.array([lam_a, lam_b]), np.array([kap_a, kap_b]), zeros, np.zeros(2, np.complex128),
+                    0.0, False, False)
+    order = rays[::-1] if u1 < 0 else rays                      # traversal order: the far end first
+    ref = run_reference(np.repeat(order, 2, axis=0), plan)[1::2]
+    ref = ref[::-1] if u1 < 0 else ref
+
+    be = backend
+    line_pass, own = ray_zoom_pass(u1, n)
+    src = be.asarray(rays.astype(dtype)[None])
+    dst = be.empty((1, n, m), dtype)
+    be.recurse(src, dst, 1, plan_pass(line_pass, n, "constant", dtype), 0.0)
+    out = be.to_host(dst)[0].astype(np.float64) + own[:, None] * rays
+    tol = 1e-12 if dtype == np.float64 else 2e-5
+    assert np.abs(out - ref).max() <= tol * np.abs(ref).max()
