@@ -91,6 +91,10 @@ def shear_offsets(steps, gamma):
     return r, d
 
 
+#: the sheared layout's line count is a multiple of this (16 float32 lanes: two AVX vectors)
+LINE_GROUP = 16
+
+
 class ShearMaps(NamedTuple):
     """Gathers of a sheared layout (:func:`shear_maps`)."""
 
@@ -119,6 +123,10 @@ def shear_maps(height, width, batch, angle, mode, margin, transposed=False):
     margin = int(margin)
     first = -int(r.max()) - margin
     lines = across - int(r.min()) + int(r.max()) + 2 * margin
+    # whole groups of LINE_GROUP lines: the CPU kernels run that many adjacent lines in vector
+    # lanes and fall back to one line at a time for a partial group (the extra lines, past the
+    # last margin, are never read back)
+    lines = -(-lines // LINE_GROUP) * LINE_GROUP
     plane = height * width
     total = batch * max(lines * steps, plane)
     itype = np.int32 if total < 2**31 - 1 else np.int64
@@ -163,3 +171,43 @@ def shear_maps(height, width, batch, angle, mode, margin, transposed=False):
     for a in (shear, unshear, d):
         a.setflags(write=False)
     return ShearMaps(shear, unshear, lines, steps, d, bool(transposed))
+
+
+class ShearGeometry(NamedTuple):
+    """What a kernel needs to read the sheared layout from the image and write it back by index
+    arithmetic (:func:`shear_geometry`), in place of the two index arrays of :func:`shear_maps`."""
+
+    base: np.ndarray       # (span,) minor coordinate first + r.min() + k -> its pixel's offset (-1: cval)
+    shift: np.ndarray      # (steps,) line q at step t reads base[q + shift[t]]
+    start: np.ndarray      # (steps,) line q at step t is pixel (minor q + start[t], step t)
+    lines: int
+    steps: int
+    across: int
+    stride: int            # pixel (minor c, step t) at c * stride + t * tstride
+    tstride: int
+    transposed: bool
+
+
+@lru_cache(maxsize=8)
+def shear_geometry(height, width, angle, mode, margin, transposed=False):
+    """The sheared layout of :func:`shear_maps` (same lines, same samples) as a base table and
+    per-step offsets instead of whole-image index arrays: O(width + height) numbers."""
+    steep, _, gamma = direction(angle)
+    steps, across = (height, width) if steep else (width, height)
+    r, _ = shear_offsets(steps, gamma)
+    margin = int(margin)
+    first = -int(r.max()) - margin
+    lines = across - int(r.min()) + int(r.max()) + 2 * margin
+    lines = -(-lines // LINE_GROUP) * LINE_GROUP
+    lo = first + int(r.min())
+    span = np.arange(lo, first + lines - 1 + int(r.max()) + 1)
+    ext = extend_index(span, across, mode)
+    stride = 1 if steep else width
+    tstride = width if steep else 1
+    base = np.where(ext >= 0, ext * stride, -1).astype(np.int32)
+    shift = (r - int(r.min())).astype(np.int32)
+    start = (r + first).astype(np.int32)
+    for a in (base, shift, start):
+        a.setflags(write=False)
+    return ShearGeometry(base, shift, start, lines, steps, across, stride, tstride, bool(transposed))
+

@@ -34,12 +34,13 @@ from functools import lru_cache
 
 import numpy as np
 
-from .lines import direction, shear_maps, shear_offsets
+from .lines import direction, shear_geometry, shear_maps, shear_offsets
 from .recursion import TOL, line_plans, plan_pass
 from .translation import crop_index, decay_length, step_offset, translate_index, without_offset
 
 __all__ = ["run_oblique_passes", "run_oblique_steps", "run_oblique_lines", "allpass_delay", "column_delays",
-           "thiran_denominator", "ORDER"]
+           "thiran_denominator", "ORDER", "ShearPlan", "shear_plan", "check_oblique_cost", "layout_samples",
+           "LAYOUT_PER_PIXEL", "LAYOUT_FLOOR"]
 
 
 #: order of the Thiran allpass that realises the columns' sub-pixel delays
@@ -130,9 +131,111 @@ def _column_plans(steps, gamma, lines, dtype_str):
     stages, d, _ = column_delays(steps, gamma, dtype_str)
     ident = d == 0
     # the layout's margin makes the state at the lines' ends irrelevant: any mode will do
-    forward = [line_plans(lam, kap, tap, True, lines, "nearest", dtype_str, ident) for lam, kap, tap in stages]
+    forward = [_one_sense(line_plans(lam, kap, tap, True, lines, "nearest", dtype_str, ident), True)
+               for lam, kap, tap in stages]
     inverse = [line_plans(lam, kap, tap, False, lines, "nearest", dtype_str, ident) for lam, kap, tap in stages]
     return forward, inverse
+
+
+def _one_sense(plans, reverse):
+    """``plans`` with every line traversed in the sense ``reverse``, the identity lines too (their
+    sense changes nothing): the backends run adjacent lines of one sense together in vector lanes
+    and fall back to one line at a time where senses mix (every column with ``d = 0``)."""
+    plans.reverse[:] = reverse      # a fresh array of line_plans'
+    return plans
+
+
+class ShearPlan:
+    """The two shears of an oblique direction for a backend that fuses each one's gather and
+    column allpass into one kernel (``Backend.shear_lines``): the layout's geometry
+    (:func:`gfgpu._core.lines.shear_geometry`) and, per column, the two sections of
+    :func:`column_delays` with their steady-state gains (``kap / (1 - lam)``: the state after a
+    constant input, with which each line starts).  Immutable; ``packed(dtype)`` gives the arrays
+    a kernel reads: coef ``(steps, 11)`` (lam re, im, kap re, im, tap, gain re, im of the pair;
+    pole, kap, tap, gain of the real section), base, shift, start (int32)."""
+
+    def __init__(self, geometry, stages, plane):
+        self.geometry, self.plane = geometry, tuple(plane)
+        (lam, kap, tap), (p, k, tapb) = stages
+        gain = kap / (1.0 - lam)
+        coef = np.stack([lam.real, lam.imag, kap.real, kap.imag, tap, gain.real, gain.imag,
+                         p.real, k.real, tapb, (k / (1.0 - p)).real], axis=1)
+        coef.setflags(write=False)
+        self.coef = coef
+        self._packed = {}
+
+    def packed(self, dtype):
+        return self.grouped(1).packed(dtype)
+
+    def grouped(self, lanes):
+        """The plan with its coefficients grouped for kernels that run ``lanes`` adjacent columns
+        in vector lanes: ``packed(dtype)`` gives coef ``(groups, 11, lanes)`` (columns past the
+        last repeat it), base, shift, start.  One object per ``lanes`` (backends key uploads by
+        identity)."""
+        hit = self._packed.get(lanes)
+        if hit is None:
+            hit = self._packed[lanes] = _GroupedShear(self, lanes)
+        return hit
+
+
+class _GroupedShear:
+    """:meth:`ShearPlan.grouped`."""
+
+    def __init__(self, plan, lanes):
+        self.plan, self.lanes, self._arrays = plan, int(lanes), {}
+
+    def packed(self, dtype):
+        dtype = np.dtype(dtype)
+        if dtype not in self._arrays:
+            coef, g, lanes = self.plan.coef, self.plan.geometry, self.lanes
+            groups = -(-len(coef) // lanes)
+            cols = np.minimum(np.arange(groups * lanes), len(coef) - 1)
+            grouped = np.ascontiguousarray(coef[cols].reshape(groups, lanes, -1).transpose(0, 2, 1), dtype)
+            self._arrays[dtype] = (grouped, g.base, g.shift, g.start)
+        return self._arrays[dtype]
+
+
+@lru_cache(maxsize=8)
+def shear_plan(height, width, angle, mode, margin, transposed, dtype_str):
+    """The :class:`ShearPlan` of a direction on ``(height, width)`` planes (cached: backends
+    upload its arrays once, keyed by identity)."""
+    steep, _, gamma = direction(angle)
+    steps = height if steep else width
+    stages = column_delays(steps, gamma, dtype_str)[0]
+    return ShearPlan(shear_geometry(height, width, angle, mode, margin, transposed), stages, (height, width))
+
+
+#: a sheared layout may hold at most this many samples per pixel of the image plane, beyond
+#: :data:`LAYOUT_FLOOR` samples: its lines span the long side times the slope, so a thin strip
+#: along a steep-ish direction would otherwise cost far more than its size (3 x 5000 along
+#: (3, 7): 12 M samples for 15,000 pixels)
+LAYOUT_PER_PIXEL = 64
+
+#: samples per plane that any sheared layout may hold, whatever the image's size
+LAYOUT_FLOOR = 1 << 22
+
+
+def layout_samples(height, width, angle, dtype):
+    """Samples per plane of the sheared layout of ``angle`` on ``(height, width)`` planes."""
+    steep, _, gamma = direction(angle)
+    steps, across = (height, width) if steep else (width, height)
+    margin = column_delays(steps, gamma, np.dtype(dtype).str)[2]
+    r, _ = shear_offsets(steps, gamma)
+    lines = across - int(r.min()) + int(r.max()) + 2 * margin
+    return steps * lines
+
+
+def check_oblique_cost(height, width, angle, dtype):
+    """Refuse, before any work, a sheared layout whose size the plane's does not account for:
+    more than :data:`LAYOUT_PER_PIXEL` samples per pixel beyond :data:`LAYOUT_FLOOR`."""
+    samples = layout_samples(height, width, angle, dtype)
+    if samples > LAYOUT_FLOOR + LAYOUT_PER_PIXEL * height * width:
+        deg = math.degrees(float(angle))
+        raise ValueError(f"an oblique pass at {deg:.4g} degrees over {height} x {width} pixels would run on "
+                         f"{samples} sheared samples (at most {LAYOUT_PER_PIXEL} per pixel beyond {LAYOUT_FLOOR}): "
+                         f"its lines span the long side times the direction's slope, so a strip this thin along "
+                         f"this direction is refused; pad the image across its short side, or blur it along "
+                         f"an axis")
 
 
 def run_oblique_passes(be, src, dst, dtype, passes, mode, cval, angle, plane, transposed=None):
@@ -182,15 +285,28 @@ def run_oblique_lines(be, src, dst, dtype, along, mode, cval, angle, plane, tran
                          "working array")
     height, width = shape[-2], shape[-1]
     batch = int(np.prod(shape[:-2], dtype=np.int64))
+    check_oblique_cost(height, width, angle, dtype)
     steep, reverse, gamma = direction(angle)
     steps = height if steep else width
     transposed = steep if transposed is None else bool(transposed)
-    margin = column_delays(steps, gamma, np.dtype(dtype).str)[2]
+    stages, _, margin = column_delays(steps, gamma, np.dtype(dtype).str)
+    axis, across = (1, 2) if transposed else (2, 1)
+    fused = getattr(be, "shear_lines", None)
+    if fused is not None and len(stages) == 2:
+        # gather and column allpass in one kernel each way (no index arrays, no extra sweeps)
+        plan = shear_plan(height, width, float(angle), mode, margin, transposed, np.dtype(dtype).str)
+        g = plan.geometry
+        layout = (batch, g.steps, g.lines) if transposed else (batch, g.lines, g.steps)
+        rows_in = be.empty(layout, dtype)
+        rows_out = be.empty(layout, dtype)
+        fused(src, rows_in, plan, True, cval)
+        rows_in = along(be, rows_in, rows_out, axis, reverse)
+        fused(rows_in, dst, plan, False, cval)
+        return dst
     maps = shear_maps(height, width, batch, float(angle), mode, margin, transposed)
     lines = maps.lines
     forward, inverse = _column_plans(steps, gamma, lines, np.dtype(dtype).str)
     layout = (batch, steps, lines) if transposed else (batch, lines, steps)
-    axis, across = (1, 2) if transposed else (2, 1)
     rows_in = be.empty(layout, dtype)
     rows_out = be.empty(layout, dtype)
     be.gather(be.reshape(src, (-1,)), maps.shear, cval, be.reshape(rows_in, (-1,)))

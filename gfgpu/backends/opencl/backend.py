@@ -31,6 +31,9 @@ from . import launch
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
+_SHEAR_BYTES = (64, 32)    # bytes of adjacent columns per vector of the shears (recurse_lines.cl), by layout
+_SHEAR_BAND = 1            # most vectors per work-item of the shears
+_SHEAR_ITEMS = 32          # fewest work-items of the shears, where the columns allow
 _BAND = 64                 # most vectors (cache lines) of adjacent columns per CPU work-item
 _STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU)
 _MIN_BLOCK = 1024          # shortest block of a block-parallel line on a CPU (steps)
@@ -594,6 +597,55 @@ class OpenCLBackend(Backend):
         group = launch.group_size(self)
         gsize = (-(-lines // group) * group, b)
         launch.launch(self, knl, gsize, (group, 1), [src], [dst], args)
+        return dst
+
+    def shear_lines(self, src, dst, plan, forward, cval=0.0):
+        """The gather and column allpass of an oblique pass as one kernel (recurse_lines.cl:
+        shear_in when ``forward``, image -> sheared layout; shear_out, layout -> image), for the
+        :class:`gfgpu._core.oblique.ShearPlan` ``plan``; ``src``, ``dst`` C-contiguous device
+        arrays holding B image planes and B layouts (any shape)."""
+        for arg, a in (("src", src), ("dst", dst)):
+            if not self.owns(a) or not a.flags.c_contiguous:
+                raise TypeError(f"{arg} must be a C-contiguous pyopencl.array.Array in the context of "
+                                f"{self.device}")
+        dtype = self._check_dtype(src.dtype)
+        if src.size == 0 or dst.size == 0:
+            return dst
+        g = plan.geometry
+        # CPU: adjacent columns in vector lanes; where they are rows of the layout (transposed),
+        # each lane is a stream of its own: fewer of them (16 rows 2**k floats apart share a set
+        # of the L1 cache)
+        lanes = (_SHEAR_BYTES[g.transposed] // dtype.itemsize) if self.kind == "cpu" else 1
+        coef, base, shift, start = self._plan_buffers(plan.grouped(lanes), dtype)   # uploaded once
+        g = plan.geometry
+        qs, ts = (1, g.lines) if g.transposed else (g.steps, 1)
+        image_plane, layout_plane = int(np.prod(plan.plane)), g.lines * g.steps
+        image, layout = (src, dst) if forward else (dst, src)
+        batch = image.size // image_plane
+        if image.size != batch * image_plane or layout.size != batch * layout_plane:
+            raise ValueError(f"shear_lines: arrays of {image.size} and {layout.size} samples do not hold whole "
+                             f"planes of {plan.plane} and layouts of {g.lines * g.steps}")
+        # a band of nv vectors per work-item (CPU: whole cache lines of a row per step), enough
+        # work-items to share among the cores
+        groups = -(-g.steps // lanes)
+        nv = max(1, min(_SHEAR_BAND, groups * batch // _SHEAR_ITEMS)) if self.kind == "cpu" else 1
+        item = dtype.itemsize
+        defines = dict(SHEAR_LANES=lanes, MAXV=_SHEAR_BAND)
+        if forward:
+            knl = launch.kernel(self, __package__, "recurse_lines.cl", "shear_in", dtype, **defines)
+            args = (src.base_data, np.int64(src.offset // item), dst.base_data, np.int64(dst.offset // item), coef,
+                    base, shift, np.int32(g.lines), np.int32(g.steps), np.int64(qs), np.int64(ts),
+                    np.int64(g.tstride), np.int64(image_plane), np.int64(layout_plane), dtype.type(cval),
+                    np.int32(nv))
+        else:
+            knl = launch.kernel(self, __package__, "recurse_lines.cl", "shear_out", dtype, **defines)
+            args = (src.base_data, np.int64(src.offset // item), dst.base_data, np.int64(dst.offset // item), coef,
+                    start, np.int32(g.lines), np.int32(g.steps), np.int32(g.across), np.int64(qs), np.int64(ts),
+                    np.int64(g.stride), np.int64(g.tstride), np.int64(layout_plane), np.int64(image_plane),
+                    np.int32(nv))
+        group = 1 if self.kind == "cpu" else launch.group_size(self)
+        items = -(-groups // nv)
+        launch.launch(self, knl, (-(-items // group) * group, batch), (group, 1), [src], [dst], args)
         return dst
 
     def _plan_buffers(self, plan, dtype):

@@ -198,3 +198,180 @@ __kernel void recurse_lines_lanes(__global const REAL *src, __global REAL *dst, 
     }
 }
 #endif
+
+/*
+ * The shears of an oblique pass (spec: gfgpu/_core/oblique.py, run_oblique_lines), each one kernel:
+ *
+ *   shear_in:  layout[q, t] = A_t(column t of the image read at base[q + shift[t]])   (anticausal)
+ *   shear_out: image[q + start[t], t] = A_t(layout column t)                           (causal)
+ *
+ * A_t the cascade of the column's two allpass sections, one complex pair (lam, kap, tap) and one
+ * real pole (p, k, tapb), both started at the steady state of the line's first sample
+ * ("nearest": the layout's margin makes the start irrelevant at the lines read back).  The gather
+ * is index arithmetic on a table of O(H + W) numbers: no whole-image index array and no
+ * intermediate layout between the gather and the sections.  Layout sample (q, t) at
+ * q * qs + t * ts; image pixel (minor c, step t) at c * stride + t * tstride (base holds
+ * c * stride, -1 for cval).
+ *
+ * A work-item runs nv vectors of SHEAR_LANES adjacent columns (a band of nv * SHEAR_LANES
+ * columns: on a CPU each step of the walk down the columns touches whole cache lines of one row),
+ * one vector after the other at each step; the states wait in private arrays.  Coefficients come
+ * grouped per vector, coef[g][j][lane] (g = t / SHEAR_LANES, j < NCOEF): lam re, im, kap re, im,
+ * tap, g re, im (= kap / (1 - lam)), p, k, tapb, gb (= k / (1 - p)); columns past the last repeat
+ * it (computed, never written).
+ */
+#ifndef SHEAR_LANES
+#define SHEAR_LANES 1
+#endif
+#ifndef MAXV
+#define MAXV 16
+#endif
+#define NCOEF 11
+#define CAT2_(a, b) a##b
+#define CAT2(a, b) CAT2_(a, b)
+
+#define SMIN(a, b) ((a) < (b) ? (a) : (b))     /* PoCL calls min() out of line */
+#if SHEAR_LANES == 1
+typedef REAL SVT;
+#define CVEC(p) (*(p))
+#elif defined(__clang__)
+typedef CAT2(REAL, SHEAR_LANES) SVT;
+/* a vector of the element's alignment: rows of the layout start anywhere */
+typedef REAL SVTU __attribute__((ext_vector_type(SHEAR_LANES), aligned(sizeof(REAL))));
+#define CVEC(p) ((SVT)(*(__global const SVTU *)(p)))
+#else
+typedef CAT2(REAL, SHEAR_LANES) SVT;
+#define CVEC(p) CAT2(vload, SHEAR_LANES)(0, (p))
+#endif
+typedef union { SVT v; REAL s[SHEAR_LANES]; } shear_lanes;
+
+#define COEFS(g)                                                                                  \
+    __global const REAL *c_ = coef + (long)(g) * (NCOEF * SHEAR_LANES);                          \
+    const SVT lr = CVEC(c_), li = CVEC(c_ + SHEAR_LANES), kr = CVEC(c_ + 2 * SHEAR_LANES),        \
+        ki = CVEC(c_ + 3 * SHEAR_LANES), ta = CVEC(c_ + 4 * SHEAR_LANES),                          \
+        pp = CVEC(c_ + 7 * SHEAR_LANES), kb = CVEC(c_ + 8 * SHEAR_LANES), tb = CVEC(c_ + 9 * SHEAR_LANES)
+
+#define START(g, v0, k) do {                                                                       \
+        __global const REAL *c0_ = coef + (long)(g) * (NCOEF * SHEAR_LANES);                       \
+        far[k] = CVEC(c0_ + 5 * SHEAR_LANES) * (v0);                                               \
+        fai[k] = CVEC(c0_ + 6 * SHEAR_LANES) * (v0);                                               \
+        fb[k] = CVEC(c0_ + 10 * SHEAR_LANES) * (v0);                                               \
+    } while (0)
+
+/* one step of the cascade on every lane of vector k: input v, output y */
+#define CASCADE(k, v, y) do {                                                                      \
+        const SVT fr_ = far[k], fi_ = fai[k], fb_ = fb[k];                                         \
+        const SVT ya_ = fr_ + ta * (v);                                                            \
+        far[k] = lr * fr_ - li * fi_ + kr * (v);                                                   \
+        fai[k] = lr * fi_ + li * fr_ + ki * (v);                                                   \
+        (y) = fb_ + tb * ya_;                                                                      \
+        fb[k] = pp * fb_ + kb * ya_;                                                               \
+    } while (0)
+
+/* lane l of vector k of this work-item: column t (clamped to the last) */
+#define COLUMN(k, l) SMIN(t0 + (k) * SHEAR_LANES + (l), steps - 1)
+
+static inline __attribute__((always_inline)) SVT read_in(
+    __global const REAL *s, __global const int *base, __global const int *shift, const int q, const int t0,
+    const int k, const int steps, const long tstride, const REAL cval)
+{
+    shear_lanes v;
+#pragma unroll
+    for (int l = 0; l < SHEAR_LANES; ++l) {
+        const int t = COLUMN(k, l);
+        const int row = base[q + shift[t]];
+        v.s[l] = row >= 0 ? s[row + t * tstride] : cval;
+    }
+    return v.v;
+}
+
+__kernel void shear_in(__global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,
+                       __global const REAL *coef, __global const int *base, __global const int *shift,
+                       const int lines, const int steps, const long qs, const long ts, const long tstride,
+                       const long src_plane, const long dst_plane, const REAL cval, const int nv)
+{
+    const int t0 = get_global_id(0) * (nv * SHEAR_LANES);
+    const long b = get_global_id(1);
+    if (t0 >= steps)
+        return;
+    const int g0 = t0 / SHEAR_LANES;
+    const int vecs = SMIN(nv, (steps - t0 + SHEAR_LANES - 1) / SHEAR_LANES);
+    __global const REAL *s = src + src_off + b * src_plane;
+    __global REAL *d = dst + dst_off + b * dst_plane;
+    SVT far[MAXV], fai[MAXV], fb[MAXV];
+    for (int k = 0; k < vecs; ++k) {
+        const SVT v0 = read_in(s, base, shift, lines - 1, t0, k, steps, tstride, cval);
+        START(g0 + k, v0, k);
+    }
+    for (int q = lines - 1; q >= 0; --q) {
+        for (int k = 0; k < vecs; ++k) {
+            COEFS(g0 + k);
+            const SVT v = read_in(s, base, shift, q, t0, k, steps, tstride, cval);
+            shear_lanes y;
+            CASCADE(k, v, y.v);
+            const int tk = t0 + k * SHEAR_LANES;
+            __global REAL *out = d + q * qs + (long)tk * ts;
+            if (ts == 1 && tk + SHEAR_LANES <= steps) {
+#pragma unroll
+                for (int l = 0; l < SHEAR_LANES; ++l)
+                    out[l] = y.s[l];
+            } else {
+#pragma unroll
+                for (int l = 0; l < SHEAR_LANES; ++l)
+                    if (tk + l < steps)
+                        out[l * ts] = y.s[l];
+            }
+        }
+    }
+}
+
+__kernel void shear_out(__global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,
+                        __global const REAL *coef, __global const int *start, const int lines, const int steps,
+                        const int across, const long qs, const long ts, const long stride, const long tstride,
+                        const long src_plane, const long dst_plane, const int nv)
+{
+    const int t0 = get_global_id(0) * (nv * SHEAR_LANES);
+    const long b = get_global_id(1);
+    if (t0 >= steps)
+        return;
+    const int g0 = t0 / SHEAR_LANES;
+    const int vecs = SMIN(nv, (steps - t0 + SHEAR_LANES - 1) / SHEAR_LANES);
+    __global const REAL *s = src + src_off + b * src_plane;
+    __global REAL *d = dst + dst_off + b * dst_plane;
+    /* no pixel lies beyond line across - the least start: those lines are not read */
+    int lo = start[t0];
+    for (int t = t0 + 1; t < SMIN(t0 + vecs * SHEAR_LANES, steps); ++t)
+        lo = SMIN(lo, start[t]);
+    const int last = SMIN(lines, across - lo);
+    SVT far[MAXV], fai[MAXV], fb[MAXV];
+    for (int k = 0; k < vecs; ++k) {
+        shear_lanes v0;
+#pragma unroll
+        for (int l = 0; l < SHEAR_LANES; ++l)
+            v0.s[l] = s[(long)COLUMN(k, l) * ts];
+        START(g0 + k, v0.v, k);
+    }
+    for (int q = 0; q < last; ++q) {
+        for (int k = 0; k < vecs; ++k) {
+            COEFS(g0 + k);
+            const int tk = t0 + k * SHEAR_LANES;
+            shear_lanes v;
+            if (ts == 1 && tk + SHEAR_LANES <= steps) {
+                v.v = CVEC(s + q * qs + tk);
+            } else {
+#pragma unroll
+                for (int l = 0; l < SHEAR_LANES; ++l)
+                    v.s[l] = s[q * qs + (long)COLUMN(k, l) * ts];
+            }
+            shear_lanes y;
+            CASCADE(k, v.v, y.v);
+#pragma unroll
+            for (int l = 0; l < SHEAR_LANES; ++l) {
+                const int t = tk + l;
+                const int m = q + start[SMIN(t, steps - 1)];
+                if (t < steps && m >= 0 && m < across)
+                    d[m * stride + t * tstride] = y.s[l];
+            }
+        }
+    }
+}
