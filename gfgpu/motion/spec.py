@@ -205,12 +205,15 @@ def psf_density(code, t):
     return np.exp(-s) * (np.cos(s) + np.sin(s))
 
 
-def psf_cells(code, length, density):
+def psf_cells(code, length, density, most=0):
     """Cells of a path of ``length`` dominant-axis pixels: ``ceil(length (t1 - t0) density)``, at
-    least :data:`PSF_MIN_CELLS` for a moving pixel, 1 for a still one."""
+    least :data:`PSF_MIN_CELLS` for a moving pixel, 1 for a still one; at most ``most`` where
+    ``most > 0`` (a budget per pixel: longer paths get longer cells)."""
     t0, t1 = psf_support(code)
     length = np.asarray(length, np.float64)
     cells = np.maximum(PSF_MIN_CELLS[code], np.ceil(length * (t1 - t0) * density - 1e-9))
+    if most > 0:
+        cells = np.minimum(cells, most)
     return np.where(length > 0, cells, 1).astype(np.int64)
 
 
@@ -242,7 +245,7 @@ def spline_sample(coef, py, px, mode, cval, mode_y=None):
     return out
 
 
-def field_blur_reference(coef, field, psf, density, mode, cval):
+def field_blur_reference(coef, field, psf, density, mode, cval, most=0):
     """Per-pixel motion blur: pixel ``x`` gathers the spline image along ``x - t v(x)``.
 
     Parameters
@@ -257,6 +260,9 @@ def field_blur_reference(coef, field, psf, density, mode, cval):
         Cells per pixel of the dominant component ``L = max(|vy|, |vx|)`` (:func:`psf_cells`).
     mode, cval
         Extension of the image beyond its border.
+    most : int
+        Cells of a path at most (0: no bound): the cost per pixel is ``3 most`` samples however
+        long its path.
 
     Returns
     -------
@@ -271,7 +277,7 @@ def field_blur_reference(coef, field, psf, density, mode, cval):
     coef = np.asarray(coef)
     b, h, w = coef.shape
     vy, vx = (np.asarray(field[i], np.float64) for i in (0, 1))
-    n = psf_cells(psf, np.maximum(np.abs(vy), np.abs(vx)), density)
+    n = psf_cells(psf, np.maximum(np.abs(vy), np.abs(vx)), density, most)
     t0, t1 = psf_support(psf)
     yy, xx = np.mgrid[:h, :w].astype(np.float64)
     out = np.zeros((b, h, w))

@@ -5,6 +5,6 @@ from __future__ import annotations
 from .. import spec as specs
 
 
-def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
-    out[...] = specs.field_blur_reference(coef, field, psf, density, mode, cval)
+def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
+    out[...] = specs.field_blur_reference(coef, field, psf, density, mode, cval, most)
     return out

@@ -25,7 +25,7 @@ def _constants():
         **{f"GAUSS_W{i}": repr(float(g)) for i, g in enumerate(GAUSS_WEIGHTS)})
 
 
-def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
+def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     coef, field = ocl.plain(be, coef, "coef"), ocl.plain(be, field, "field")
     obuf, ooff = ocl.written(be, out, "out")
     dtype = np.dtype(coef.dtype)
@@ -35,5 +35,5 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
     bsz, h, w = (int(s) for s in coef.shape)
     ocl.launch(be, knl, (w, h), None, [coef, field], [out],
                (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
-                np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
+                np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff, np.int32(most)))
     return out

@@ -202,7 +202,7 @@ def _node_weight(psf: int, g: wp.float64, q: wp.float64, mass: wp.float64, rest:
 
 @wp.kernel
 def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
-               psf: int, density: wp.float64, mode: int, cval: Any):
+               psf: int, density: wp.float64, mode: int, cval: Any, most: int):
     """One thread per output pixel: its own path in cells of three Gauss-Legendre nodes
     (field_blur_reference)."""
     t = wp.tid()
@@ -223,6 +223,8 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
     n = 1
     if length > wp.float64(0.0):
         n = wp.max(fewest, int(wp.ceil(length * span * density - wp.float64(1e-9))))
+        if most > 0:
+            n = wp.min(n, most)     # the budget: longer paths get longer cells
     acc = coef.dtype(0.0)
     prev = wp.float64(0.0)
     for k in range(n):
@@ -261,10 +263,10 @@ def _flat(be, a):
     return be.reshape(a, (-1,))
 
 
-def launch_field_blur(be, coef, field, out, psf, density, mode, cval):
+def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     bsz, h, w = (int(s) for s in coef.shape)
     real = wpl.real_type(be, coef)
     wpl.launch(be, field_blur, dim=bsz * h * w,
                inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, int(psf), wp.float64(density),
-                       MODE_CODES[mode], real(cval)])
+                       MODE_CODES[mode], real(cval), int(most)])
     return out

@@ -218,10 +218,11 @@ static inline POS density(const int psf, const POS t)
     return exp(-s) * (cos(s) + sin(s));
 }
 
-// One work-item per output pixel: its own path x - t v(x), in cells of three Gauss-Legendre nodes.
+// One work-item per output pixel: its own path x - t v(x), in cells of three Gauss-Legendre nodes
+// (at most `most` cells where most > 0).
 __kernel void field_blur(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
                          const int w, const int planes, const int psf, const POS density_px, const int mode,
-                         const REAL cval, const long out_off)
+                         const REAL cval, const long out_off, const int most)
 {
     const int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h)
@@ -232,7 +233,9 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
     support(psf, &t0, &t1);
     const POS span = t1 - t0, length = fmax(fabs(vy), fabs(vx));
     const int fewest = psf == PSF_GREEN ? MIN_CELLS_G : (psf == PSF_GREEN_CENTRED ? MIN_CELLS_CG : 1);
-    const int n = length > 0 ? max(fewest, (int)ceil(length * span * density_px - (POS)1e-9)) : 1;
+    int n = length > 0 ? max(fewest, (int)ceil(length * span * density_px - (POS)1e-9)) : 1;
+    if (most > 0 && length > 0)     // the budget: longer paths get longer cells
+        n = min(n, most);
     const POS u[3] = {(POS)GAUSS_U0, (POS)GAUSS_U1, (POS)GAUSS_U2};
     const POS g[3] = {(POS)GAUSS_W0, (POS)GAUSS_W1, (POS)GAUSS_W2};
     for (int b = 0; b < planes; ++b) {
