@@ -1,5 +1,5 @@
-"""Warp kernels of motion blur: box windows along lines, polar resampling (per-pixel paths:
-``field_kernels/_warp.py``, a module of their own).
+"""Warp kernels of motion blur: box windows along lines (per-pixel paths: ``field_kernels/_warp.py``,
+polar resampling: ``polar_kernels/_warp.py``, modules of their own).
 
 Executable specification: :mod:`gfgpu.motion.spec`; the OpenCL twins are in ``motion.cl``
 beside this module; :mod:`gfgpu.motion.kernels` registers the ``launch_*`` functions
@@ -10,10 +10,8 @@ the image's own type.
 """
 
 
-
 from typing import Any
 
-import numpy as np
 import warp as wp
 
 from .._core.boundary import MODE_CODES
@@ -31,7 +29,6 @@ _REFLECT = wp.constant(MODE_CODES["reflect"])
 _MIRROR = wp.constant(MODE_CODES["mirror"])
 _Z = wp.constant(wp.float64(SPLINE_POLE))
 _NARROW = wp.constant(wp.float64(NARROW))
-_TWO_PI = wp.constant(wp.float64(2.0 * np.pi))
 _NEAR_A = wp.constant(wp.float64(NEAREST_EDGE[0]))
 _NEAR_B = wp.constant(wp.float64(NEAREST_EDGE[1]))
 
@@ -89,27 +86,6 @@ def _pole_power(m: int):
 def _geometric(m: int):
     """``Σ_{k=1}^{m} z^k``, ``m >= 0`` (gfgpu._core.bspline.pole_series)."""
     return _Z * (wp.float64(1.0) - _pole_power(m)) / (wp.float64(1.0) - _Z)
-
-
-@wp.func
-def _coef_taps(i: int, n: int, mode: int):
-    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (gfgpu._core.bspline.coef_taps)."""
-    if i >= 0 and i < n:
-        return i, wp.float64(1.0), i, wp.float64(0.0)
-    if _periodic(mode):
-        j = _extend(i, n, mode)
-        return j, wp.float64(1.0), j, wp.float64(0.0)
-    j0 = 0
-    j1 = wp.min(1, n - 1)
-    m = -i
-    if i >= n:
-        j0 = n - 1
-        j1 = wp.max(n - 2, 0)
-        m = i - n + 1
-    f = _pole_power(m)
-    if mode == _CONSTANT:
-        return j0, f, j0, wp.float64(0.0)
-    return j0, f + (wp.float64(1.0) - f) * _NEAR_A, j1, (wp.float64(1.0) - f) * _NEAR_B
 
 
 @wp.func
@@ -297,101 +273,9 @@ def box_lines(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), n: int, lines:
         dst[start + k * step] = value
 
 
-@wp.func
-def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64, px: wp.float64,
-            mode_y: int, mode_x: int, cval: Any):
-    """The 2-D cubic B-spline of one plane at ``(py, px)`` (spec.spline_sample); beyond the
-    border a coefficient may weigh two ('nearest')."""
-    fy = wp.floor(py)
-    fx = wp.floor(px)
-    iy = int(fy)
-    ix = int(fx)
-    ty = py - fy
-    tx = px - fx
-    base = src.dtype(0.0)
-    if mode_x == _CONSTANT:
-        base = cval
-    acc = src.dtype(0.0)
-    for p in range(4):
-        ry0, gy0, ry1, gy1 = _coef_taps(iy + p - 1, h, mode_y)
-        row0 = src.dtype(0.0)
-        row1 = src.dtype(0.0)
-        for q in range(4):
-            rx0, gx0, rx1, gx1 = _coef_taps(ix + q - 1, w, mode_x)
-            wx0 = src.dtype(_weight(tx, q) * gx0)
-            wx1 = src.dtype(_weight(tx, q) * gx1)
-            row0 = row0 + wx0 * (src[plane + ry0 * w + rx0] - base) + wx1 * (src[plane + ry0 * w + rx1] - base)
-            if gy1 != wp.float64(0.0):
-                row1 = row1 + wx0 * (src[plane + ry1 * w + rx0] - base) + wx1 * (src[plane + ry1 * w + rx1] - base)
-        wy = _weight(ty, p)
-        acc = acc + src.dtype(wy * gy0) * row0 + src.dtype(wy * gy1) * row1
-    return acc + base
-
-
-@wp.kernel
-def to_polar(coef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int, n_r: int, n_phi: int,
-             cy: wp.float64, cx: wp.float64, r0: int, mode: int, cval: Any):
-    """One thread per polar sample (to_polar_reference): layout (B, n_r, n_phi), angle last, ring i
-    at radius r0 + i."""
-    t = wp.tid()
-    plane = t / (n_r * n_phi)
-    rest = t - plane * n_r * n_phi
-    i = rest / n_phi
-    j = rest - i * n_phi
-    r = wp.float64(r0 + i)
-    phi = _TWO_PI * wp.float64(j) / wp.float64(n_phi)
-    out[t] = _spline(coef, plane * h * w, h, w, cy - r * wp.sin(phi), cx + r * wp.cos(phi), mode, mode, cval)
-
-
-@wp.kernel
-def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
-               n_r: int, n_phi: int, cy: wp.float64, cx: wp.float64, r0: int, r_lo: wp.float64, r_hi: wp.float64,
-               wcoef: wp.array(dtype=Any), weighted: int):
-    """One thread per pixel (from_polar_reference): ``base``, at the radii ``[r_lo, r_hi)`` weighted
-    by the radial spline of ``wcoef`` (if ``weighted``) plus the polar spline of a band from ring
-    ``r0``, whose radius mirrors and angle wraps (``out`` may be ``base``)."""
-    t = wp.tid()
-    plane = t / (h * w)
-    pix = t - plane * h * w
-    y = pix / w
-    x = pix - y * w
-    dy = cy - wp.float64(y)
-    dx = wp.float64(x) - cx
-    r = wp.sqrt(dx * dx + dy * dy)
-    phi = wp.atan2(dy, dx)
-    if phi < wp.float64(0.0):
-        phi = phi + _TWO_PI
-    jf = phi * wp.float64(n_phi) / _TWO_PI
-    value = base[t]
-    if r >= r_lo and r < r_hi:
-        ring = r - wp.float64(r0)
-        change = _spline(pcoef, plane * n_r * n_phi, n_r, n_phi, ring, jf, _MIRROR, _WRAP, pcoef.dtype(0.0))
-        if weighted != 0:
-            fr = wp.floor(ring)
-            ir = int(fr)
-            tr = ring - fr
-            weight = pcoef.dtype(0.0)
-            for p in range(4):
-                weight = weight + pcoef.dtype(_weight(tr, p)) * wcoef[_extend(ir + p - 1, n_r, _MIRROR)]
-            value = weight * value
-        value = value + change
-    out[t] = value
-
-
-@wp.kernel
-def add_rows(src: wp.array(dtype=Any), dst: wp.array(dtype=Any), scale: wp.array(dtype=Any), n: int, m: int):
-    """One thread per element: ``dst += scale[i] src`` (add_rows_reference)."""
-    t = wp.tid()
-    i = (t / m) % n
-    dst[t] = dst[t] + scale[i] * src[t]
-
-
 for _real in (wp.float32, wp.float64):
     _a = wp.array(dtype=_real)
     wp.overload(box_lines, {"src": _a, "dst": _a, "cval": _real, "less": _a})
-    wp.overload(to_polar, {"coef": _a, "out": _a, "cval": _real})
-    wp.overload(from_polar, {"pcoef": _a, "base": _a, "out": _a, "wcoef": _a})
-    wp.overload(add_rows, {"src": _a, "dst": _a, "scale": _a})
 del _real, _a
 
 
@@ -408,34 +292,4 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
                inputs=[_flat(be, src), _flat(be, dst), n, lines, rows * cols, line_stride, step, wp.float64(a0),
                        wp.float64(a1), wp.float64(b0), wp.float64(b1), MODE_CODES[mode], real(cval),
                        _flat(be, dst if less is None else less), int(less is not None)])
-    return dst
-
-
-def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
-    bsz, h, w = (int(s) for s in coef.shape)
-    n_r, n_phi = int(out.shape[1]), int(out.shape[2])
-    real = wpl.real_type(be, coef)
-    wpl.launch(be, to_polar, dim=bsz * n_r * n_phi,
-               inputs=[_flat(be, coef), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy), wp.float64(cx), int(r0),
-                       MODE_CODES[mode], real(cval)])
-    return out
-
-
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
-    bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
-    h, w = int(out.shape[1]), int(out.shape[2])
-    real = np.float64 if be.dtype_of(pcoef) == np.float64 else np.float32
-    weights = be.asarray(np.ascontiguousarray(np.ones(1) if wcoef is None else wcoef, real))
-    wpl.launch(be, from_polar, dim=bsz * h * w,
-               inputs=[_flat(be, pcoef), _flat(be, base), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy),
-                       wp.float64(cx), int(r0), wp.float64(r_lo), wp.float64(min(float(r_hi), 1e300)),
-                       weights, int(wcoef is not None)])
-    return out
-
-
-def launch_add_rows(be, src, dst, scale):
-    bsz, n, m = (int(s) for s in dst.shape)
-    weights = be.asarray(np.ascontiguousarray(scale, np.float64 if be.dtype_of(dst) == np.float64 else np.float32))
-    wpl.launch(be, add_rows, dim=bsz * n * m,
-               inputs=[_flat(be, src), _flat(be, dst), weights, n, m])
     return dst

@@ -2,9 +2,8 @@
 
 Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification is in
 :mod:`gfgpu.motion.spec`, its launchers ``launch_<name>`` in this package's ``_numpy.py``,
-``_warp.py`` and ``_opencl.py`` (with ``motion.cl``; the field kernel's in ``field_kernels/``), imported on
-first use.  Call as
-``kernel(backend, *args)`` with device arrays; ``mode`` is a scipy.ndimage boundary name.
+``_warp.py`` and ``_opencl.py`` (with ``motion.cl``; the field kernel's in ``field_kernels/``, the
+polar ones' in ``polar_kernels/``), imported on first use.  Call as ``kernel(backend, *args)`` with device arrays; ``mode`` is a scipy.ndimage boundary name.
 """
 
 from __future__ import annotations
@@ -30,15 +29,18 @@ box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers
 field_blur = register("motion.field_blur", specs.field_blur_reference,
                       **_launchers("field_blur", f"{__package__}.field_kernels"))
 
+#: the polar kernels' device code (``polar_kernels/``): a spin or zoom builds only polar code
+_POLAR = f"{__package__}.polar_kernels"
+
 #: ``to_polar(be, coef, out, cy, cx, r0, mode, cval)``: ``out = to_polar_reference(coef, cy, cx, r0,
 #: *out.shape[1:], mode, cval)`` (``out`` (B, n_r, n_phi): radius ``r0 + i`` on axis 1, angle on axis 2)
-to_polar = register("motion.to_polar", specs.to_polar_reference, **_launchers("to_polar"))
+to_polar = register("motion.to_polar", specs.to_polar_reference, **_launchers("to_polar", _POLAR))
 
 #: ``from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None)``: ``out = from_polar_reference(pcoef,
 #: base, cy, cx, r0, r_lo, r_hi, wcoef)`` (``base``, ``out`` (B, H, W); ``out`` may be ``base``, which each
 #: pixel reads before it is written; ``wcoef`` a host array (n_r,) or None)
-from_polar = register("motion.from_polar", specs.from_polar_reference, **_launchers("from_polar"))
+from_polar = register("motion.from_polar", specs.from_polar_reference, **_launchers("from_polar", _POLAR))
 
 #: ``add_rows(be, src, dst, scale)``: ``dst = add_rows_reference(src, dst, scale)`` (``src``, ``dst`` (B, N, M),
 #: ``dst`` may be ``src``; ``scale`` a host array (N,))
-add_rows = register("motion.add_rows", specs.add_rows_reference, **_launchers("add_rows"))
+add_rows = register("motion.add_rows", specs.add_rows_reference, **_launchers("add_rows", _POLAR))

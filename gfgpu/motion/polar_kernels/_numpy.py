@@ -1,0 +1,21 @@
+"""numpy launchers of the polar kernels: the specifications of :mod:`gfgpu.motion.spec` themselves,
+written into the outputs (registered by :mod:`gfgpu.motion.kernels`)."""
+
+from __future__ import annotations
+
+from .. import spec as specs
+
+
+def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
+    out[...] = specs.to_polar_reference(coef, cy, cx, r0, out.shape[1], out.shape[2], mode, cval)
+    return out
+
+
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
+    out[...] = specs.from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef)
+    return out
+
+
+def launch_add_rows(be, src, dst, scale):
+    dst[...] = specs.add_rows_reference(src, dst, scale)
+    return dst

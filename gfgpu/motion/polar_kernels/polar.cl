@@ -1,0 +1,384 @@
+// Polar resampling of gfgpu.motion's spin and zoom blurs (spec: gfgpu.motion.spec.to_polar_reference,
+// from_polar_reference, add_rows_reference; Warp twins in gfgpu/motion/polar_kernels/_warp.py): only
+// polar code, so a spin or zoom builds only this.  Built with -D REAL=float|double, -D POS=float|double
+// (positions: double wherever the device has it) and GRID (the type of the polar positions: float for
+// float32 images).  The launcher (gfgpu/motion/polar_kernels/_opencl.py) defines the constants of the
+// Python definitions, none retyped here: the mode codes MODE_CONSTANT .. MODE_MIRROR
+// (gfgpu._core.boundary.MODE_CODES); SPLINE_POLE, NEAR_A, NEAR_B (gfgpu._core.bspline); and PAD (the
+// coefficients pad_coef adds beyond each border).  Sizes are arguments: a new shape builds nothing.
+
+#if !defined(MODE_MIRROR) || !defined(SPLINE_POLE) || !defined(PAD)
+#error "polar.cl is built by gfgpu.motion.polar_kernels._opencl, which defines the constants of the Python definitions"
+#endif
+
+#ifdef cl_khr_fp64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+#ifndef CHUNK
+#define CHUNK 1      // angles per work-item in to_polar
+#endif
+
+// PoCL 3.0 (pocl-binary-distribution) calls its builtins out of line: min, max, floor, fabs,
+// sqrt, vloadn and vstoren are function calls in the compiled kernels, and so are the helpers
+// below unless forced inline; in the per-sample loops the calls cost more than the arithmetic.
+// Hence IMIN / IMAX (ints, arguments without side effects), the compiler's own floor, fabs, fmin,
+// fmax and sqrt under clang (one instruction each, the same values: exact, or correctly rounded
+// as PoCL's), and INLINE on the helpers of the loops.
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define IMAX(a, b) ((a) > (b) ? (a) : (b))
+#ifdef __clang__
+#define INLINE static inline __attribute__((always_inline))
+#define POS_IS_DOUBLE_double 1
+#define POS_IS_DOUBLE_float 0
+#define IS_DOUBLE_(t) POS_IS_DOUBLE_##t
+#define IS_DOUBLE(t) IS_DOUBLE_(t)
+#if IS_DOUBLE(POS)
+#define FLOOR_POS(x) __builtin_floor(x)
+#else
+#define FLOOR_POS(x) __builtin_floorf(x)
+#endif
+#if IS_DOUBLE(GRID)
+#define SQRT_GRID(x) __builtin_sqrt(x)
+#else
+#define SQRT_GRID(x) __builtin_sqrtf(x)
+#endif
+#define FABSF(x) __builtin_fabsf(x)
+#define FMAXF(a, b) __builtin_fmaxf(a, b)
+#define FMINF(a, b) __builtin_fminf(a, b)
+#else
+#define INLINE static inline
+#define FLOOR_POS(x) floor(x)
+#define SQRT_GRID(x) sqrt(x)
+#define FABSF(x) fabs(x)
+#define FMAXF(a, b) fmax(a, b)
+#define FMINF(a, b) fmin(a, b)
+#endif
+
+#ifndef GRID
+#define GRID POS     // positions of spline2: the polar kernels may take float for float32 images
+#endif
+
+#define POLE ((POS)(SPLINE_POLE))     // sqrt(3) - 2
+#define TWO_PI ((POS)6.283185307179586)
+
+// the modes whose extension repeats with a period (gfgpu._core.boundary.PERIODIC_MODES)
+#define IS_PERIODIC(mode) ((mode) == MODE_WRAP || (mode) == MODE_REFLECT || (mode) == MODE_MIRROR)
+
+// index of sample i of a line of n extended by mode (-1: cval): gfgpu._core.boundary.extend_index
+INLINE int extend(int i, const int n, const int mode)
+{
+    if (mode == MODE_CONSTANT)
+        return (i < 0 || i >= n) ? -1 : i;
+    if (mode == MODE_NEAREST)
+        return i < 0 ? 0 : (i >= n ? n - 1 : i);
+    if (mode == MODE_WRAP) {
+        int r = i % n;
+        return r < 0 ? r + n : r;
+    }
+    if (mode == MODE_REFLECT) {
+        int q = i % (2 * n);
+        q = q < 0 ? q + 2 * n : q;
+        return q >= n ? 2 * n - 1 - q : q;
+    }
+    if (n == 1)
+        return 0;
+    int q = i % (2 * n - 2);
+    q = q < 0 ? q + 2 * n - 2 : q;
+    return q >= n ? 2 * n - 2 - q : q;
+}
+
+// floor(x) as an int by conversion, |x| < 2^31: PoCL's floor() is a library call that stops the
+// vectorisation across work-items (two of them cost more than the rest of the spline)
+INLINE int ifloor(const GRID x)
+{
+    const int t = (int)x;
+    return t - (x < (GRID)t);
+}
+
+// z^m for m >= 0, by the bits of m (branch-free: exp and pown are library calls that stop PoCL's
+// vectorisation across work-items); 0 beyond m = 31, where |z|^m < 1e-18 (beside 1e-16 in double)
+#define POLE_2 (POLE * POLE)
+#define POLE_4 (POLE_2 * POLE_2)
+#define POLE_8 (POLE_4 * POLE_4)
+
+INLINE POS pole_power(const int m)
+{
+    return (m & 1 ? POLE : (POS)1) * (m & 2 ? POLE_2 : (POS)1) * (m & 4 ? POLE_4 : (POS)1)
+           * (m & 8 ? POLE_8 : (POS)1) * (m & 16 ? POLE_8 * POLE_8 : (POS)1) * (m > 31 ? (POS)0 : (POS)1);
+}
+
+// weights in REAL from the fraction in REAL: positions need POS, a fraction in [0, 1) does not
+INLINE REAL bweight(const REAL t, const int p)
+{
+    const REAL g = (REAL)1 - t;
+    switch (p) {
+    case 0: return g * g * g / (REAL)6;
+    case 1: return ((REAL)3 * t * t * t - (REAL)6 * t * t + (REAL)4) / (REAL)6;
+    case 2: return ((REAL)3 * g * g * g - (REAL)6 * g * g + (REAL)4) / (REAL)6;
+    default: return t * t * t / (REAL)6;
+    }
+}
+
+// the four cubic B-spline weights at fraction t, multiplications only (bweight's values)
+INLINE void bweights4(const REAL t, REAL *wt)
+{
+    const REAL sixth = (REAL)1 / (REAL)6, t2 = t * t, g = (REAL)1 - t;
+    const REAL t3 = t2 * t;
+    wt[0] = g * g * g * sixth;
+    wt[1] = ((REAL)0.5 * t3 - t2) + (REAL)2 / (REAL)3;
+    wt[2] = (REAL)0.5 * (t + t2 - t3) + sixth;
+    wt[3] = t3 * sixth;
+}
+
+// coefficient i of a line of n as w0 c[j0] + w1 c[j1] + (1 - w0 - w1) cval
+// (gfgpu._core.bspline.coef_taps; cval only in constant mode): returns j0
+static inline int coef_taps(const int i, const int n, const int mode, POS *w0, int *j1, POS *w1)
+{
+    *w0 = (POS)1;
+    *w1 = (POS)0;
+    if ((unsigned)i < (unsigned)n || IS_PERIODIC(mode)) {
+        *j1 = (unsigned)i < (unsigned)n ? i : extend(i, n, mode);
+        return *j1;
+    }
+    const int left = i < 0, j = left ? 0 : n - 1;
+    const POS f = pole_power(left ? -i : i - n + 1);
+    *j1 = j;
+    if (mode == MODE_CONSTANT) {
+        *w0 = f;
+        return j;
+    }
+    *j1 = left ? IMIN(1, n - 1) : IMAX(n - 2, 0);
+    *w0 = f + ((POS)1 - f) * (POS)NEAR_A;
+    *w1 = ((POS)1 - f) * (POS)NEAR_B;
+    return j;
+}
+
+// the 2-D cubic B-spline of one plane (h x w, at `plane`) at (py, px)
+static inline REAL spline2(__global const REAL *src, const long plane, const int h, const int w, const GRID py,
+                           const GRID px, const int mode_y, const int mode_x, const REAL cval)
+{
+    const int iy = ifloor(py), ix = ifloor(px);
+    const REAL ty = (REAL)(py - (GRID)iy), tx = (REAL)(px - (GRID)ix);
+    REAL wx[4], wy[4];
+    for (int q = 0; q < 4; ++q) {
+        wx[q] = bweight(tx, q);
+        wy[q] = bweight(ty, q);
+    }
+    if (iy >= 1 && iy + 2 < h && ix >= 1 && ix + 2 < w) {    // all 16 coefficients inside: no extension
+        __global const REAL *line = src + plane + (long)(iy - 1) * w + (ix - 1);
+        REAL acc = 0;
+        for (int p = 0; p < 4; ++p, line += w)
+            acc += wy[p] * (wx[0] * line[0] + wx[1] * line[1] + wx[2] * line[2] + wx[3] * line[3]);
+        return acc;
+    }
+    // beyond the border a coefficient may weigh two ('nearest'): two columns and two rows per tap
+    const REAL base = mode_x == MODE_CONSTANT ? cval : (REAL)0;
+    int rx0[4], rx1[4];
+    REAL vx0[4], vx1[4];
+    for (int q = 0; q < 4; ++q) {
+        POS g0, g1;
+        rx0[q] = coef_taps(ix + q - 1, w, mode_x, &g0, &rx1[q], &g1);
+        vx0[q] = wx[q] * (REAL)g0;
+        vx1[q] = wx[q] * (REAL)g1;
+    }
+    REAL acc = 0;
+    for (int p = 0; p < 4; ++p) {
+        POS h0, h1;
+        int ry1;
+        const int ry0 = coef_taps(iy + p - 1, h, mode_y, &h0, &ry1, &h1);
+        for (int r = 0; r < 2; ++r) {
+            const POS g = r ? h1 : h0;
+            if (g == (POS)0)
+                continue;
+            __global const REAL *line = src + plane + (long)(r ? ry1 : ry0) * w;
+            REAL row = 0;
+            for (int q = 0; q < 4; ++q)
+                row += vx0[q] * (line[rx0[q]] - base) + vx1[q] * (line[rx1[q]] - base);
+            acc += wy[p] * (REAL)g * row;
+        }
+    }
+    return acc + base;
+}
+
+#ifdef MODE_X
+// spline2 for the polar kernels, with the modes as build constants (MODE_Y along the rows, MODE_X
+// along the columns: nearest, on coefficients that pad_coef extended by PAD beyond every border;
+// or a periodic mode) and every coefficient index within one period or reflection of the line (the
+// launcher checks): branch-free index arithmetic, so PoCL vectorises across work-items.
+#if MODE_X == MODE_CONSTANT || MODE_Y == MODE_CONSTANT
+#error "spline2_near: constant mode runs on coefficients extended by pad_coef, as nearest"
+#endif
+INLINE int near_index(const int i, const int n, const int mode)
+{
+    if (mode == MODE_NEAREST)
+        return i < 0 ? 0 : (i >= n ? n - 1 : i);      // clamp(): a library call in PoCL
+    if (mode == MODE_WRAP)
+        return i < 0 ? i + n : (i >= n ? i - n : i);
+    if (mode == MODE_REFLECT)
+        return i < 0 ? -1 - i : (i >= n ? 2 * n - 1 - i : i);
+    return n == 1 ? 0 : (i < 0 ? -i : (i >= n ? 2 * n - 2 - i : i));
+}
+
+static inline REAL spline2_near(__global const REAL *src, const long plane, const int h, const int w, const GRID py,
+                                const GRID px)
+{
+    const int iy = ifloor(py), ix = ifloor(px);
+    REAL wx[4], wy[4];
+    bweights4((REAL)(px - (GRID)ix), wx);
+    bweights4((REAL)(py - (GRID)iy), wy);
+    REAL acc = 0;
+    if (ix >= 1 && ix + 2 < w) {      // the four columns inside: contiguous loads
+        for (int p = 0; p < 4; ++p) {
+            __global const REAL *line = src + plane + (long)near_index(iy + p - 1, h, MODE_Y) * w + (ix - 1);
+            acc += wy[p] * (wx[0] * line[0] + wx[1] * line[1] + wx[2] * line[2] + wx[3] * line[3]);
+        }
+        return acc;
+    }
+    int rx[4];
+    for (int q = 0; q < 4; ++q)
+        rx[q] = near_index(ix + q - 1, w, MODE_X);
+    for (int p = 0; p < 4; ++p) {
+        __global const REAL *line = src + plane + (long)near_index(iy + p - 1, h, MODE_Y) * w;
+        acc += wy[p] * (wx[0] * line[rx[0]] + wx[1] * line[rx[1]] + wx[2] * line[rx[2]] + wx[3] * line[rx[3]]);
+    }
+    return acc;
+}
+#define SPLINE_POLAR(src, plane, h, w, py, px, my, mx, cval) spline2_near(src, plane, h, w, py, px)
+#else
+#define SPLINE_POLAR(src, plane, h, w, py, px, my, mx, cval) spline2(src, plane, h, w, py, px, my, mx, cval)
+#endif
+
+// The coefficients of (h, w) planes extended by constant or nearest mode (gfgpu._core.bspline.coef_taps,
+// along the rows and the columns) on (h + 2 PAD, w + 2 PAD), one work-item per element: to_polar then
+// reads them clamped (nearest), which is the extension to z^PAD (below 1e-18).
+__kernel void pad_coef(__global const REAL *src, __global REAL *dst, const int h, const int w, const int planes,
+                       const int mode, const REAL cval)
+{
+    const int x = get_global_id(0), y = get_global_id(1), wp = w + 2 * PAD, hp = h + 2 * PAD;
+    if (x >= wp || y >= hp)
+        return;
+    POS gy0, gy1, gx0, gx1;
+    int ry1, rx1;
+    const int ry0 = coef_taps(y - PAD, h, mode, &gy0, &ry1, &gy1), rx0 = coef_taps(x - PAD, w, mode, &gx0, &rx1, &gx1);
+    const REAL base = mode == MODE_CONSTANT ? cval : (REAL)0;
+    for (int b = 0; b < planes; ++b) {
+        __global const REAL *c = src + (long)b * h * w;
+        const REAL r0 = (REAL)gx0 * (c[(long)ry0 * w + rx0] - base) + (REAL)gx1 * (c[(long)ry0 * w + rx1] - base);
+        const REAL r1 = (REAL)gx0 * (c[(long)ry1 * w + rx0] - base) + (REAL)gx1 * (c[(long)ry1 * w + rx1] - base);
+        dst[((long)b * hp + y) * wp + x] = base + (REAL)gy0 * r0 + (REAL)gy1 * r1;
+    }
+}
+
+// One work-item per CHUNK angles of one ring (radius r0 + i) of every plane, layout (B, n_r, n_phi):
+// adjacent work-items are adjacent angles.  trig[2j], trig[2j+1] = cos, sin of angle j (computed once on the
+// host: a sine per sample would dominate the kernel).  Positions in GRID (float for float32 images:
+// r cos phi to 1e-7 relative, 1e-4 px on a ring of radius 1500; double for float64 ones).
+__kernel void to_polar(__global const REAL *coef, __global REAL *out, const long out_off, __global const GRID *trig,
+                       const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
+                       const GRID cx, const int r0, const int mode, const REAL cval)
+{
+    const int i = get_global_id(1);
+    if (i >= n_r)
+        return;
+    const GRID r = (GRID)(r0 + i);
+    const int j0 = get_global_id(0) * CHUNK, j1 = IMIN(j0 + CHUNK, n_phi);
+    for (int j = j0; j < j1; ++j) {
+        const GRID py = cy - r * trig[2 * j + 1], px = cx + r * trig[2 * j];
+        for (int b = 0; b < planes; ++b)
+            out[out_off + ((long)b * n_r + i) * n_phi + j] = SPLINE_POLAR(coef, (long)b * h * w, h, w, py, px, mode,
+                                                                        mode, cval);
+    }
+}
+
+// The angle of (dx, dy) in [0, 2 pi).  float: Cephes' atanf polynomial after reduction to
+// |t| <= tan(pi/8) (about 1e-7 rad, 1e-3 of an angular sample on a ring of 10^4); PoCL's atan2
+// costs more than the whole spline.  double: the built-in atan2 (float64 results match to 1e-11).
+static inline GRID angle_of(const GRID dy, const GRID dx)
+{
+#if GRID_IS_FLOAT
+    const float ax = FABSF(dx), ay = FABSF(dy);
+    const float hi = FMAXF(ax, ay), lo = FMINF(ax, ay);
+    float t = hi > 0.0f ? lo / hi : 0.0f;           // in [0, 1]
+    const int big = t > 0.41421356237309503f;
+    t = big ? (t - 1.0f) / (t + 1.0f) : t;
+    const float z = t * t;
+    float a = ((((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z - 3.33329491539e-1f) * z)
+              * t + t;
+    a = big ? a + 0.78539816339744831f : a;
+    a = ay > ax ? 1.5707963267948966f - a : a;
+    a = dx < 0.0f ? 3.1415926535897932f - a : a;
+    return dy < 0.0f ? 6.2831853071795865f - a : a;
+#else
+    const GRID phi = atan2(dy, dx);
+    return phi < 0 ? phi + (GRID)6.283185307179586 : phi;
+#endif
+}
+
+// The angle in [0, 2 pi) of every pixel about (cy, cx), one work-item per pixel (from_polar reads it:
+// computed once per image shape and centre, the launcher keeps it).
+__kernel void angle_map(__global GRID *angles, const int h, const int w, const GRID cy, const GRID cx)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    angles[(long)y * w + x] = angle_of(cy - (GRID)y, (GRID)x - cx);
+}
+
+// One work-item per pixel of the box (x0, y0) + (bw, bh): where the pixel's radius r lies in [r_lo, r_hi),
+// base weighted by the ring weights' radial spline plus the polar spline of a band of rings from r0, at
+// the pixel's ring (rows, mirrored at the band's ends) and angle (columns, wrapped); elsewhere base
+// itself (copy = 1) or nothing (copy = 0: out is base, bands of rings that split the radii each write
+// their own pixels).  Only the band's pixels pay for the angle and the 16 taps (the launcher limits the
+// box to the band's radii), and each pixel's angle is read from angles (angle_map: an arctangent costs about
+// as much as the 16 taps, and every band of every call about one centre reads the same).  wcoef holds the weights' coefficients with their mirror extension, one
+// before ring 0 and two beyond ring n_r - 1 (the launcher pads them: no index arithmetic here).
+__kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, __global REAL *out, const long out_off,
+                         const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
+                         const GRID cx, const int r0, const GRID r_lo, const GRID r_hi, const int x0, const int y0,
+                         const int bw, const int bh, const long base_off, __global const REAL *wcoef,
+                         const int weighted, const int copy, __global const GRID *angles)
+{
+    const int gx = get_global_id(0), gy = get_global_id(1);
+    if (gx >= bw || gy >= bh)
+        return;
+    const int x = x0 + gx, y = y0 + gy;
+    const GRID dy = cy - (GRID)y, dx = (GRID)x - cx;
+    const GRID r = SQRT_GRID(dx * dx + dy * dy);
+    if (!(r >= r_lo && r < r_hi)) {
+        if (copy)
+            for (int b = 0; b < planes; ++b) {
+                const long pix = ((long)b * h + y) * w + x;
+                out[out_off + pix] = base[base_off + pix];
+            }
+        return;
+    }
+    GRID jf = angles[(long)y * w + x] * ((GRID)n_phi / (GRID)6.283185307179586);   // read (angle_map)
+    jf = jf >= (GRID)n_phi ? jf - (GRID)n_phi : jf;     // rounding at 2 pi
+    const GRID ring = r - (GRID)r0;
+    REAL weight = (REAL)1;
+    if (weighted) {       // the ring weights' radial spline: what the resampling gives them
+        const int ir = ifloor(ring);
+        REAL wr[4];
+        bweights4((REAL)(ring - (GRID)ir), wr);
+        weight = wr[0] * wcoef[ir] + wr[1] * wcoef[ir + 1] + wr[2] * wcoef[ir + 2] + wr[3] * wcoef[ir + 3];
+    }
+    for (int b = 0; b < planes; ++b) {
+        const long pix = ((long)b * h + y) * w + x;
+        const REAL change = SPLINE_POLAR(pcoef, (long)b * n_r * n_phi, n_r, n_phi, ring, jf, MODE_MIRROR, MODE_WRAP,
+                                         (REAL)0);
+        out[out_off + pix] = weight * base[base_off + pix] + change;
+    }
+}
+
+// dst += scale[i] src on (B, N, M) arrays, one work-item per element (dst may be src): columns on
+// axis 0, the B N rows on axis 1 (no 64-bit division per element)
+__kernel void add_rows(__global const REAL *src, __global REAL *dst, const long dst_off, __global const REAL *scale,
+                       const int n, const int m, const int rows, const long src_off)
+{
+    const int j = get_global_id(0), row = get_global_id(1);
+    if (j >= m || row >= rows)
+        return;
+    const long t = (long)row * m + j;
+    dst[dst_off + t] += scale[row % n] * src[src_off + t];
+}
