@@ -3,7 +3,8 @@
 Each is a :class:`~gfgpu.backends.fused.FusedKernel`: its numpy specification is in
 :mod:`gfgpu.motion.spec`, its launchers ``launch_<name>`` in this package's ``_numpy.py``,
 ``_warp.py`` and ``_opencl.py`` (with ``motion.cl``; the field kernel's in ``field_kernels/``, the
-polar ones' in ``polar_kernels/``), imported on first use.  Call as ``kernel(backend, *args)`` with device arrays; ``mode`` is a scipy.ndimage boundary name.
+polar ones' in ``polar_kernels/``), imported on first use.  Call as ``kernel(backend, *args)``
+with device arrays; ``mode`` is a scipy.ndimage boundary name.
 """
 
 from __future__ import annotations
