@@ -24,8 +24,8 @@ def _launchers(name, package=__package__):
 #: 2; ``dst`` may be ``less``)
 box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers("box_lines"))
 
-#: ``field_blur(be, coef, field, out, psf, density, mode, cval)``: ``out = field_blur_reference(coef,
-#: field, psf, density, mode, cval)`` (``coef``, ``out`` (B, H, W); ``field`` (2, H, W), same dtype)
+#: ``field_blur(be, coef, field, out, psf, density, mode, cval, most=0)``: ``out = field_blur_reference(coef,
+#: field, psf, density, mode, cval, most)`` (``coef``, ``out`` (B, H, W); ``field`` (2, H, W), same dtype)
 #: (device code of its own, ``field_kernels/``: a field call builds only field code)
 field_blur = register("motion.field_blur", specs.field_blur_reference,
                       **_launchers("field_blur", f"{__package__}.field_kernels"))
