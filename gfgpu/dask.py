@@ -53,6 +53,7 @@ from ._core import carry
 from ._core.boundary import filter_mode, interpolation_mode
 from ._core.docstrings import docfiller
 from ._core.lines import normalize_axis
+from ._core.magnitude import within_range
 from ._core.program import is_axis_angle, run_steps
 from ._core.recursion import plan_pass
 from ._core.translation import decay_length, step_offset, window_index, without_offset
@@ -186,10 +187,12 @@ def _host_block(block, dtype):
 def _local_task(block, steps, plane, mode, cval, spec, dtype):
     """Steps whose lines lie inside the block, on the worker's backend."""
     be = _backend(spec)
-    host = _host_block(block, dtype)
+    # checked, and scaled by a power of two near the dtype's limit (exact: the lines lie in the block)
+    host, cval, exp = within_range(np.ascontiguousarray(block, dtype=dtype), cval, dtype)
     with _device_section(be):
-        return be.to_host(run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane,
-                                    shape=host.shape)).reshape(host.shape)
+        out = be.to_host(run_steps(be, be.host_view(host), dtype, steps, mode, cval, plane,
+                                   shape=host.shape)).reshape(host.shape)
+    return np.ldexp(out, -exp, dtype=out.dtype) if exp else out
 
 
 def _segment(lp, n, mode, dtype, start, stop):
@@ -223,12 +226,13 @@ def _scan_task(state, end, lp, n, mode, dtype, start, stop):
 
 def _finish_task(block, *states, passes, n, mode, dtype, start, stop, axis, spec):
     be = _backend(spec)
-    host = _host_block(block, dtype)
+    host, _, exp = within_range(np.ascontiguousarray(block, dtype=dtype), 0.0, dtype)   # as _local_task
     segs = [_segment(lp, n, mode, dtype, start, stop) for lp in passes]
     with _device_section(be):
         y = be.empty(host.shape, dtype)
         carry.zero_state_pass(be, be.host_view(host), y, axis, segs, shape=host.shape)
         out = be.to_host(y).reshape(host.shape)
+    out = np.ldexp(out, -exp, dtype=out.dtype) if exp else out
     for seg, state in zip(segs, states):
         carry.add_correction(seg, out, state, axis)
     return out

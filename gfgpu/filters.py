@@ -426,6 +426,9 @@ def _shift_by_rule(job, program, shift, axes, channel_axis, interpolation, rule,
     :func:`shift_branches` says, on the host (masks and selections of whole index ranges)."""
     be = job.backend
     x = np.ascontiguousarray(job.source if job.host_input else be.to_host(job.data), dtype=job.dtype)
+    if job.host_input and job.scale_exp:    # beyond the range limit: scaled (job.data is already)
+        x = np.ldexp(x, job.scale_exp, dtype=job.dtype)
+    cval = job.scaled(cval)
 
     def run(data, prog):      # numpy in, numpy out, on the job's backend (the input is checked)
         return apply_program(Job(data, None, be, finite=True), prog, "mirror", cval)
@@ -447,6 +450,9 @@ def _shift_by_rule(job, program, shift, axes, channel_axis, interpolation, rule,
             out = near
     out = np.ascontiguousarray(out, dtype=job.dtype)
     if job.host_input:
+        if job.scale_exp:
+            with np.errstate(over="ignore"):
+                out = np.ldexp(out, -job.scale_exp, dtype=job.dtype)
         if job.output is not None:
             job.output[...] = out
         return job.deliver(out)

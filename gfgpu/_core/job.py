@@ -11,8 +11,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import arrays, strips
+from .magnitude import host_peak, range_limit, scale_exponent
 from .program import is_checkable, is_translation, run_passes, run_passes_checked, run_translation_checked
-from .validation import host_all_finite, wide_integer, work_dtype
+from .validation import wide_integer, work_dtype
 
 NONFINITE = "input contains NaN or infinite values"
 
@@ -35,7 +36,14 @@ class Job:
     ``backend`` is a resolved :class:`gfgpu.backends.Backend` (the caller applies the
     resolution rule with the input array, so that device arrays stay where they are).
     ``finite=True``: the caller has already checked that the input holds no NaN or infinity
-    (an application passing on its own validated image), so the check is not repeated.
+    and lies within :func:`~gfgpu._core.magnitude.range_limit` (an application passing on its
+    own validated, normalised image), so the check is not repeated.
+
+    Magnitude: the input check also tests that every sample lies below the dtype's range
+    limit (:mod:`gfgpu._core.magnitude`); an input beyond it (a float32 image near 1e38) is
+    computed as ``ldexp(input, scale_exp)`` and :meth:`finish` scales the result back, both
+    exact.  Operators that run kernels on :attr:`data` themselves pass their constant as
+    :meth:`scaled` ``(cval)``; :func:`apply_program` does so itself.
     """
 
     def __init__(self, input, output, backend, min_ndim=1, finite=False):
@@ -75,6 +83,7 @@ class Job:
             raise TypeError(f"input is float64 but {be!r} has no float64 support; pass a float32 "
                             f"array or choose another device (no silent downcast)")
         self.output = output
+        self.scale_exp = 0          # the input is computed as ldexp(input, scale_exp): see settle()
         if output is not None and isinstance(output, (type, np.dtype, str)):
             try:
                 out_dtype = np.dtype(output)
@@ -107,32 +116,63 @@ class Job:
                 arr = be.contiguous(arr)
             if work_dtype(be.dtype_of(arr)) != self.dtype:
                 raise TypeError(f"device input must be float32 or float64, got {be.dtype_of(arr)}")
-            if not finite and not be.all_finite(arr):      # (a read-back: waits for the device)
-                raise ValueError(NONFINITE)
             self._source = self._data = arr
             self.check_pending = False
+            if not finite and not be.all_finite(arr):      # (a read-back: waits for the device)
+                self.settle()
         if self.output is not None:
             self._check_output(self.output)
 
     @property
     def source(self):
-        """The caller's input (host images: checked to be finite first)."""
+        """The caller's input (host images: checked to be finite first), unscaled: a consumer
+        of the source computes on ``ldexp(source, scale_exp)`` where :attr:`scale_exp` is set."""
         if self.check_pending:
-            if not host_all_finite(self._source):
-                raise ValueError(NONFINITE)
-            self.check_pending = False
+            self.settle()
         return self._source
 
     @property
     def data(self):
         """The input as a device array of the work dtype (host images: uploaded on first use
-        and checked to be finite)."""
+        and checked to be finite), scaled by ``2**scale_exp`` where it lies beyond the range
+        limit (:meth:`settle`)."""
         data = self.unchecked_data()
         if self.check_pending:
             if not self.backend.input_finite(self._source, data):
-                raise ValueError(NONFINITE)
+                self.settle()
+                return self._data
             self.check_pending = False
         return data
+
+    def settle(self, extra=0.0):
+        """The input check's verdict made exact, once the fast check (finite and in range) has
+        failed or not run: a non-finite sample raises; a peak ``max(max|input|, extra)`` at or
+        beyond the range limit sets :attr:`scale_exp` and replaces the device input by the
+        scaled copy (host images: on the host; device arrays: through the host, a rare path).
+        ``extra``: a constant the passes read beside the image (``cval``)."""
+        be = self.backend
+        host = self._source if self.host_input else be.to_host(self._source)
+        peak = host_peak(host)
+        if not np.isfinite(peak):
+            raise ValueError(NONFINITE)
+        self.check_pending = False
+        exp = scale_exponent(max(peak, abs(float(extra))), self.dtype)
+        if exp == self.scale_exp:
+            return
+        self.scale_exp = exp
+        scaled = np.ldexp(np.asarray(host), exp, dtype=self.dtype)
+        if self.host_input:
+            self._data = be.host_view(np.ascontiguousarray(scaled))
+        else:
+            self._data = be.asarray(np.ascontiguousarray(scaled))
+
+    def scaled(self, value):
+        """``value`` (a constant read beside the image: ``cval``) in the units of :attr:`data`;
+        the input check runs first if it has not, with ``value`` counted in the peak."""
+        value = float(value)
+        if self.check_pending or not abs(np.ldexp(value, self.scale_exp)) < range_limit(self.dtype):
+            self.settle(value)
+        return float(np.ldexp(value, self.scale_exp))
 
     def unchecked_data(self):
         """:attr:`data` without the finite check: the caller runs it, fused into a pass
@@ -200,10 +240,22 @@ class Job:
             return self.caller_output
         return arrays.as_kind(result, self.kind, self.like)
 
+    def _unscale_host(self, host):
+        """``ldexp(host, -scale_exp)`` in place where it can be written (values beyond the
+        dtype's range become inf, as numpy's float64 result cast to it)."""
+        with np.errstate(over="ignore"):
+            if host.flags.writeable:
+                return np.ldexp(host, -self.scale_exp, out=host)
+            return np.ldexp(host, -self.scale_exp, dtype=host.dtype)
+
     def _finish_native(self, result):
         be = self.backend
+        if self.scale_exp and not self.host_input:    # the rare path: through the host
+            result = be.asarray(np.ascontiguousarray(self._unscale_host(np.array(be.to_host(result)))))
         if self.host_input:
             host = be.to_host(result).reshape(self.shape)   # devices may fold leading axes
+            if self.scale_exp:
+                host = self._unscale_host(host)
             if self.output is not None:
                 if host is not self.output:
                     self.output[...] = host
@@ -233,25 +285,31 @@ def apply_program(job, program, mode, cval):
     bufs[(len(steps) - 1) % 2] = job.result_buffer()
     done = 0
     passes, axis, angle = steps[0]
+    if cval and not abs(cval) < range_limit(job.dtype):
+        job.scaled(cval)         # a constant beyond the range limit scales the job (rare)
     # the finite check fused into the first pass (a translation, or a recursion along an axis),
     # unless that pass writes the caller's own output array (which a non-finite input must leave
     # untouched): the first pass writes bufs[0], the result buffer whenever the number of steps is odd
     first_writes_result = (len(steps) - 1) % 2 == 0
     if job.check_pending and not (first_writes_result and job.output is not None):
         if is_translation(passes, angle):
-            finite = run_translation_checked(job.backend, job.unchecked_data(), bufs[0], passes, mode, cval, axis,
-                                             job.shape)
+            ok = run_translation_checked(job.backend, job.unchecked_data(), bufs[0], passes, mode, cval, axis,
+                                         job.shape)
         elif is_checkable(passes, angle):
-            finite = run_passes_checked(job.backend, job.unchecked_data(), bufs[0], job.dtype, passes, mode, cval,
-                                        axis, job.shape)
+            ok = run_passes_checked(job.backend, job.unchecked_data(), bufs[0], job.dtype, passes, mode, cval,
+                                    axis, job.shape)
         else:
-            finite = None
-        if finite is not None:
-            if not finite:
-                raise ValueError(NONFINITE)
-            job.check_pending = False
-            done = 1
+            ok = None
+        if ok is not None:
+            if ok:
+                job.check_pending = False
+            else:
+                # not finite, or beyond the range limit: the exact verdict; a scaled input runs
+                # again from the first pass (the rare case pays it), else the pass stands
+                job.settle(cval)
+            done = 0 if job.scale_exp else 1
     cur = bufs[0] if done else job.data
+    cval = job.scaled(cval)        # (the input is settled by now)
     for i, (passes, axis, angle) in enumerate(steps[done:], start=done):
         nxt = bufs[i % 2]
         run_passes(job.backend, cur, nxt, job.dtype, passes, mode, cval, axis=axis, angle=angle,

@@ -346,8 +346,29 @@ def run_job(job, program, mode, cval):
     """Run ``program`` on a host job in strips (called by the operators of :mod:`gfgpu.filters`)."""
     limit = get_working_set(job.backend)
     out = job.output if job.output is not None else np.empty(job.shape, job.dtype)
-    Strips(job.backend, job.dtype, mode, cval).run(program, ArrayStore(job.source), ArrayStore(out), limit)
+    source = ArrayStore(job.source)     # checked: job.scale_exp set beyond the range limit
+    cval = job.scaled(cval)
+    if job.scale_exp:
+        source = ScaledStore(source, job.scale_exp)
+    Strips(job.backend, job.dtype, mode, cval).run(program, source, ArrayStore(out), limit)
+    if job.scale_exp:
+        with np.errstate(over="ignore"):
+            np.ldexp(out, -job.scale_exp, out=out)
     return out
+
+
+class ScaledStore:
+    """Strips of ``store`` read as ``ldexp(strip, exp)`` (an input beyond the range limit,
+    :mod:`gfgpu._core.magnitude`)."""
+
+    def __init__(self, store, exp):
+        self.store, self.exp, self.shape = store, exp, store.shape
+
+    def read(self, r0, r1, dtype):
+        return np.ldexp(self.store.read(r0, r1, dtype), self.exp, dtype=dtype)
+
+    def sub(self, index):
+        return ScaledStore(self.store.sub(index), self.exp)
 
 
 class TranslatedStore:

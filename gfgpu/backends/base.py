@@ -125,7 +125,9 @@ class Backend:
         raise NotImplementedError
 
     def all_finite(self, array) -> bool:
-        """True if no element is NaN or infinite."""
+        """True if no element is NaN or infinite, nor at or beyond the range limit of its
+        dtype (:func:`gfgpu._core.magnitude.range_limit`: the input check; a False verdict
+        is settled on the host, :meth:`gfgpu._core.job.Job.settle`)."""
         raise NotImplementedError
 
     def synchronize(self):
@@ -146,8 +148,8 @@ class Backend:
         along M: ``B*N`` contiguous lines).  ``plan`` is a :class:`gfgpu._core.recursion.PassPlan`
         with ``plan.n`` equal to the line length.  ``dst`` may be ``src`` unless
         ``accumulate`` is true.  Returns ``dst``; with ``check=True`` the pass also tests, in the
-        same read of ``src``, that every element of ``src`` is finite and returns that bool
-        (``dst`` is written either way).
+        same read of ``src``, that every element of ``src`` is finite and within the range limit
+        (:meth:`all_finite`) and returns that bool (``dst`` is written either way).
 
         Lines too few to fill the device may be cut into blocks whose states are carried
         exactly (:func:`gfgpu._core.recursion.run_reference_blocks` is the specification):
@@ -179,7 +181,7 @@ class Backend:
         elements, e.g. :func:`gfgpu._core.translation.window_index`).
 
         With ``check=True`` the pass also tests, in the same read of ``src``, that every element
-        of ``src`` is finite, and returns that bool (``dst`` is then written either way); without
+        of ``src`` is finite and within the range limit (:meth:`all_finite`), and returns that bool (``dst`` is then written either way); without
         it, returns None.  The default is a :meth:`gather` with the full index.
         """
         from .._core.translation import _flat_index
@@ -190,9 +192,10 @@ class Backend:
 
     def input_finite(self, host, data) -> bool:
         """True if the host input ``host``, placed on the device as ``data`` (its
-        :meth:`host_view`), holds no NaN or infinity; devices may test ``data`` in parallel."""
-        from .._core.validation import host_all_finite
-        return host_all_finite(host)
+        :meth:`host_view`), holds no NaN or infinity and lies within the range limit
+        (:meth:`all_finite`); devices may test ``data`` in parallel."""
+        from .._core.magnitude import host_in_range
+        return host_in_range(host)
 
     # ---- pickling: by name, rebuilt in the receiving process ----------------------------
     @property

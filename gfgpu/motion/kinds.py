@@ -158,7 +158,7 @@ def _uniform_parse(velocity):
 def _uniform_run(job, params, psf, center, displace, mode, cval):
     vy, vx = params
     if psf == "box" and (vy, vx) != (0.0, 0.0):
-        return apply_uniform_box(job, vy, vx, displace, mode, cval)
+        return apply_uniform_box(job, vy, vx, displace, mode, job.scaled(cval))   # cval in job.data's units
     return apply_program(job, uniform_motion_program(job.ndim, (vy, vx), displace), mode, cval)
 
 
@@ -175,7 +175,7 @@ def _uniform_whole_axes(params, psf):
 
 # velocity field ------------------------------------------------------------------------
 def _field_run(job, field, psf, center, displace, mode, cval):
-    return apply_field(job, field, PSFS[psf].code(displace), mode, cval)
+    return apply_field(job, field, PSFS[psf].code(displace), mode, job.scaled(cval))
 
 
 # zoom ----------------------------------------------------------------------------------
@@ -192,6 +192,7 @@ def _zoom_run(job, params, psf, center, displace, mode, cval):
     or the box's affine field for two rates."""
     u1y, u1x = params
     cy, cx = center
+    cval = job.scaled(cval)     # in the units of job.data (scaled near the dtype's limit)
     if psf == "green" and u1y != u1x:
         return apply_zoom(job, u1y, u1x, center, mode, cval)
     if u1x == 0.0 and u1y == 0.0:
@@ -214,7 +215,7 @@ def _rotation_center(center, height, width):
 
 
 def _rotation_run(job, degrees, psf, center, displace, mode, cval):
-    return apply_spin(job, degrees, center[0], center[1], psf, displace, mode, cval)
+    return apply_spin(job, degrees, center[0], center[1], psf, displace, mode, job.scaled(cval))
 
 
 #: every kind of motion, by name (a velocity field is selected by ``kind='uniform'`` and its shape)

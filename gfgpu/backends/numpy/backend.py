@@ -17,6 +17,7 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from ..._core.recursion import run_reference, run_reference_lines
+from ..._core.magnitude import host_in_range
 from ..base import Backend, check_line_plans
 
 _BLOCK = 64
@@ -143,7 +144,7 @@ class NumpyBackend(Backend):
         return array.reshape(shape)
 
     def all_finite(self, array):
-        return bool(np.isfinite(array).all())
+        return host_in_range(array)
 
     def _pass(self, lines, plan, cval, steps_last=False):
         """Result of one pass, float64: ``lines`` (n, m) steps along axis 0, or (m, n)."""
@@ -209,7 +210,7 @@ class NumpyBackend(Backend):
         idx = np.asarray(index).reshape(-1)
         if idx.size != src.shape[axis]:
             raise ValueError(f"index has {idx.size} elements, axis {axis} has {src.shape[axis]}")
-        finite = bool(np.isfinite(src).all()) if check else None
+        finite = host_in_range(src) if check else None
         np.take(src, np.maximum(idx, 0), axis=axis, out=dst)
         outside = [slice(None)] * 3
         outside[axis] = idx < 0

@@ -24,7 +24,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..._core.recursion import packed_block_powers
-from ..._core.validation import host_all_finite
+from ..._core.magnitude import host_in_range
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 from . import launch
 
@@ -517,7 +517,7 @@ class OpenCLBackend(Backend):
         if dtype not in launch.REALS or array.size == 0:
             return True   # integer arrays hold no NaN or infinity
         if not array.flags.c_contiguous:
-            return bool(np.isfinite(array.get(queue=self.queue)).all())
+            return host_in_range(array.get(queue=self.queue))
         size = array.size
         if self.kind == "cpu":
             # a few contiguous chunks per core
@@ -866,7 +866,7 @@ class OpenCLBackend(Backend):
 
     def input_finite(self, host, data):
         # a GPU tests its copy; on a CPU device numpy's test of the same memory was measured faster
-        return host_all_finite(host) if self.kind == "cpu" else self.all_finite(data)
+        return host_in_range(host) if self.kind == "cpu" else self.all_finite(data)
 
     def _index_array(self, index, size):
         """Upload a gather index once per identity, as int32 (the kernel's index type).

@@ -157,14 +157,19 @@ INLINE void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *
         (fi) = (c).lr[s] * (fi) + (c).li[s] * (fr) + (c).ki[s] * (v); \
         (fr) = r_; } while (0)
 
-/* x - x is +0 for every finite x and NaN for NaN and infinities (IEEE arithmetic: the programs are
- * built without fast-math); unlike isfinite() it vectorises on CPU devices */
-#define NONFINITE(x) (((x) - (x)) != (REAL)0)
+/* The input check: a sample is refused if it is NaN, infinite or at least the range limit
+ * sqrt(REAL_MAX) (2^64 float, 2^512 double; gfgpu._core.magnitude: the host then settles the
+ * verdict, and scales an image beyond the limit).  z = x * 2^(emax/2) is exact (a power of two)
+ * and infinite exactly then, so z - z is +0 for a sample in range and NaN otherwise (IEEE
+ * arithmetic: the programs are built without fast-math; a contracted fma(x, R, -z) is 0 too);
+ * unlike isfinite() it vectorises on CPU devices */
+#define RANGE_SCALE (sizeof(REAL) == 8 ? (REAL)0x1p512 : (REAL)0x1p64f)
+#define NONFINITE(x) ((((x) * RANGE_SCALE) - ((x) * RANGE_SCALE)) != (REAL)0)
 #if LANES == 1
 #define ANY_NONFINITE(v) NONFINITE(v)
 #else
-/* a lane that is not finite makes x - x NaN; summing the lanes keeps the NaN (no any(): a call) */
-#define ANY_NONFINITE(v) lanes_nonfinite((v) - (v))
+/* a lane out of range makes z - z NaN; summing the lanes keeps the NaN (no any(): a call) */
+#define ANY_NONFINITE(v) lanes_nonfinite(((v) * RANGE_SCALE) - ((v) * RANGE_SCALE))
 INLINE int lanes_nonfinite(const VT z)
 {
     REAL t = 0;

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..._core.recursion import packed_block_powers
 from ..._core.translation import _flat_index
-from ..._core.validation import host_all_finite
+from ..._core.magnitude import host_in_range
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
@@ -416,7 +416,7 @@ class WarpBackend(Backend):
             return self._recurse_blocks(src, dst, axis, plan, dtype, cval, accumulate, check, blocks, block)
         finite = None
         if check:   # Warp's CPU threads run one at a time: numpy tests the same memory as fast
-            finite = host_all_finite(src.numpy()) if self.kind == "cpu" else self.all_finite(src)
+            finite = host_in_range(src.numpy()) if self.kind == "cpu" else self.all_finite(src)
         scalars = [plan.sections, plan.omega.shape[1], real(cval), real(plan.tap), int(plan.reverse),
                    int(bool(accumulate)), int(plan.constant)]
         for kernel, lines_src, lines_dst in self._line_views(src, dst, axis):
@@ -582,7 +582,7 @@ class WarpBackend(Backend):
         if self.kind == "cpu":
             # Warp's CPU kernels run on one thread: the flat gather (its index cached) measured
             # faster than a kernel that computes the index; the check is numpy's on the same memory
-            finite = host_all_finite(src.numpy()) if check else None
+            finite = host_in_range(src.numpy()) if check else None
             key = (id(index), tuple(src.shape), axis)
             hit = self._flat.get(key)
             if hit is None or hit[0] is not index:
@@ -602,7 +602,7 @@ class WarpBackend(Backend):
 
     def input_finite(self, host, data):
         # a GPU tests its copy in parallel; Warp's CPU kernels run on one thread, as numpy does
-        return host_all_finite(host) if self.kind == "cpu" else self.all_finite(data)
+        return host_in_range(host) if self.kind == "cpu" else self.all_finite(data)
 
     def gather(self, src, index, cval, out):
         wp = self._wp

@@ -263,7 +263,8 @@ def block_states(
     for k in range(k_lo, k_hi):
         v = src[b, i, first + step * k]
         if check != 0:
-            if not wp.isfinite(v):
+            # v * v overflows exactly at the range limit sqrt(max) (gfgpu._core.magnitude)
+            if not wp.isfinite(v * v):
                 flag[0] = 1     # rare: a store only where a sample is bad
         if constant == 0:
             c0 = _coefficients(lam, kap, 0, k)
@@ -427,15 +428,18 @@ def translate(src: wp.array2d(dtype=Any), index: wp.array(dtype=wp.int32), cval:
         else:
             dst[r, j] = cval
     if check != 0:
-        if not wp.isfinite(src[r, j]):
+        x = src[r, j]
+        if not wp.isfinite(x * x):      # NaN, infinite or beyond the range limit
             flag[0] = 1
 
 
 @wp.kernel
 def count_nonfinite(values: wp.array(dtype=Any), count: wp.array(dtype=wp.int32)):
-    """``count[0] += 1`` for every NaN or infinite element of ``values``."""
+    """``count[0] += 1`` for every element of ``values`` that is NaN, infinite or beyond the
+    range limit ``sqrt(max)`` (its square overflows: :mod:`gfgpu._core.magnitude`)."""
     t = wp.tid()
-    if not wp.isfinite(values[t]):
+    x = values[t]
+    if not wp.isfinite(x * x):
         wp.atomic_add(count, 0, 1)
 
 
