@@ -61,37 +61,55 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     lbuf, loff = (dbuf, doff) if less is None else ocl.written(be, less, "less")
     dtype, pos = _setup(be, src)
     bsz, rows, cols = (int(s) for s in src.shape)
-    lanes = _VECTOR_BYTES // dtype.itemsize
-    by_rows = axis == 2 and (bsz * rows) % lanes == 0
     inputs = [src] if less is None else [src, less]
-    if be.kind == "cpu" and (by_rows or (axis == 1 and cols % lanes == 0)):
-        # LANES lines per work-item in vector lanes (the window is the same on every line):
-        # adjacent columns (contiguous loads) or consecutive rows (loads gathered across them)
-        total = bsz * rows // lanes if by_rows else bsz * (cols // lanes)
-        groups = total if by_rows else cols // lanes
-        n = cols if by_rows else rows
-        defines = dict(LANES=lanes, ROWS=int(by_rows), LESS=int(less is not None))
-        if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
-            a, b = int(np.floor(a0)), int(np.floor(b0))
-            # the taps at each end of the window: the partial cell's integral plus the telescoped
-            # whole cells (box_shift in motion.cl)
-            wa, wb = (bspline.prefix_weights(x - np.floor(x)) for x in (a0, b0))
-            ocl.launch(be, _kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
-                       (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
-                        np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
-                        dtype.type(1.0 / (b0 - a0)), np.int32(_code(mode)), dtype.type(cval),
-                        np.int32(total), lbuf, loff))
-            return dst
-        ocl.launch(be, _kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
-                   (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
-                    pos(b0), pos(b1), np.int32(_code(mode)), dtype.type(cval), np.int32(total), lbuf, loff))
-        return dst
     n, lines = (cols, rows) if axis == 2 else (rows, cols)
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
-    total = bsz * lines
-    gsize, lsize = _group(be, total)
-    ocl.launch(be, _kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs, [dst],
-               (src.data, dbuf, np.int32(n), np.int32(lines), np.int64(rows * cols), np.int64(line_stride),
-                np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(_code(mode)), dtype.type(cval),
-                np.int32(total), doff, lbuf, loff))
+    planes, done = bsz, 0
+    if be.kind == "cpu":
+        lanes = _VECTOR_BYTES // dtype.itemsize
+        if axis == 2:
+            # rows: the B N rows are one run of lines; whole groups of LANES in vector lanes
+            planes, lines, done = 1, bsz * rows, (bsz * rows) // lanes * lanes
+        else:
+            done = cols // lanes * lanes
+        if done:
+            _box_vectors(be, (src, dbuf, doff, lbuf, loff, inputs, dst), axis, done // lanes,
+                         a0, a1, b0, b1, mode, cval)
+    if done < lines:
+        # one line per work-item: every line (GPU shapes), or the lines of a partial lane group
+        # (a 5-7x cliff when the whole array fell back to this kernel)
+        run = lines - done
+        total = planes * run
+        gsize, lsize = _group(be, total)
+        ocl.launch(be, _kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs,
+                   [dst], (src.data, dbuf, np.int32(n), np.int64(rows * cols), np.int64(line_stride),
+                           np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(_code(mode)),
+                           dtype.type(cval), np.int32(total), doff, lbuf, loff, np.int32(done), np.int32(run)))
     return dst
+
+
+def _box_vectors(be, bufs, axis, groups, a0, a1, b0, b1, mode, cval):
+    """box_vec / box_shift on ``groups`` whole groups of LANES lines: adjacent columns (axis 1,
+    contiguous loads, ``groups`` per plane) or consecutive rows (axis 2, loads gathered across
+    them, ``groups`` in all)."""
+    src, dbuf, doff, lbuf, loff, inputs, dst = bufs
+    dtype, pos = _setup(be, src)
+    bsz, rows, cols = (int(s) for s in src.shape)
+    by_rows = axis == 2
+    total = groups if by_rows else bsz * groups
+    n = cols if by_rows else rows
+    defines = dict(LANES=_VECTOR_BYTES // dtype.itemsize, ROWS=int(by_rows), LESS=int(len(inputs) > 1))
+    if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
+        a, b = int(np.floor(a0)), int(np.floor(b0))
+        # the taps at each end of the window: the partial cell's integral plus the telescoped
+        # whole cells (box_shift in motion.cl)
+        wa, wb = (bspline.prefix_weights(x - np.floor(x)) for x in (a0, b0))
+        ocl.launch(be, _kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
+                   (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
+                    np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
+                    dtype.type(1.0 / (b0 - a0)), np.int32(_code(mode)), dtype.type(cval),
+                    np.int32(total), lbuf, loff))
+        return
+    ocl.launch(be, _kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
+               (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
+                pos(b0), pos(b1), np.int32(_code(mode)), dtype.type(cval), np.int32(total), lbuf, loff))

@@ -262,16 +262,19 @@ static inline REAL cells(__global const REAL *src, const long start, const long 
 // Box windows [a0 + a1 k, b0 + b1 k] along the lines of a (B, N, M) array: one work-item per
 // line; the first window's sum of whole cells in closed form, then one compensated running sum of
 // whole spline cells plus the two partial cells.
-__kernel void box_lines(__global const REAL *src, __global REAL *dst, const int n, const int lines,
+__kernel void box_lines(__global const REAL *src, __global REAL *dst, const int n,
                         const long batch_stride, const long line_stride, const long step, const POS a0,
                         const POS a1, const POS b0, const POS b1, const int mode, const REAL cval, const int total,
-                        const long dst_off, __global const REAL *less, const long less_off)
+                        const long dst_off, __global const REAL *less, const long less_off, const int line0,
+                        const int run)
 {
+    // lines line0 .. line0 + run - 1 of each plane (all of them, or the partial lane group that
+    // box_vec leaves); total = planes * run
     const int t = get_global_id(0);
     if (t >= total)
         return;
-    const int b = t / lines;
-    const long start = b * batch_stride + (long)(t - b * lines) * line_stride;
+    const int b = t / run;
+    const long start = b * batch_stride + (long)(line0 + t - b * run) * line_stride;
     int ia = (int)FLOOR_POS(a0), ib = (int)FLOOR_POS(b0);
     REAL sum = cells(src, start, step, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {

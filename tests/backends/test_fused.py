@@ -77,6 +77,15 @@ def test_fused_kernel_matches_its_spec(backend, name):
     BUILDERS[name](backend, kernel, np.random.default_rng(sum(map(ord, name))))
 
 
+@pytest.mark.parametrize("name", REGISTERED)
+def test_fused_kernel_matches_its_spec_in_gpu_launch_shapes(gpu_shaped, name):
+    # the branches only a GPU takes (one line per work-item where a CPU uses vector lanes), forced
+    # on the CPU devices
+    kernel = fused.registered()[name]
+    if name in BUILDERS and gpu_shaped.name in kernel.launchers:
+        BUILDERS[name](gpu_shaped, kernel, np.random.default_rng(sum(map(ord, name))))
+
+
 # --------------------------------------------------------------------------------------
 # the generic primitives
 # --------------------------------------------------------------------------------------

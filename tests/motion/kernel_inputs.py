@@ -25,6 +25,14 @@ def _box_lines(be, kernel, rng):
             dst = be.empty(src.shape, dtype)
             kernel(be, be.asarray(src), dst, axis, *window, mode, 0.7)
             _close(be, dst, kernel.spec(src, axis, *window, mode, 0.7), dtype, f"box_lines {axis} {window} {mode}")
+        # whole lane groups and a partial one (vector and one-line kernels in one call), fewer lines
+        # than a group, and exact groups, on both kinds of window
+        for shape, axis in (((3, 5, 19), 1), ((3, 5, 19), 2), ((1, 3, 5), 2), ((1, 4, 3), 1), ((2, 4, 16), 2)):
+            src = rng.standard_normal(shape).astype(dtype)
+            for window in ((-2.3, 1.0, 1.7, 1.0), (-1.0, 0.9, 2.0, 1.1)):
+                dst = be.empty(shape, dtype)
+                kernel(be, be.asarray(src), dst, axis, *window, "mirror", 0.7)
+                _close(be, dst, kernel.spec(src, axis, *window, "mirror", 0.7), dtype, f"box_lines {shape} {axis}")
         # minus less, also in place (dst is less), on the scalar and the vector kernels (8 | 2 * 8 rows)
         for shape, axis, window in (((2, 7, 33), 1, (-2.5, 1.0, 2.5, 1.0)), ((2, 8, 33), 2, (-3.25, 1.0, 0.0, 1.0)),
                                     ((2, 8, 33), 2, (0.0, 0.9, 0.0, 1.2))):
