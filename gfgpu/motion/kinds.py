@@ -192,9 +192,10 @@ def _zoom_run(job, params, psf, center, displace, mode, cval):
     or the box's affine field for two rates."""
     u1y, u1x = params
     cy, cx = center
-    cval = job.scaled(cval)     # in the units of job.data (scaled near the dtype's limit)
+    # cval in job.data's units (scaled near the dtype's limit); the polar paths scale it after
+    # their cost refusal, which reads no pixel
     if psf == "green" and u1y != u1x:
-        return apply_zoom(job, u1y, u1x, center, mode, cval)
+        return apply_zoom(job, u1y, u1x, center, mode, job.scaled(cval))
     if u1x == 0.0 and u1y == 0.0:
         return job.finish(copy_of_input(job))
     if psf == "green":
@@ -204,7 +205,7 @@ def _zoom_run(job, params, psf, center, displace, mode, cval):
     height, width = job.shape[-2], job.shape[-1]
     yy, xx = np.mgrid[:height, :width].astype(np.float64)
     field = np.stack([(u1y / (1.0 + u1y)) * (yy - cy), (u1x / (1.0 + u1x)) * (xx - cx)])
-    return apply_field(job, check_field(field, job.shape), PSFS["box"].code(displace), mode, cval)
+    return apply_field(job, check_field(field, job.shape), PSFS["box"].code(displace), mode, job.scaled(cval))
 
 
 # rotation ------------------------------------------------------------------------------
@@ -215,7 +216,7 @@ def _rotation_center(center, height, width):
 
 
 def _rotation_run(job, degrees, psf, center, displace, mode, cval):
-    return apply_spin(job, degrees, center[0], center[1], psf, displace, mode, job.scaled(cval))
+    return apply_spin(job, degrees, center[0], center[1], psf, displace, mode, cval)
 
 
 #: every kind of motion, by name (a velocity field is selected by ``kind='uniform'`` and its shape)

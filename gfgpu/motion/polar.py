@@ -171,6 +171,7 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
     check_center(cy, cx, height, width)
     check_polar_cost(height, width, cy, cx, reach, split, what)
     strips.require_whole_image(job, what)
+    cval = job.scaled(cval)     # in job.data's units; after the refusals, which read no pixel
     planes = (math.prod(shape[:-2]), height, width)
     data = be.reshape(job.data, planes)
     coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval)
