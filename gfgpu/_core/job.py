@@ -170,6 +170,8 @@ class Job:
         """``value`` (a constant read beside the image: ``cval``) in the units of :attr:`data`;
         the input check runs first if it has not, with ``value`` counted in the peak."""
         value = float(value)
+        if value == 0.0:     # nothing to scale: the image is not read here (refusals come first)
+            return 0.0
         if self.check_pending or not abs(np.ldexp(value, self.scale_exp)) < range_limit(self.dtype):
             self.settle(value)
         return float(np.ldexp(value, self.scale_exp))
