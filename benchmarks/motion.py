@@ -222,7 +222,7 @@ def guarded(fn, *args):
     reported in its row; the run goes on)."""
     try:
         return fn(*args), ""
-    except Exception as exc:       # noqa: BLE001 - report and keep measuring the others
+    except Exception as exc:
         return None, f"{type(exc).__name__}: {str(exc).splitlines()[0][:120] if str(exc) else ''}"
 
 
@@ -420,7 +420,7 @@ def field_section(bench):
     n, section = bench.opts.size // 2, "velocity field"
     shape = (n, n)
     case = f"(2, {n}, {n}), |v| <= {FIELD_MAX:g}"
-    field = lambda s: refs.velocity_field(s, FIELD_MAX)      # noqa: E731
+    field = lambda s: refs.velocity_field(s, FIELD_MAX)
     for psf in ("box", "green"):
         for b in bench.opts.backends:
             row = speed_row(bench, section, case, f"gfgpu psf='{psf}', {b}", gfgpu_call(bench, field, b, psf=psf),
@@ -752,7 +752,7 @@ def machine():
     for name in ("cv2", "torch", "kornia", "pyopencl", "warp"):
         try:
             versions[name] = __import__(name).__version__
-        except Exception:            # noqa: BLE001 - a peer not installed
+        except Exception:
             versions[name] = None
     return {"uptime": run(["uptime"]), "cpus": os.cpu_count(), "platform": platform.platform(),
             "commit": run(["git", "describe", "--always", "--dirty"]), "versions": versions,

@@ -222,7 +222,7 @@ def green_line_kernel(v, tail=1e-3):
     mass over its cell (closed-form cumulative ``1 - e^-t (sin t + cos t)``), cut where the
     remaining tail is below ``tail``."""
     length = max(abs(v[0]), abs(v[1]))
-    cdf = lambda t: 1.0 - np.exp(-t) * (np.sin(t) + np.cos(t))     # noqa: E731
+    cdf = lambda t: 1.0 - np.exp(-t) * (np.sin(t) + np.cos(t))
     end = 1.0
     while np.exp(-end) * math.sqrt(2.0) > tail:
         end += 0.25

@@ -41,10 +41,10 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from stereo import load_scene, opencv_matchers  # noqa: E402  (the benchmark's loaders and OpenCV setup)
+from stereo import load_scene, opencv_matchers
 
-from gfgpu.stereo import disparity, fill_holes  # noqa: E402
-from gfgpu.stereo.postfilter import apply_postfilter  # noqa: E402
+from gfgpu.stereo import disparity, fill_holes
+from gfgpu.stereo.postfilter import apply_postfilter
 
 TRAIN = ("tsukuba", "venus")
 HELDOUT = ("teddy", "cones", "motorcycle")

@@ -15,90 +15,44 @@ from typing import Any
 import warp as wp
 
 from .._core.boundary import MODE_CODES
-from .._core.bspline import NEAREST_EDGE, SPLINE_POLE
 from ..backends.warp import launch as wpl
+from ..backends.warp.bspline import (
+    MIRROR,
+    NEAR_A,
+    NEAR_B,
+    NEAREST,
+    POLE,
+    REFLECT,
+    extend,
+    periodic,
+    pole_power,
+    tap_weight,
+)
 from .spec import NARROW
 
 wp.set_module_options({"enable_backward": False})
 
 # the constants of the Python definitions (none retyped here): mode codes, spline
-_CONSTANT = wp.constant(MODE_CODES["constant"])
-_NEAREST = wp.constant(MODE_CODES["nearest"])
-_WRAP = wp.constant(MODE_CODES["wrap"])
-_REFLECT = wp.constant(MODE_CODES["reflect"])
-_MIRROR = wp.constant(MODE_CODES["mirror"])
-_Z = wp.constant(wp.float64(SPLINE_POLE))
 _NARROW = wp.constant(wp.float64(NARROW))
-_NEAR_A = wp.constant(wp.float64(NEAREST_EDGE[0]))
-_NEAR_B = wp.constant(wp.float64(NEAREST_EDGE[1]))
-
-
-@wp.func
-def _periodic(mode: int):
-    """Whether ``mode`` repeats with a period (gfgpu._core.boundary.PERIODIC_MODES)."""
-    return mode == _WRAP or mode == _REFLECT or mode == _MIRROR
-
-
-@wp.func
-def _extend(i: int, n: int, mode: int):
-    """Index of sample ``i`` of a line of ``n`` extended by ``mode`` (-1: cval);
-    gfgpu._core.boundary.extend_index."""
-    if mode == _CONSTANT:
-        if i < 0 or i >= n:
-            return -1
-        return i
-    if mode == _NEAREST:
-        return wp.clamp(i, 0, n - 1)
-    if mode == _WRAP:
-        r = i % n
-        if r < 0:
-            r = r + n
-        return r
-    if mode == _REFLECT:
-        q = i % (2 * n)
-        if q < 0:
-            q = q + 2 * n
-        if q >= n:
-            q = 2 * n - 1 - q
-        return q
-    if n == 1:
-        return 0
-    q = i % (2 * n - 2)
-    if q < 0:
-        q = q + 2 * n - 2
-    if q >= n:
-        q = 2 * n - 2 - q
-    return q
-
-
-@wp.func
-def _pole_power(m: int):
-    """``z^m`` for ``m >= 0``; 0 beyond ``m = 64`` (below 1e-36)."""
-    f = wp.float64(1.0)
-    for _k in range(wp.min(m, 65)):
-        f = f * _Z
-    if m > 64:
-        f = wp.float64(0.0)
-    return f
 
 
 @wp.func
 def _geometric(m: int):
     """``Σ_{k=1}^{m} z^k``, ``m >= 0`` (gfgpu._core.bspline.pole_series)."""
-    return _Z * (wp.float64(1.0) - _pole_power(m)) / (wp.float64(1.0) - _Z)
+    return POLE * (wp.float64(1.0) - pole_power(m)) / (wp.float64(1.0) - POLE)
 
 
 @wp.func
 def _edge(src: wp.array(dtype=Any), start: int, step: int, n: int, right: int, mode: int, cval: Any):
     """The extension's value beyond the left (right) end: ``cval``, or the edge sample for 'nearest'."""
-    if mode != _NEAREST:
+    if mode != NEAREST:
         return cval
     j = 0
     j1 = wp.min(1, n - 1)
     if right != 0:
         j = n - 1
         j1 = wp.max(n - 2, 0)
-    return src.dtype(_NEAR_A) * src[start + j * step] + src.dtype(_NEAR_B) * src[start + j1 * step]
+    return src.dtype(NEAR_A) * src[start + j * step] + src.dtype(NEAR_B) * src[start + j1 * step]
 
 
 @wp.func
@@ -106,8 +60,8 @@ def _coef(src: wp.array(dtype=Any), start: int, step: int, n: int, i: int, mode:
     """Coefficient ``i`` of the line at ``start`` (stride ``step``), extended by ``mode``."""
     if i >= 0 and i < n:
         return src[start + i * step]
-    if _periodic(mode):
-        return src[start + _extend(i, n, mode) * step]
+    if periodic(mode):
+        return src[start + extend(i, n, mode) * step]
     right = 0
     j = 0
     m = -i
@@ -117,7 +71,7 @@ def _coef(src: wp.array(dtype=Any), start: int, step: int, n: int, i: int, mode:
         m = i - n + 1
     c = src[start + j * step]
     e = _edge(src, start, step, n, right, mode, cval)
-    return e + src.dtype(_pole_power(m)) * (c - e)
+    return e + src.dtype(pole_power(m)) * (c - e)
 
 
 @wp.func
@@ -139,11 +93,11 @@ def _coef_sum(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b
     (spec._coef_prefix): whole periods, or the geometric tails, in closed form."""
     total = src.dtype(0.0)
     if b > a:
-        if _periodic(mode):
+        if periodic(mode):
             per = n     # gfgpu._core.boundary.period
-            if mode == _REFLECT:
+            if mode == REFLECT:
                 per = 2 * n
-            if mode == _MIRROR:
+            if mode == MIRROR:
                 per = wp.max(2 * n - 2, 1)
             if b - a <= 3 * per:
                 total = _coef_run(src, start, step, n, a, b, mode, cval)
@@ -179,19 +133,6 @@ def _cells(src: wp.array(dtype=Any), start: int, step: int, n: int, a: int, b: i
 
 
 @wp.func
-def _weight(t: wp.float64, p: int):
-    """Cubic B-spline weight of offset ``p - 1`` for the fraction ``t`` (gfgpu._core.bspline.tap_weights)."""
-    g = wp.float64(1.0) - t
-    if p == 0:
-        return g * g * g / wp.float64(6.0)
-    if p == 1:
-        return (wp.float64(3.0) * t * t * t - wp.float64(6.0) * t * t + wp.float64(4.0)) / wp.float64(6.0)
-    if p == 2:
-        return (wp.float64(3.0) * g * g * g - wp.float64(6.0) * g * g + wp.float64(4.0)) / wp.float64(6.0)
-    return t * t * t / wp.float64(6.0)
-
-
-@wp.func
 def _weight_integral(f: wp.float64, p: int):
     """``∫_0^f`` of the weight of offset ``p - 1`` (gfgpu._core.bspline.weight_integrals)."""
     f2 = f * f
@@ -222,7 +163,7 @@ def _partial(src: wp.array(dtype=Any), start: int, step: int, n: int, j: int, f:
     for p in range(4):
         c = _coef(src, start, step, n, j + p - 1, mode, cval)
         total = total + src.dtype(_weight_integral(f, p)) * c
-        value = value + src.dtype(_weight(f, p)) * c
+        value = value + src.dtype(tap_weight(f, p)) * c
     return total, value
 
 

@@ -8,7 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
+from oracle import box_transfer_reference
 
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "benchmarks" / "motion.py"
@@ -17,8 +17,6 @@ try:
     import motion_refs as refs
 finally:
     sys.path.remove(str(SCRIPT.parent))
-
-from oracle import box_transfer_reference
 
 SECTIONS = {"uniform, axis-aligned", "uniform, oblique", "velocity field", "spin and zoom", "accuracy, oblique",
             "accuracy, field", "accuracy, spin and zoom"}

@@ -16,8 +16,8 @@ from functools import lru_cache
 import numpy as np
 from threadpoolctl import ThreadpoolController
 
-from ..._core.recursion import run_reference, run_reference_lines
 from ..._core.magnitude import host_in_range
+from ..._core.recursion import run_reference, run_reference_lines
 from ..base import Backend, check_line_plans
 
 _BLOCK = 64

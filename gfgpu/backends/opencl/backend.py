@@ -23,8 +23,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..._core.recursion import packed_block_powers
 from ..._core.magnitude import host_in_range
+from ..._core.recursion import packed_block_powers
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 from . import launch
 

@@ -13,6 +13,7 @@ PoCL keeps its own cache (``POCL_CACHE_DIR``), so only the first process on a ma
 
 from __future__ import annotations
 
+import re
 import threading
 from functools import cache
 
@@ -42,10 +43,23 @@ def forget_programs():
     _kernels.clear()
 
 
+_INCLUDE = re.compile(r'^#include "([\w.]+)".*$', re.MULTILINE)
+
+
 @cache
 def _source(anchor, name):
+    """The text of ``name`` in package ``anchor``, each ``#include "file.cl"`` line replaced by that
+    file's text, found in ``anchor`` or the nearest package above it that has it.  Expanded here,
+    not by the OpenCL compiler, so that the program text (PoCL's cache key) holds every line it
+    builds: an edited included file can never be served from a stale cache."""
     from importlib.resources import files
-    return files(anchor).joinpath(name).read_text()
+    package = anchor
+    while not files(package).joinpath(name).is_file():
+        if "." not in package:
+            raise FileNotFoundError(f"OpenCL source {name!r} is in neither {anchor} nor a package above it")
+        package = package.rpartition(".")[0]
+    text = files(package).joinpath(name).read_text()
+    return _INCLUDE.sub(lambda m: _source(package, m.group(1)), text)
 
 
 def _program(context, anchor, source, defines):

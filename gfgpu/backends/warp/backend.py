@@ -19,9 +19,9 @@ from functools import cache
 
 import numpy as np
 
+from ..._core.magnitude import host_in_range
 from ..._core.recursion import packed_block_powers
 from ..._core.translation import _flat_index
-from ..._core.magnitude import host_in_range
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))

@@ -9,25 +9,17 @@ from typing import Any
 import warp as wp
 
 from ..._core.boundary import MODE_CODES
-from ..._core.bspline import NEAREST_EDGE, SPLINE_POLE
 from ...backends.warp import launch as wpl
+from ...backends.warp.bspline import spline_at
 from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS
 
 wp.set_module_options({"enable_backward": False})
 
-_CONSTANT = wp.constant(MODE_CODES["constant"])
-_NEAREST = wp.constant(MODE_CODES["nearest"])
-_WRAP = wp.constant(MODE_CODES["wrap"])
-_REFLECT = wp.constant(MODE_CODES["reflect"])
-_MIRROR = wp.constant(MODE_CODES["mirror"])
 _BOX = wp.constant(PSF_CODES["box", True])
 _GREEN = wp.constant(PSF_CODES["green", True])
 _BOX_CENTRED = wp.constant(PSF_CODES["box", False])
 _GREEN_CENTRED = wp.constant(PSF_CODES["green", False])
-_Z = wp.constant(wp.float64(SPLINE_POLE))
 _TAIL = wp.constant(wp.float64(GREEN_TAIL))
-_NEAR_A = wp.constant(wp.float64(NEAREST_EDGE[0]))
-_NEAR_B = wp.constant(wp.float64(NEAREST_EDGE[1]))
 _GU0 = wp.constant(wp.float64(GAUSS_NODES[0]))
 _GU1 = wp.constant(wp.float64(GAUSS_NODES[1]))
 _GU2 = wp.constant(wp.float64(GAUSS_NODES[2]))
@@ -36,121 +28,6 @@ _GW1 = wp.constant(wp.float64(GAUSS_WEIGHTS[1]))
 _GW2 = wp.constant(wp.float64(GAUSS_WEIGHTS[2]))
 _MIN_G = wp.constant(PSF_MIN_CELLS[PSF_CODES["green", True]])
 _MIN_CG = wp.constant(PSF_MIN_CELLS[PSF_CODES["green", False]])
-
-@wp.func
-def _periodic(mode: int):
-    """Whether ``mode`` repeats with a period (gfgpu._core.boundary.PERIODIC_MODES)."""
-    return mode == _WRAP or mode == _REFLECT or mode == _MIRROR
-
-
-@wp.func
-def _extend(i: int, n: int, mode: int):
-    """Index of sample ``i`` of a line of ``n`` extended by ``mode`` (-1: cval);
-    gfgpu._core.boundary.extend_index."""
-    if mode == _CONSTANT:
-        if i < 0 or i >= n:
-            return -1
-        return i
-    if mode == _NEAREST:
-        return wp.clamp(i, 0, n - 1)
-    if mode == _WRAP:
-        r = i % n
-        if r < 0:
-            r = r + n
-        return r
-    if mode == _REFLECT:
-        q = i % (2 * n)
-        if q < 0:
-            q = q + 2 * n
-        if q >= n:
-            q = 2 * n - 1 - q
-        return q
-    if n == 1:
-        return 0
-    q = i % (2 * n - 2)
-    if q < 0:
-        q = q + 2 * n - 2
-    if q >= n:
-        q = 2 * n - 2 - q
-    return q
-
-
-@wp.func
-def _pole_power(m: int):
-    """``z^m`` for ``m >= 0``; 0 beyond ``m = 64`` (below 1e-36)."""
-    f = wp.float64(1.0)
-    for _k in range(wp.min(m, 65)):
-        f = f * _Z
-    if m > 64:
-        f = wp.float64(0.0)
-    return f
-
-
-@wp.func
-def _coef_taps(i: int, n: int, mode: int):
-    """``(j0, w0, j1, w1)`` of spline coefficient ``i`` (gfgpu._core.bspline.coef_taps)."""
-    if i >= 0 and i < n:
-        return i, wp.float64(1.0), i, wp.float64(0.0)
-    if _periodic(mode):
-        j = _extend(i, n, mode)
-        return j, wp.float64(1.0), j, wp.float64(0.0)
-    j0 = 0
-    j1 = wp.min(1, n - 1)
-    m = -i
-    if i >= n:
-        j0 = n - 1
-        j1 = wp.max(n - 2, 0)
-        m = i - n + 1
-    f = _pole_power(m)
-    if mode == _CONSTANT:
-        return j0, f, j0, wp.float64(0.0)
-    return j0, f + (wp.float64(1.0) - f) * _NEAR_A, j1, (wp.float64(1.0) - f) * _NEAR_B
-
-
-
-@wp.func
-def _weight(t: wp.float64, p: int):
-    """Cubic B-spline weight of offset ``p - 1`` for the fraction ``t`` (gfgpu._core.bspline.tap_weights)."""
-    g = wp.float64(1.0) - t
-    if p == 0:
-        return g * g * g / wp.float64(6.0)
-    if p == 1:
-        return (wp.float64(3.0) * t * t * t - wp.float64(6.0) * t * t + wp.float64(4.0)) / wp.float64(6.0)
-    if p == 2:
-        return (wp.float64(3.0) * g * g * g - wp.float64(6.0) * g * g + wp.float64(4.0)) / wp.float64(6.0)
-    return t * t * t / wp.float64(6.0)
-
-
-@wp.func
-def _spline(src: wp.array(dtype=Any), plane: int, h: int, w: int, py: wp.float64, px: wp.float64,
-            mode_y: int, mode_x: int, cval: Any):
-    """The 2-D cubic B-spline of one plane at ``(py, px)`` (spec.spline_sample); beyond the
-    border a coefficient may weigh two ('nearest')."""
-    fy = wp.floor(py)
-    fx = wp.floor(px)
-    iy = int(fy)
-    ix = int(fx)
-    ty = py - fy
-    tx = px - fx
-    base = src.dtype(0.0)
-    if mode_x == _CONSTANT:
-        base = cval
-    acc = src.dtype(0.0)
-    for p in range(4):
-        ry0, gy0, ry1, gy1 = _coef_taps(iy + p - 1, h, mode_y)
-        row0 = src.dtype(0.0)
-        row1 = src.dtype(0.0)
-        for q in range(4):
-            rx0, gx0, rx1, gx1 = _coef_taps(ix + q - 1, w, mode_x)
-            wx0 = src.dtype(_weight(tx, q) * gx0)
-            wx1 = src.dtype(_weight(tx, q) * gx1)
-            row0 = row0 + wx0 * (src[plane + ry0 * w + rx0] - base) + wx1 * (src[plane + ry0 * w + rx1] - base)
-            if gy1 != wp.float64(0.0):
-                row1 = row1 + wx0 * (src[plane + ry1 * w + rx0] - base) + wx1 * (src[plane + ry1 * w + rx1] - base)
-        wy = _weight(ty, p)
-        acc = acc + src.dtype(wy * gy0) * row0 + src.dtype(wy * gy1) * row1
-    return acc + base
-
 
 @wp.func
 def _support(psf: int):
@@ -245,11 +122,11 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
             q2 = (tb - ta) * _GW2 * _density(psf, s2)
         rest = mass - (q0 + q1 + q2)
         base = plane * h * w
-        acc = acc + coef.dtype(_node_weight(psf, _GW0, q0, mass, rest)) * _spline(
+        acc = acc + coef.dtype(_node_weight(psf, _GW0, q0, mass, rest)) * spline_at(
             coef, base, h, w, wp.float64(y) - s0 * vy, wp.float64(x) - s0 * vx, mode, mode, cval)
-        acc = acc + coef.dtype(_node_weight(psf, _GW1, q1, mass, rest)) * _spline(
+        acc = acc + coef.dtype(_node_weight(psf, _GW1, q1, mass, rest)) * spline_at(
             coef, base, h, w, wp.float64(y) - s1 * vy, wp.float64(x) - s1 * vx, mode, mode, cval)
-        acc = acc + coef.dtype(_node_weight(psf, _GW2, q2, mass, rest)) * _spline(
+        acc = acc + coef.dtype(_node_weight(psf, _GW2, q2, mass, rest)) * spline_at(
             coef, base, h, w, wp.float64(y) - s2 * vy, wp.float64(x) - s2 * vx, mode, mode, cval)
     out[t] = acc
 
