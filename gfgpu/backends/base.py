@@ -182,7 +182,8 @@ class Backend:
 
         With ``check=True`` the pass also tests, in the same read of ``src``, that every element
         of ``src`` is finite and within the range limit (:meth:`all_finite`), and returns that bool
-        (``dst`` is then written either way); without it, returns None.  The default is a :meth:`gather` with the full index.
+        (``dst`` is then written either way); without it, returns None.  The default is a
+        :meth:`gather` with the full index.
         """
         from .._core.translation import _flat_index
         finite = self.all_finite(src) if check else None

@@ -7,7 +7,7 @@ import numpy as np
 
 from .._core import boundary, bspline
 from ..backends.opencl import launch as ocl
-from .spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, NARROW, PSF_CODES, PSF_MIN_CELLS
+from .spec import NARROW
 
 
 def _setup(be, a):
@@ -18,20 +18,10 @@ def _setup(be, a):
 
 
 def _constants():
-    """The ``-D`` defines of every motion.cl build that carry constants of the Python definitions:
-    the mode codes (:mod:`gfgpu._core.boundary`), the spline's pole and edge weights
-    (:mod:`gfgpu._core.bspline`), the PSF codes and quadrature (:mod:`gfgpu.motion.spec`).  Read at
-    each build, so the kernels cannot drift from them (the same values every call: one build)."""
-    green, centred = PSF_CODES["green", True], PSF_CODES["green", False]
-    near_a, near_b = bspline.NEAREST_EDGE
-    return dict(
-        **{f"MODE_{name.upper()}": code for name, code in boundary.MODE_CODES.items()},
-        PSF_BOX=PSF_CODES["box", True], PSF_GREEN=green, PSF_BOX_CENTRED=PSF_CODES["box", False],
-        PSF_GREEN_CENTRED=centred, MIN_CELLS_G=PSF_MIN_CELLS[green], MIN_CELLS_CG=PSF_MIN_CELLS[centred],
-        SPLINE_POLE=repr(float(bspline.SPLINE_POLE)), NEAR_A=repr(float(near_a)), NEAR_B=repr(float(near_b)),
-        GREEN_TAIL=repr(float(GREEN_TAIL)), NARROW=repr(float(NARROW)),
-        **{f"GAUSS_U{i}": repr(float(u)) for i, u in enumerate(GAUSS_NODES)},
-        **{f"GAUSS_W{i}": repr(float(g)) for i, g in enumerate(GAUSS_WEIGHTS)})
+    """The ``-D`` defines of every motion.cl build: the boundary and spline constants
+    (:func:`~gfgpu.backends.opencl.launch.spline_defines`) and the box kernels' ``NARROW``
+    (:data:`gfgpu.motion.spec.NARROW`)."""
+    return dict(**ocl.spline_defines(), NARROW=repr(float(NARROW)))
 
 
 def _code(mode):

@@ -1,16 +1,12 @@
-// Motion-blur kernels of gfgpu.motion (spec: gfgpu/motion/spec.py; Warp twins in
+// Box-window kernels of gfgpu.motion (spec: gfgpu/motion/spec.py; Warp twins in
 // gfgpu/motion/_warp.py).  Built with -D REAL=float|double and -D POS=float|double (the type of
-// positions and weights: double wherever the device has it, since a ring of 10^4 samples needs
-// more than float's 24 bits to place a sample to 1e-4 px).  Samples accumulate in REAL.
+// positions and weights: double wherever the device has it).  Samples accumulate in REAL.
 // The launcher (gfgpu/motion/_opencl.py) defines the constants of the Python definitions, none
-// retyped here: the mode codes MODE_CONSTANT, MODE_NEAREST, MODE_WRAP, MODE_REFLECT, MODE_MIRROR
-// (gfgpu._core.boundary.MODE_CODES); SPLINE_POLE, NEAR_A, NEAR_B (gfgpu._core.bspline.SPLINE_POLE,
-// NEAREST_EDGE); the PSF codes PSF_BOX, PSF_GREEN, PSF_BOX_CENTRED, PSF_GREEN_CENTRED
-// (spec.PSF_CODES), GAUSS_U0 .. GAUSS_U2, GAUSS_W0 .. GAUSS_W2 (GAUSS_NODES, GAUSS_WEIGHTS), MIN_CELLS_G,
-// MIN_CELLS_CG (PSF_MIN_CELLS of the two G_u codes), GREEN_TAIL, NARROW.  The polar resampling of
-// the spin and zoom blurs is in polar_kernels/polar.cl.
+// retyped here: the mode codes MODE_CONSTANT .. MODE_MIRROR, SPLINE_POLE, NEAR_A, NEAR_B
+// (gfgpu.backends.opencl.launch.spline_defines) and NARROW (spec.NARROW).  Velocity fields are in
+// field_kernels/field.cl, the polar resampling of the spin and zoom blurs in polar_kernels/polar.cl.
 
-#if !defined(MODE_MIRROR) || !defined(SPLINE_POLE) || !defined(PSF_GREEN_CENTRED)
+#if !defined(MODE_MIRROR) || !defined(SPLINE_POLE) || !defined(NARROW)
 #error "motion.cl is built by gfgpu.motion._opencl, which defines the constants of the Python definitions"
 #endif
 

@@ -19,6 +19,8 @@ from functools import cache
 
 import numpy as np
 
+from ..._core import boundary, bspline
+
 __all__ = ["REALS", "GPU_GROUP", "kernel", "launch", "group_size", "check_dtype", "plain",
            "written", "copy_bytes", "forget_programs"]
 
@@ -200,3 +202,14 @@ def copy_bytes(be, dst, src, nbytes, dst_offset=0, src_offset=0):
                           src_offset=int(src_offset), wait_for=(src.events + dst.events) or None)
     dst.add_event(evt)
     return evt
+
+
+def spline_defines():
+    """The ``-D`` defines of a source that extends lines by a boundary mode and samples cubic
+    B-splines (e.g. ``gfgpu/motion/spline.cl``): the mode codes ``MODE_*``
+    (:data:`gfgpu._core.boundary.MODE_CODES`), ``SPLINE_POLE`` and the 'nearest' edge weights
+    ``NEAR_A``, ``NEAR_B`` (:mod:`gfgpu._core.bspline`).  Read from the Python definitions at each
+    build, so the kernels cannot drift from them (the same values every call: one build)."""
+    near_a, near_b = bspline.NEAREST_EDGE
+    return dict(**{f"MODE_{name.upper()}": code for name, code in boundary.MODE_CODES.items()},
+                SPLINE_POLE=repr(float(bspline.SPLINE_POLE)), NEAR_A=repr(float(near_a)), NEAR_B=repr(float(near_b)))

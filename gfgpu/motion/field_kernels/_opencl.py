@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..._core import boundary, bspline
+from ..._core import boundary
 from ...backends.opencl import launch as ocl
 from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS
 
@@ -14,12 +14,10 @@ def _constants():
     """The ``-D`` defines that carry constants of the Python definitions (read at each build, so
     the kernel cannot drift from them; the same values every call: one build)."""
     green, centred = PSF_CODES["green", True], PSF_CODES["green", False]
-    near_a, near_b = bspline.NEAREST_EDGE
     return dict(
-        **{f"MODE_{name.upper()}": code for name, code in boundary.MODE_CODES.items()},
-        PSF_BOX=PSF_CODES["box", True], PSF_GREEN=green, PSF_BOX_CENTRED=PSF_CODES["box", False],
+        **ocl.spline_defines(), PSF_BOX=PSF_CODES["box", True], PSF_GREEN=green,
+        PSF_BOX_CENTRED=PSF_CODES["box", False],
         PSF_GREEN_CENTRED=centred, MIN_CELLS_G=PSF_MIN_CELLS[green], MIN_CELLS_CG=PSF_MIN_CELLS[centred],
-        SPLINE_POLE=repr(float(bspline.SPLINE_POLE)), NEAR_A=repr(float(near_a)), NEAR_B=repr(float(near_b)),
         GREEN_TAIL=repr(float(GREEN_TAIL)),
         **{f"GAUSS_U{i}": repr(float(u)) for i, u in enumerate(GAUSS_NODES)},
         **{f"GAUSS_W{i}": repr(float(g)) for i, g in enumerate(GAUSS_WEIGHTS)})

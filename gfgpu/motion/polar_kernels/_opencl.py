@@ -7,7 +7,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ..._core import boundary, bspline
+from ..._core import boundary
 from ...backends.opencl import launch as ocl
 
 #: work-group size of the polar resampling kernels (None: the driver's choice)
@@ -46,10 +46,7 @@ def _constants():
     (:mod:`gfgpu._core.boundary`), the spline's pole and edge weights (:mod:`gfgpu._core.bspline`).
     Read at each build, so the kernels cannot drift from them (the same values every call: one
     build); sizes are arguments."""
-    near_a, near_b = bspline.NEAREST_EDGE
-    return dict(**{f"MODE_{name.upper()}": code for name, code in boundary.MODE_CODES.items()},
-                SPLINE_POLE=repr(float(bspline.SPLINE_POLE)), NEAR_A=repr(float(near_a)),
-                NEAR_B=repr(float(near_b)), PAD=_PAD)
+    return dict(**ocl.spline_defines(), PAD=_PAD)
 
 
 def _setup(be, a):
