@@ -105,9 +105,11 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     and the PSF's exact cell masses (box: ``t`` in ``[0, 1]``; G_u with ``u = |v|``).  Cost:
     ``3 ceil(L)`` samples (box; 3 at least) or ``3 max(ceil(18 L), 36)`` samples (G_u, whose tail
     reaches 18 lengths before its mass is below float32 rounding; 72 cells at least centred) of
-    16 coefficients each, ``L`` the pixel's dominant component: paths that differ from pixel to
-    pixel share no running sum, so the cost grows with the length.  A uniform field matches the
-    uniform box to 2e-4 on white noise.
+    16 coefficients each, ``L`` the pixel's dominant component, and at most 96 (box) or 432 (G_u)
+    samples per pixel (:data:`gfgpu.motion.field.FIELD_CELLS`); a field whose paths need more runs
+    their exact cells while its total stays within that budget on average or within 4 M samples,
+    and is refused before any work otherwise (``ValueError``: cells longer than a pixel would
+    alias).  A uniform field matches the uniform box to 2e-4 on white noise.
 
     **Spin** (:mod:`gfgpu.motion.polar`): the image is resampled onto a polar grid about the
     centre, blurred along every ring by one periodic pass (box window or G_u recursion; the

@@ -25,8 +25,10 @@ cycles/px, 48², wrap, velocity (0.6, 0.8) L), measured::
     box, 32 cells:   L = 10: 0.0 %   L = 30: 0.0 %    (16 cells: 0.01 % at 30; 8: 0.18 %)
     G_u, 144 cells:  L = 10: 0.0 %   L = 30: 0.19 %   (72 cells: 4.7 % at 30; 36: > 100 %)
 
-and on longer paths (see docs/motion.md) the sparse nodes alias: a bound on the cost, not a
-prefiltered answer.  The prefilter is two recursions per axis.
+Longer cells would alias (a 4096-px box field of noise came out 0.45 off), so the budget is
+never stretched: a field whose paths need more cells runs with its exact cells when their total
+is within the budget on average or within :data:`FIELD_TOTAL` samples, and is refused before
+any work otherwise (:func:`field_cells`).  The prefilter is two recursions per axis.
 """
 
 from __future__ import annotations
@@ -38,7 +40,8 @@ import numpy as np
 from .kernels import field_blur
 from .spline import spline_coefficients
 
-__all__ = ["FIELD_MAX", "FIELD_DENSITY", "FIELD_CELLS", "is_field", "check_field", "apply_field"]
+__all__ = ["FIELD_MAX", "FIELD_DENSITY", "FIELD_CELLS", "FIELD_TOTAL", "is_field", "check_field", "field_cells",
+           "apply_field"]
 
 #: largest velocity component of a field, in pixels (the cost per pixel grows with it)
 FIELD_MAX = 4096.0
@@ -49,6 +52,10 @@ FIELD_DENSITY = 1.0
 #: most cells of one pixel's path, per PSF code (box, G_u, centred box, centred G_u): the
 #: per-pixel budget, 3 samples of 16 coefficients each (at least the PSF's fewest cells)
 FIELD_CELLS = (32, 144, 32, 144)
+
+#: spline samples a field may cost in all when a path needs more cells than :data:`FIELD_CELLS`
+#: (its exact cells are then used, never longer ones)
+FIELD_TOTAL = 4_000_000
 
 
 def is_field(velocity):
@@ -73,12 +80,42 @@ def check_field(field, shape):
     return arr
 
 
+def field_cells(field, code, planes=1):
+    """The cells per pixel that ``field`` is run with: each path's own ``psf_cells`` where none
+    exceeds :data:`FIELD_CELLS` (the budget, exact within it), otherwise the same unbounded cells
+    when their total stays within the budget on average or within :data:`FIELD_TOTAL` samples.
+
+    Returns the ``most`` argument of the field kernel (the budget, or 0: unbounded).
+
+    Raises
+    ------
+    ValueError
+        A field whose paths are too long for both (before any work): past the budget, cells
+        longer than a pixel sample the spline too sparsely (0.45 off a 4096-px box blur of noise),
+        and their exact count would cost more than the limit.
+    """
+    from .spec import psf_cells
+    length = np.max(np.abs(field), axis=0)
+    cells = psf_cells(code, length, FIELD_DENSITY)
+    most = FIELD_CELLS[code]
+    if int(cells.max()) <= most:
+        return most
+    samples = 3 * int(cells.sum()) * planes
+    if samples <= max(FIELD_TOTAL, 3 * most * length.size * planes):
+        return 0
+    raise ValueError(f"velocity field too long for its cost budget: its paths (up to {float(length.max()):g} px) "
+                     f"need {samples:,} spline samples, beyond {3 * most} per pixel and {FIELD_TOTAL:,} in all; "
+                     f"blur a downscaled image, or use a uniform velocity (a tuple), whose cost does not grow "
+                     f"with the length")
+
+
 def apply_field(job, field, code, mode, cval):
     """Blur ``job``'s image planes along the per-pixel velocities ``field`` (checked)."""
     be, dtype, shape = job.backend, job.dtype, job.shape
     planes = (math.prod(shape[:-2]),) + tuple(shape[-2:])
+    most = field_cells(field, code, planes[0])
     coef = spline_coefficients(be, be.reshape(job.data, planes), dtype, planes, (mode, mode), cval)
     dev_field = be.asarray(np.ascontiguousarray(field, dtype=dtype))
     result = job.result_buffer()
-    field_blur(be, coef, dev_field, be.reshape(result, planes), code, FIELD_DENSITY, mode, cval, FIELD_CELLS[code])
+    field_blur(be, coef, dev_field, be.reshape(result, planes), code, FIELD_DENSITY, mode, cval, most)
     return job.finish(result)

@@ -133,7 +133,7 @@ def check_polar_cost(height, width, cy, cx, reach, split, what):
                          f"{samples} samples for {height} x {width} pixels (at most {POLAR_PER_PIXEL} per pixel "
                          f"beyond {POLAR_FLOOR}): the grid grows with the square of the farthest pixel's distance "
                          f"from the center, so an image this elongated, or a center this far off, is refused; "
-                         f"crop the image, or blur it with kind='uniform' and a velocity field (2, H, W)")
+                         f"crop the image, or blur a downscaled copy")
 
 
 def check_center(cy, cx, height, width):

@@ -248,22 +248,35 @@ def test_field_up_to_30_px_matches_the_supersampled_rendering(backend, psf, copi
         assert np.linalg.norm(d) / np.linalg.norm(r) < 0.02, dtype
 
 
-def test_field_of_4096_px_runs_within_its_budget(backend):
-    """A 4096-px field (the largest accepted) costs the budget per pixel, not 3 x 4096 samples
-    (it ran 64 s for the box on 64 x 64): the blur equals the specification with the budget,
-    and the mean of a path far longer than the image averages the periodic extension."""
+def test_field_beyond_the_budget_runs_its_exact_cells_or_is_refused(backend):
+    """Paths longer than the budget's cells are never sampled more sparsely (a 4096-px box field
+    of noise came out 0.45 off the row mean): within the total limit they run their exact cells
+    (the unbounded specification, and the uniform blur for a uniform field); beyond it the call
+    is refused before work, with the reason (it ran 64 s for the box on 64 x 64)."""
     from gfgpu.motion import spec
-    from gfgpu.motion.field import FIELD_CELLS, FIELD_DENSITY
+    from gfgpu.motion.field import FIELD_DENSITY, FIELD_TOTAL
     img = _bandlimited(24, 0.2, seed=4)
     field = np.zeros((2, 24, 24))
-    field[1] = 4096.0
-    field[0] = np.linspace(-4096, 4096, 24)[None, :] * 0.25
+    field[1] = 100.0
+    field[0] = np.linspace(-60, 60, 24)[None, :]
+    coef = ndi.spline_filter(img, 3, mode="grid-wrap")[None]
+    tol = 1e-9 if backend.supports_float64 else 1e-4
     for psf, code in (("box", 0), ("green", 1)):
         out = motion_blur(img, field, psf=psf, mode="wrap", backend=backend.name)
-        coef = ndi.spline_filter(img, 3, mode="grid-wrap")[None]
-        ref = spec.field_blur_reference(coef, field, code, FIELD_DENSITY, "wrap", 0.0, FIELD_CELLS[code])[0]
-        tol = 1e-9 if backend.supports_float64 else 1e-4
+        ref = spec.field_blur_reference(coef, field, code, FIELD_DENSITY, "wrap", 0.0)[0]
         np.testing.assert_allclose(out, ref, atol=tol)
+    uniform = np.zeros((2, 24, 24))
+    uniform[1] = 100.0
+    np.testing.assert_allclose(motion_blur(img, uniform, psf="box", mode="wrap", backend=backend.name),
+                               motion_blur(img, (0.0, 100.0), psf="box", mode="wrap", backend=backend.name), atol=tol)
+    long = np.zeros((2, 24, 24))
+    long[1] = 4096.0
+    assert 3 * 4096 * 24 * 24 > FIELD_TOTAL
+    bad = img.copy()
+    bad[0, 0] = np.nan          # refused before the image is read
+    for psf in ("box", "green"):
+        with pytest.raises(ValueError, match="velocity field too long for its cost budget"):
+            motion_blur(bad, long, psf=psf, backend=backend.name)
 
 
 @pytest.mark.parametrize("bad, match", [(4096.5, "within ±4096"), (np.inf, "finite"), (np.nan, "finite")])
