@@ -394,12 +394,10 @@ def _green_shift_rows(rows, amount, offset=0):
     return out[:, :rows.shape[1]] if n > 0 else out
 
 
-def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniqueness):
-    """``disparity``'s ``"sgm"`` options checked (a clear error naming each), the defaults
-    filled in: ``(window, steps, radius, p1, p2, paths, uniqueness)``."""
-    window = 3 if window is None else _int_arg(window, "window")
-    if window < 1 or window % 2 == 0 or window > 15:
-        raise ValueError(f"window must be odd, 1..15, for method 'sgm'; got {window}")
+def _sgm_scalars(subpixel_steps, census_radius, p1, p2, paths, uniqueness):
+    """The ``"sgm"`` options that do not depend on the window, checked whatever the method (a
+    sweep refuses them too rather than ignore a typo): ``(steps, radius, p1, p2, paths,
+    uniqueness)``, the penalties None where not given."""
     steps = _int_arg(subpixel_steps, "subpixel_steps")
     if not 1 <= steps <= 4:
         raise ValueError(f"subpixel_steps must be 1..4, got {steps}")
@@ -408,9 +406,34 @@ def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniquenes
         raise ValueError(f"census_radius must be 1..{MAX_CENSUS_RADIUS}, got {radius}")
     if isinstance(paths, bool) or paths not in (4, 8):
         raise ValueError(f"paths must be 4 or 8, got {paths!r}")
+    p1 = None if p1 is None else _int_arg(p1, "p1")
+    p2 = None if p2 is None else _int_arg(p2, "p2")
+    uniq = _int_arg(uniqueness, "uniqueness")
+    if not 0 <= uniq <= 100:
+        raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
+    return steps, radius, p1, p2, int(paths), uniq
+
+
+def _sweep_scalars(sweep_step, sigma):
+    """The sweeps' options, checked whatever the method: ``(step, sigma or None)``."""
+    step = finite_scalar("sweep_step", sweep_step)
+    if not MIN_SWEEP_STEP <= step <= 1:
+        # below 1/64 px the sweep's cost grows without a gain: its sub-pixel parabola already
+        # resolves a fraction of the step
+        raise ValueError(f"sweep_step must lie in [{MIN_SWEEP_STEP:g}, 1] px, got {sweep_step!r}")
+    return step, (None if sigma is None else positive("sigma", sigma))   # names it for a string or a bool
+
+
+def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniqueness):
+    """``disparity``'s ``"sgm"`` options checked (a clear error naming each), the defaults
+    filled in: ``(window, steps, radius, p1, p2, paths, uniqueness)``."""
+    window = 3 if window is None else _int_arg(window, "window")
+    if window < 1 or window % 2 == 0 or window > 15:
+        raise ValueError(f"window must be odd, 1..15, for method 'sgm'; got {window}")
+    steps, radius, p1, p2, paths, uniq = _sgm_scalars(subpixel_steps, census_radius, p1, p2, paths, uniqueness)
     auto = default_penalties(window, paths, radius)
-    p1 = auto[0] if p1 is None else _int_arg(p1, "p1")
-    p2 = auto[1] if p2 is None else _int_arg(p2, "p2")
+    p1 = auto[0] if p1 is None else p1
+    p2 = auto[1] if p2 is None else p2
     if not 0 <= p1 <= p2:
         raise ValueError(f"penalties must satisfy 0 <= p1 <= p2, got p1={p1}, p2={p2}")
     top = _largest_p2(radius, window, paths)
@@ -418,10 +441,7 @@ def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniquenes
         raise ValueError(f"p2 = {p2} is too large: aggregated costs must fit int16 "
                          f"(paths * (largest cost + p2) < {_INT16_MAX}: p2 <= {top} for window {window}, "
                          f"census_radius {radius} and {paths} paths)")
-    uniq = _int_arg(uniqueness, "uniqueness")
-    if not 0 <= uniq <= 100:
-        raise ValueError(f"uniqueness must be 0..100 (percent), got {uniq}")
-    return window, steps, radius, p1, p2, int(paths), uniq
+    return window, steps, radius, p1, p2, paths, uniq
 
 
 def _buffer(be, buffers, name, shape, dtype):
@@ -710,6 +730,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     subpixel = flag("subpixel", subpixel)
     be = resolve_backend(backend, device, left)     # a CUDA tensor: matched on its GPU
     report = progress if progress is not None else (lambda n: None)
+    step, sigma = _sweep_scalars(sweep_step, sigma)     # every argument checked, used or not
     if method == "sgm":
         window, steps, radius, p1, p2, paths, uniq = _sgm_options(window, subpixel_steps, census_radius, p1, p2,
                                                                   paths, uniqueness)
@@ -723,15 +744,9 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     window = 9 if window is None else _int_arg(window, "window")
     if window < 1 or window % 2 == 0 or window > 31:
         raise ValueError(f"window must be odd, 1..31, for the sweeps; got {window}")
-    step = finite_scalar("sweep_step", sweep_step)
-    if not MIN_SWEEP_STEP <= step <= 1:
-        # below 1/64 px the sweep's cost grows without a gain: its sub-pixel parabola already
-        # resolves a fraction of the step
-        raise ValueError(f"sweep_step must lie in [{MIN_SWEEP_STEP:g}, 1] px, got {sweep_step!r}")
+    _sgm_scalars(subpixel_steps, census_radius, p1, p2, paths, uniqueness)
     if sigma is None:
         sigma = 4.0 * math.sqrt(w * (max(abs(d_min), abs(d_max)) + 1))
-    else:
-        sigma = positive("sigma", sigma)          # names the argument for a string or a bool
     disp, conf = _sweep(be, lft, rgt, d_min, d_max, step, method, window // 2, float(sigma), bool(lr_check),
                         report)
     if not subpixel:

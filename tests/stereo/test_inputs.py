@@ -123,3 +123,16 @@ def test_matching_views_are_normal_and_exactly_scaled():
     for plane in (lft, *planes):
         small = plane[plane != 0]
         assert (np.abs(small) >= np.finfo(np.float32).tiny).all()
+
+
+@pytest.mark.parametrize("method", ["sgm", "uniform", "affine"])
+@pytest.mark.parametrize("bad, match", [
+    (dict(sigma="a"), "sigma"), (dict(sigma=-1.0), "sigma"), (dict(sweep_step="a"), "sweep_step"),
+    (dict(sweep_step=2.0), "sweep_step"), (dict(p1="a"), "p1"), (dict(p2=1.5), "p2"),
+    (dict(census_radius="a"), "census_radius"), (dict(census_radius=0), "census_radius"),
+    (dict(paths=5), "paths"), (dict(uniqueness=101), "uniqueness"), (dict(subpixel_steps=9), "subpixel_steps")])
+def test_every_option_is_checked_whatever_the_method(method, bad, match):
+    """An option of another method is refused by name, not ignored (sigma='a' ran under 'sgm')."""
+    left, right = random_dot_pair(lambda y, x: 3.0 + 0 * x, (24, 40), seed=2)[:2]
+    with pytest.raises((TypeError, ValueError), match=match):
+        stereo.disparity(left, right, 8, method=method, backend="numpy", **bad)
