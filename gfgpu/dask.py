@@ -73,7 +73,7 @@ _DOCS = {
     "x": """
         x : dask.array.Array
             The input, in any chunking (chunk sizes must be known: ``x.compute_chunk_sizes()``
-            first); float32 and float64 kept, integers -> float32.
+            first); float32 and float64 kept, integers -> float32 (wider than 16 bits: float64).
         """,
     "channel_axis": """
         channel_axis : int, optional

@@ -305,7 +305,8 @@ def edge_gradient(image, u=1.0, *, mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_
     Parameters
     ----------
     image : (H, W) array_like or device array
-        Grey image (float32/float64 kept; integers and bools in float32, unscaled).
+        Grey image (float32/float64 kept; bools and integers of up to 16 bits in float32,
+        wider integers in float64, unscaled).
     u, mode, cval, a, eta, single_scale, projection_scale, backend, device
         As in :func:`canny`.
 

@@ -24,7 +24,7 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     image : array_like, warp.array or pyopencl.array.Array
         Image ``(H, W)``, stack ``(..., H, W)`` (the image plane is the last two axes), or a
         colour image with ``channel_axis`` (numpy input).  float32/float64 kept, integers ->
-        float32 (see :func:`gfgpu.io.to_output` to write them back at their depth).
+        float32 (wider than 16 bits: float64; see :func:`gfgpu.io.to_output` to write them back at their depth).
     velocity : pair of float, array (2, H, W), or float for ``kind="zoom"`` and ``kind="rotation"``
         ``kind="uniform"``: the displacement ``(vy, vx)`` in pixels during the exposure, in
         array-axis order (rows, cols) as :func:`gfgpu.shift`: ``vy`` down the rows, ``vx``
