@@ -239,10 +239,10 @@ def gfgpu_call(bench, velocity, backend, **kw):
 
 
 def cv2_filter_call(bench, kernel_anchor):
-    import cv2
     ker, anchor = kernel_anchor
 
     def make(shape):
+        import cv2     # here, so that a missing peer is a row's error (guarded), not the run's
         img = bench.image(shape)
         out = np.empty_like(img)
         return lambda: cv2.filter2D(img, -1, ker, dst=out, anchor=anchor, borderType=cv2.BORDER_REFLECT)
@@ -275,9 +275,9 @@ def copyto_call(bench):
 
 def remap_field_call(bench, samples):
     """The usual post-process: ``samples`` bilinear taps along each pixel's own velocity."""
-    import cv2
 
     def make(shape):
+        import cv2     # here, so that a missing peer is a row's error (guarded), not the run's
         img = bench.image(shape)
         field = refs.velocity_field(shape, FIELD_MAX)
         yy, xx = np.mgrid[: shape[0], : shape[1]].astype(np.float32)
@@ -296,9 +296,9 @@ def remap_field_call(bench, samples):
 def warp_affine_call(bench, copies, matrix):
     """``copies`` affine warps (``matrix(shape, t)``, t in [0, 1]) accumulated: the usual spin
     or zoom blur."""
-    import cv2
 
     def make(shape):
+        import cv2     # here, so that a missing peer is a row's error (guarded), not the run's
         img = bench.image(shape)
         acc = np.empty_like(img)
 
