@@ -630,18 +630,21 @@ def _environ_restored(keys):
 
 @contextlib.contextmanager
 def _sigint_ignored():
-    """SIGINT ignored in this process while the block runs (children started there inherit it);
-    the handler is restored after, also when the block raises.  A no-op outside the main thread."""
+    """SIGINT blocked in this thread while the block runs: the threads and processes started there
+    inherit the mask (the workers never act on a Ctrl-C), and a Ctrl-C meanwhile stays pending
+    for this process, raised as KeyboardInterrupt when the block ends (ignoring it instead lost it:
+    a batch interrupted while its cluster started ran to the end).  A no-op outside the main
+    thread or where signal masks do not exist."""
     import signal
     import threading
-    if threading.current_thread() is not threading.main_thread():
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
         yield
         return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _run_on_dask(jobs, workers, scheduler, bar):

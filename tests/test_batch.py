@@ -506,3 +506,27 @@ def test_float_and_wide_integer_png_outputs_are_stated(tmp_path, capsys, rng):
     for op in (("gradient",), ("canny",)):      # renderings (colour-coded, 0/255), not the values
         assert run_cli(*op, inputs, "-o", tmp_path / op[0], "--backend", "numpy") == 0
         assert "note:" not in capsys.readouterr().out
+
+
+@pytest.mark.skipif(not (hasattr(__import__("signal"), "pthread_sigmask") and os.path.exists("/proc/self/status")),
+                    reason="no signal masks, or no /proc to read them, here")
+def test_ctrl_c_while_the_local_cluster_starts_is_kept_and_its_processes_never_see_it():
+    """The workers must not act on a Ctrl-C (each printed a traceback), and the batch must: a
+    Ctrl-C during the cluster's start-up was ignored and the batch ran to the end (exit 0).  Inside
+    the guard SIGINT is pending, not lost; processes started there have it blocked."""
+    import signal
+    import subprocess
+    import sys
+
+    from gfgpu.batch import _sigint_ignored
+    with pytest.raises(KeyboardInterrupt):
+        with _sigint_ignored():
+            child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+            try:
+                os.kill(os.getpid(), signal.SIGINT)             # Ctrl-C while the workers start
+                with open(f"/proc/{child.pid}/status") as f:
+                    blocked = int(next(line for line in f if line.startswith("SigBlk:")).split()[1], 16)
+                assert blocked & (1 << (signal.SIGINT - 1)), "the child would act on a Ctrl-C"
+            finally:
+                child.kill()
+                child.wait()
