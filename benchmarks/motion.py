@@ -242,7 +242,7 @@ def cv2_filter_call(bench, kernel_anchor):
     ker, anchor = kernel_anchor
 
     def make(shape):
-        import cv2     # here, so that a missing peer is a row's error (guarded), not the run's
+        import cv2  # here, so that a missing peer is a row's error (guarded), not the run's
         img = bench.image(shape)
         out = np.empty_like(img)
         return lambda: cv2.filter2D(img, -1, ker, dst=out, anchor=anchor, borderType=cv2.BORDER_REFLECT)
@@ -277,7 +277,7 @@ def remap_field_call(bench, samples):
     """The usual post-process: ``samples`` bilinear taps along each pixel's own velocity."""
 
     def make(shape):
-        import cv2     # here, so that a missing peer is a row's error (guarded), not the run's
+        import cv2  # here, so that a missing peer is a row's error (guarded), not the run's
         img = bench.image(shape)
         field = refs.velocity_field(shape, FIELD_MAX)
         yy, xx = np.mgrid[: shape[0], : shape[1]].astype(np.float32)
@@ -298,7 +298,7 @@ def warp_affine_call(bench, copies, matrix):
     or zoom blur."""
 
     def make(shape):
-        import cv2     # here, so that a missing peer is a row's error (guarded), not the run's
+        import cv2  # here, so that a missing peer is a row's error (guarded), not the run's
         img = bench.image(shape)
         acc = np.empty_like(img)
 

@@ -125,6 +125,35 @@ def test_backend_selection_rule(monkeypatch):
         assert d.usable or d.note      # an unusable device always says why
 
 
+def test_an_opencl_device_that_cannot_compile_is_never_chosen_and_says_why(monkeypatch):
+    """A device can be listed and fail every build (PyOpenCL's bundled PoCL on AMD Zen 5: "unknown
+    target CPU 'generic'"): the default choice skips it, choosing it names the reason."""
+    opencl = pytest.importorskip("gfgpu.backends.opencl")
+    if opencl.unavailable_reason() is not None:
+        pytest.skip(f"no usable OpenCL device: {opencl.unavailable_reason()}")
+    from gfgpu.backends.base import BackendUnavailable
+    from gfgpu.backends.opencl import backend as clb
+    devs = opencl.opencl_devices()
+    working = [i for i, d, _ in devs if opencl.build_failure(d) is None]
+    assert working and opencl.build_failure(devs[working[0]][1]) is None     # the probe really built
+    broken_index, broken = working[0], devs[working[0]][1]
+    reason = "OpenCL device 'x' (PoCL) cannot compile kernels (error: unknown target CPU 'generic')"
+    monkeypatch.setitem(clb._build_failures, broken.int_ptr, reason)
+    with pytest.raises(BackendUnavailable, match="unknown target CPU"):
+        opencl.OpenCLBackend(broken_index)                  # chosen by index: the reason, not a crash later
+    with pytest.raises(BackendUnavailable, match="unknown target CPU"):
+        opencl.OpenCLBackend(broken)
+    listing = {d.device.split(":")[0]: d for d in gfgpu.devices() if d.backend == "opencl"}
+    entry = listing[str(broken_index) if len(working) > 1 else "-"]      # "-": the backend as a whole
+    assert not entry.usable and "unknown target CPU" in entry.note
+    if len(working) > 1:                                    # the default takes a device that compiles
+        assert opencl.OpenCLBackend().cl_device.int_ptr != broken.int_ptr
+    else:                                                   # none compiles: unavailable, with the reason
+        assert "unknown target CPU" in opencl.unavailable_reason()
+        with pytest.raises(BackendUnavailable, match="unknown target CPU"):
+            opencl.OpenCLBackend()
+
+
 def test_import_is_lazy():
     code = ("import sys, gfgpu; gfgpu.greens.UniformGreen(1.0); "
             "print(any(m in sys.modules for m in ('warp', 'pyopencl')))")

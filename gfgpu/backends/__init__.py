@@ -126,7 +126,8 @@ def _automatic():
                 if devs:
                     return get_backend("warp", devs[0])
             else:
-                devs = [i for i, _, kind in opencl.opencl_devices() if kind == want]
+                devs = [i for i, d, kind in opencl.opencl_devices()
+                        if kind == want and opencl.build_failure(d) is None]
                 if devs:
                     return get_backend("opencl", devs[0])
         except Exception as exc:  # a broken driver must not stop the fallback chain
@@ -258,8 +259,9 @@ def devices():
             out.append(DeviceInfo("opencl", "-", "-", False, why))
         else:
             for idx, dev, kind in opencl.opencl_devices():
+                broken = opencl.build_failure(dev)
                 out.append(DeviceInfo("opencl", f"{idx}: {dev.name.strip()} ({dev.platform.name.strip()})",
-                                      kind, True))
+                                      kind, broken is None, broken or ""))
     except Exception as exc:
         out.append(DeviceInfo("opencl", "-", "-", False, str(exc)))
     return out

@@ -5,6 +5,6 @@ kernels (``gfgpu/<feature>/*.cl``, launched from ``_opencl.py``) are built and r
 Importing this package neither imports PyOpenCL nor creates a context.
 """
 
-from .backend import OpenCLBackend, backend_for_queue, opencl_devices, unavailable_reason
+from .backend import OpenCLBackend, backend_for_queue, build_failure, opencl_devices, unavailable_reason
 
-__all__ = ["OpenCLBackend", "backend_for_queue", "opencl_devices", "unavailable_reason"]
+__all__ = ["OpenCLBackend", "backend_for_queue", "build_failure", "opencl_devices", "unavailable_reason"]

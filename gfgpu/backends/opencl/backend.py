@@ -143,6 +143,43 @@ def opencl_devices():
     return [(i, d, _kind(d)) for i, d in enumerate(devs)]
 
 
+_PROBE = "__kernel void gfgpu_probe(__global float *a) { a[get_global_id(0)] = 1.0f; }"
+_build_failures = {}       # device pointer -> None (it compiles) or the reason it cannot
+
+
+def build_failure(device):
+    """Why ``device`` cannot compile OpenCL C, or None if it can (probed once per process).
+
+    A device can be listed and still fail every build: a PoCL whose LLVM predates the CPU
+    (AMD Zen 5 under the PoCL 3.0 that PyOpenCL's wheels bundle: "unknown target CPU
+    'generic'") -- every gfgpu call would then fail at its first kernel.  Such a device is
+    never chosen by default, and choosing it names the reason.
+
+    Parameters
+    ----------
+    device : pyopencl.Device
+
+    Returns
+    -------
+    str or None
+    """
+    cl = _import_cl()
+    key = device.int_ptr
+    if key not in _build_failures:
+        try:
+            cl.Program(cl.Context([device]), _PROBE).build()
+            _build_failures[key] = None
+        except cl.Error as exc:
+            log = [line.strip() for line in str(exc).splitlines() if "error" in line.lower()]
+            detail = next((line for line in log if line.startswith("error:")), log[-1] if log else str(exc))
+            _build_failures[key] = (
+                f"OpenCL device {device.name.strip()!r} ({device.platform.version.split('  ')[0].strip()}) "
+                f"cannot compile kernels ({detail}): its compiler does not support this machine; install a "
+                f"newer OpenCL runtime for it (for a CPU, your distribution's PoCL, e.g. Debian/Ubuntu "
+                f"'apt-get install pocl-opencl-icd'), or use backend='warp' or 'numpy'")
+    return _build_failures[key]
+
+
 def unavailable_reason():
     """Why the OpenCL backend cannot be used here, or None if it can.
 
@@ -163,8 +200,12 @@ def unavailable_reason():
     if not platforms:
         return ("no OpenCL platform found: install pocl-binary-distribution (CPU) or a GPU driver's ICD"
                 + memory_hint())
-    if not opencl_devices():
+    devs = opencl_devices()
+    if not devs:
         return "no OpenCL device found on platforms " + ", ".join(p.name.strip() for p in platforms)
+    failures = [build_failure(d) for _, d, _ in devs]
+    if all(failures):
+        return "; ".join(dict.fromkeys(failures))     # no device compiles: each reason once
     return None
 
 
@@ -373,24 +414,29 @@ class OpenCLBackend(Backend):
             raise BackendUnavailable(unavailable_reason() or "no OpenCL device found")
         listing = "; ".join(f"{i}: {d.name.strip()} ({k})" for i, d, k in devs)
         if device is None:
-            gpus = [d for _, d, k in devs if k == "gpu"]
-            return gpus[0] if gpus else devs[0][1]
-        if isinstance(device, self._cl.Device):
-            return device
-        if isinstance(device, (int, np.integer)):
+            chosen = [d for _, d, k in devs if k == "gpu"] + [d for _, d, k in devs if k != "gpu"]
+        elif isinstance(device, self._cl.Device):
+            chosen = [device]
+        elif isinstance(device, (int, np.integer)):
             if not 0 <= device < len(devs):
                 raise BackendUnavailable(f"OpenCL device index {device} out of range (devices: {listing})")
-            return devs[device][1]
-        if isinstance(device, str):
+            chosen = [devs[device][1]]
+        elif isinstance(device, str):
             if device.strip().isdigit():
                 return self._find_device(int(device))
             want = device.strip().lower()
-            for _, d, k in devs:
-                if want in d.name.lower() or want == k:
-                    return d
-            raise BackendUnavailable(f"no OpenCL device matches {device!r} (devices: {listing})")
-        raise TypeError(f"device must be an index, a name, a pyopencl Device, Context or "
-                        f"CommandQueue; got {type(device).__name__}")
+            chosen = [d for _, d, k in devs if want in d.name.lower() or want == k]
+            if not chosen:
+                raise BackendUnavailable(f"no OpenCL device matches {device!r} (devices: {listing})")
+        else:
+            raise TypeError(f"device must be an index, a name, a pyopencl Device, Context or "
+                            f"CommandQueue; got {type(device).__name__}")
+        # the first of the candidates that compiles (a name or kind may match a broken runtime's
+        # device beside a working one's); if none does, the reason
+        for d in chosen:
+            if build_failure(d) is None:
+                return d
+        raise BackendUnavailable(build_failure(chosen[0]))
 
     # ---- arrays -------------------------------------------------------------------
     def _check_dtype(self, dtype):
