@@ -55,7 +55,33 @@ def _bucket_kernel(be, name, bucket):
     instead of four)."""
     nb, nv_full, block, steps = bucket
     return _build(be, name, N_DISP=int(nb), NV_FULL=int(nv_full), BLOCK=int(block),
-                  COST_SHIFT=specs.cost_shift(int(block)), STEPS=int(steps), COST_BYTES=1, PADDED_PIXELS=1)
+                  COST_SHIFT=specs.cost_shift(int(block)), STEPS=int(steps), COST_BYTES=1, PADDED_PIXELS=1,
+                  **_host_cpu_defines(be))
+
+
+def _host_cpu_flags():
+    """The host CPU's feature flags (``/proc/cpuinfo``; empty where it cannot be read)."""
+    global _CPU_FLAGS
+    if _CPU_FLAGS is None:
+        try:
+            with open("/proc/cpuinfo") as f:
+                line = next((ln for ln in f if ln.startswith("flags")), "")
+            _CPU_FLAGS = frozenset(line.split(":", 1)[1].split()) if ":" in line else frozenset()
+        except OSError:
+            _CPU_FLAGS = frozenset()
+    return _CPU_FLAGS
+
+
+_CPU_FLAGS = None
+
+
+def _host_cpu_defines(be):
+    """Build options of the CPU band matcher's kernels for instructions of the host CPU that an
+    OpenCL CPU device (which runs on it) may not target by default: ``VPOPCNTQ`` where the CPU
+    has AVX512-VPOPCNTDQ (PoCL 3.1 targets such a Zen 5 as skylake-avx512, without it)."""
+    if be.kind == "cpu" and "avx512_vpopcntdq" in _host_cpu_flags():
+        return {"VPOPCNTQ": 1}
+    return {}
 
 
 def _empty(be, workspace, name, shape, dtype):

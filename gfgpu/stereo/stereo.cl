@@ -431,8 +431,31 @@ static ALWAYS_INLINE void hamming16_reversed(__global uchar *dst, const ulong lc
 }
 #define HAMMING16 1
 #endif
+#if defined(HAMMING16) && defined(VPOPCNTQ)
+// with AVX512-VPOPCNTDQ (-D VPOPCNTQ: the launcher found it on the host CPU that PoCL runs on):
+// 8 distances per instruction, then packed to bytes
+#undef HAMMING16_FN
+typedef ulong v8ul __attribute__((__vector_size__(64)));
+typedef ulong v8ul_u __attribute__((__vector_size__(64), __aligned__(8)));
+typedef long v8l __attribute__((__vector_size__(64)));
+typedef uchar v8uc __attribute__((__vector_size__(8)));
+typedef uchar v16uc_u __attribute__((__vector_size__(16), __aligned__(1)));
+#define VPOP_TARGET __attribute__((target("avx512f,avx512vpopcntdq,avx512bw,avx512vl")))
+static ALWAYS_INLINE VPOP_TARGET void hamming16_vpop(__global uchar *dst, const ulong lc, __global const ulong *p)
+{
+    const v8ul key = {lc, lc, lc, lc, lc, lc, lc, lc};
+    const v8uc a = __builtin_convertvector((v8ul)__builtin_ia32_vpopcntq_512(
+        (v8l)(*(__global const v8ul_u *)p ^ key)), v8uc);
+    const v8uc b = __builtin_convertvector((v8ul)__builtin_ia32_vpopcntq_512(
+        (v8l)(*(__global const v8ul_u *)(p + 8) ^ key)), v8uc);
+    *(__global v16uc_u *)dst = __builtin_shufflevector(b, a, 7, 6, 5, 4, 3, 2, 1, 0, 15, 14, 13, 12, 11, 10, 9, 8);
+}
+#define hamming16_reversed hamming16_vpop
+#else
+#define VPOP_TARGET
+#endif
 
-static void hamming_row(__global uchar *dst, __global const ulong *cl, __global const ulong *ri, const int y,
+static VPOP_TARGET void hamming_row(__global uchar *dst, __global const ulong *cl, __global const ulong *ri, const int y,
                         const int ca, const int cb, const int w, const int first_step, const int steps,
                         const int n)
 {
@@ -472,7 +495,7 @@ static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size
     return s;
 }
 
-__kernel void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
+__kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
                          __global uchar *scratch, const int h, const int w, const int first_step,
                          const int steps, const int y0, const int rows, const int out_row0, const int splits,
                          const int slot_cols, const int n_valid)

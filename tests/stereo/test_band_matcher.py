@@ -1,0 +1,60 @@
+"""The CPU band matcher of the OpenCL launcher (``_opencl.launch_match``): every variant of its
+kernels (the Hamming distances with and without AVX512-VPOPCNTDQ) and every band plan (one band,
+bands with the byte costs kept, recomputed, or kept for the top rows only) gives the numpy
+specification's maps bit for bit."""
+
+import numpy as np
+import pytest
+
+from gfgpu.stereo import _opencl, band_plan, kernels
+from gfgpu.stereo import spec as specs
+
+
+def _codes(rng, h, w, steps, shift, flip):
+    left = rng.integers(0, 2**48, (1, h, w), dtype=np.uint64)
+    right = rng.integers(0, 2**48, (steps, h, w), dtype=np.uint64)
+    right[0] = np.roll(left[0], -shift, axis=1) ^ (rng.random((h, w)) < flip).astype(np.uint64)
+    return left, right
+
+
+def _match(be, left, right, first, n, steps, block, paths, budget=None):
+    h, w = left.shape[1:]
+    outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
+    kernels.match(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, block, 5, 40, paths, 10, budget)
+    return [be.to_host(o) for o in outs]
+
+
+def _cpu_opencl(require_backend):
+    be = require_backend("opencl")
+    if be.kind != "cpu":
+        pytest.skip("the band matcher runs on OpenCL CPU devices")
+    return be
+
+
+# (h, w, samples, steps, first step, block): the Hamming kernel's 16-sample vectors whole, cut by
+# the image's left edge (a scalar tail) and by the range's end, one and many vectors
+HAMMING_CASES = [(9, 45, 15, 1, 0, 3), (8, 70, 33, 2, -10, 3), (6, 90, 63, 3, 3, 5), (7, 60, 129, 2, 0, 1)]
+
+
+@pytest.mark.parametrize("popcount", ["host", "portable"])
+def test_hamming_variants_match_the_specification(require_backend, monkeypatch, popcount):
+    # "host": the build options the launcher takes from this CPU (AVX512-VPOPCNTDQ where it has
+    # it); "portable": none, the AVX2 nibble-table or scalar popcount every x86 CPU runs
+    be = _cpu_opencl(require_backend)
+    if popcount == "portable":
+        monkeypatch.setattr(_opencl, "_host_cpu_defines", lambda be: {})
+    rng = np.random.default_rng(3)
+    for h, w, n, steps, first, block in HAMMING_CASES:
+        left, right = _codes(rng, h, w, steps, 3, 0.2)
+        got = _match(be, left, right, first * steps, n, steps, block, 4)
+        want = specs.semi_global_match_reference(left[0], right, first * steps, n, steps, block, 5, 40, 4, 10)
+        for g, r in zip(got, want):
+            np.testing.assert_array_equal(g, r, err_msg=f"{popcount}: n={n} steps={steps} first={first}")
+
+
+def test_host_cpu_defines_follow_the_cpu_flags(require_backend, monkeypatch):
+    be = _cpu_opencl(require_backend)
+    monkeypatch.setattr(_opencl, "_CPU_FLAGS", frozenset({"avx2", "avx512f", "avx512_vpopcntdq"}))
+    assert _opencl._host_cpu_defines(be) == {"VPOPCNTQ": 1}
+    monkeypatch.setattr(_opencl, "_CPU_FLAGS", frozenset({"avx2", "avx512f"}))
+    assert _opencl._host_cpu_defines(be) == {}
