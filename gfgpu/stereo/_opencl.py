@@ -284,14 +284,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
     if be.kind != "cpu":
-        # GPUs: whole int16 volumes, each path's lines in parallel (disparity() checks the
-        # device's memory before allocating)
-        cost = _empty(be, workspace, "cost", (h, w, n), np.int16)
-        launch_cost(be, cl_, cr, cost, first_step, steps, block)
-        agg = _empty(be, workspace, "aggregated", (h, w, n), np.int16)
-        launch_sgm(be, cost, agg, p1, p2, paths)
-        del cost
-        return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)
+        # GPUs: a work-group per line with the samples across its work-items, a uint8 cost and
+        # one int16 sum volume (_opencl_groups.py; disparity() checks the device's memory before
+        # allocating)
+        from . import _opencl_groups
+        return _opencl_groups.launch_match(be, cl_, cr, disp, disp_right, margin, first_step, n, steps, block,
+                                           p1, p2, paths, uniqueness, workspace)
     # CPUs: bands of k rows through the two sweeps (one per core).  The up sweep's state at
     # each band's top is kept from a first, checkpointing up sweep, and each band's up sums are
     # recomputed from its checkpoint: O(k W D + (H / k) W D) for the sums instead of (H, W, D)
