@@ -764,8 +764,9 @@ def _finish(disp, conf, post, return_confidence, left):
 
 #: bytes per pixel and disparity sample of the "sgm" method where whole volumes are held: the
 #: numpy specification's int32/int64 temporaries (40, measured: ru_maxrss growth of a 300x450,
-#: 96-disparity call); the int16 cost and aggregate on GPUs and Warp (4)
-_SGM_BYTES = {"numpy": 40}
+#: 96-disparity call); the uint8 cost and one int16 sum of the OpenCL GPU matcher (3,
+#: _opencl_groups.py); the int16 cost and aggregate of Warp (4)
+_SGM_BYTES = {"numpy": 40, "opencl": 3}
 _SGM_BYTES_DEFAULT = 4
 
 
@@ -782,12 +783,13 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
     sweeps: it keeps the byte costs of the whole image (1 byte per pixel and disparity sample,
     ``D = (max - min) * subpixel_steps + 1``) when the working set allows, else recomputes them
     per band, plus O(k·W·D) band buffers, the cost kernel's ring of ``window`` rows of Hamming
-    distances (O(window·W·D) bytes) and O((H/k)·W·D) path-state checkpoints.  On GPUs and
-    Warp it holds two int16 (H, W, D) volumes (4 bytes per sample), on the numpy specification
-    ~40.  Plus O(H·W) images and census codes; the sweeps hold O(H·W).  :func:`disparity`
-    refuses (a ``ValueError`` before allocating anything) a request above the working set: the
-    device's budget (half a GPU's memory), :func:`gfgpu.working_set` / ``GFGPU_WORKING_SET`` if
-    set, and on CPU devices half the host's physical memory.
+    distances (O(window·W·D) bytes) and O((H/k)·W·D) path-state checkpoints.  On OpenCL GPUs
+    it holds a uint8 cost and one int16 sum (H, W, D) volume (3 bytes per sample), on Warp two
+    int16 volumes (4 bytes), on the numpy specification ~40.  Plus O(H·W) images and census
+    codes; the sweeps hold O(H·W).  :func:`disparity` refuses (a ``ValueError`` before
+    allocating anything) a request above the working set: the device's budget (half a GPU's
+    memory), :func:`gfgpu.working_set` / ``GFGPU_WORKING_SET`` if set, and on CPU devices half
+    the host's physical memory.
 
     Parameters
     ----------

@@ -93,6 +93,14 @@ def test_group_matcher_holds_one_sum_volume(gpu_shaped):
     assert volumes == [("int16", (8, 30, 25)), ("uint8", (8, 30, 25))]
 
 
+def test_memory_estimate_counts_three_bytes_per_sample(gpu_shaped):
+    # disparity_memory (what disparity checks the working set against) counts the two volumes
+    from gfgpu.stereo import matching
+    n = 63 * 2 + 1
+    need = stereo.disparity_memory((100, 200), 63, backend=gpu_shaped)
+    assert need == matching._sgm_base((100, 200), 2) + 3 * 100 * 200 * n
+
+
 def test_one_build_for_every_count_of_a_group_shape(gpu_shaped):
     # the kernels are built for (lanes, samples per lane) only: 33..64 samples share a build
     from gfgpu.stereo._opencl_groups import group_shape
