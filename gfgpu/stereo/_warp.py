@@ -212,6 +212,213 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
     right[y, x] = kr
 
 
+# ---- the GPU-shaped matcher: a block of threads per line, the disparity samples across its lanes ----
+# Lane l of a block owns the samples l * GROUP_CHUNK .. l * GROUP_CHUNK + GROUP_CHUNK - 1 (a vector
+# in registers); what it needs from the other lanes (d - 1 and d + 1 at its chunk's edges, the
+# minimum over d, the selection's winners) goes through tiles (wp.tile, wp.tile_min,
+# wp.tile_extract: shared memory and the block's barriers).  Each kernel is its own Warp module
+# (module="unique"): a block width compiles that kernel alone, not the whole of this file.
+#: samples per lane of the group kernels (the block width is ceil(n / GROUP_CHUNK))
+GROUP_CHUNK = 8
+_Chunk = wp.types.vector(length=GROUP_CHUNK, dtype=wp.int32)
+_GROUP_CHUNK = wp.constant(GROUP_CHUNK)
+_COST_OUT = wp.constant(OUT_OF_VIEW & 0xFF)         # a byte cost out of view (255, above COST_MAX)
+_NO_KEY = wp.constant(wp.uint32(0xFFFFFFFF))        # a (cost << 16 | k) key of no candidate
+
+
+@wp.kernel(module="unique")
+def census_cost_bytes(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp.uint64),
+                      out: wp.array3d(dtype=wp.uint8), first_step: int, steps: int, block: int, shift: int):
+    """census_cost's block costs as bytes, _COST_OUT out of view; one thread per (pixel, sample)."""
+    y, x, k = wp.tid()
+    h = out.shape[0]
+    w = out.shape[1]
+    r = block / 2
+    t = first_step + k
+    n = _floor_div(t, steps)
+    f = t - n * steps
+    if x - n < r or x - n > w - 1 - r:
+        out[y, x, k] = wp.uint8(_COST_OUT)
+        return
+    total = int(0)
+    for v in range(-r, r + 1):
+        yy = wp.clamp(y + v, 0, h - 1)
+        for u in range(-r, r + 1):
+            xx = wp.clamp(x + u, 0, w - 1)
+            total = total + _popcount(cl[0, yy, xx] ^ cr[f, yy, xx - n])
+    out[y, x, k] = wp.uint8(wp.min(total >> shift, _COST_MAX))
+
+
+@wp.kernel(module="unique")
+def group_paths(cost: wp.array3d(dtype=wp.uint8), total: wp.array3d(dtype=wp.int16), dy: int, dx: int,
+                p1: int, p2: int, accumulate: int):
+    """Path direction (dy, dx) and its opposite (sgm_aggregate_reference): block i sweeps the i-th
+    line entering the image forward, then backward, adding L into ``total`` (set by the first
+    direction when ``accumulate`` is 0); OUT_OF_VIEW where the cost is.  Path values in int32 with
+    PATH_UNDEFINED out of view, as the specification's."""
+    i, lane = wp.tid()
+    h = cost.shape[0]
+    w = cost.shape[1]
+    nd = cost.shape[2]
+    lanes = wp.block_dim()
+    x0 = int(0)
+    y0 = int(0)
+    if dx == 0:                 # vertical: one line per column
+        x0 = i
+        if dy < 0:
+            y0 = h - 1
+    elif dy == 0 or i < h:      # horizontal, or diagonal entering through the first column
+        if dx < 0:
+            x0 = w - 1
+        y0 = i
+    else:                       # diagonal, entering through the first row
+        x0 = i - h + 1
+        if dx < 0:
+            x0 = w - 2 - (i - h)
+        if dy < 0:
+            y0 = h - 1
+    length = int(h + w)
+    if dx > 0:
+        length = wp.min(length, w - x0)
+    if dx < 0:
+        length = wp.min(length, x0 + 1)
+    if dy > 0:
+        length = wp.min(length, h - y0)
+    if dy < 0:
+        length = wp.min(length, y0 + 1)
+    k0 = lane * _GROUP_CHUNK
+    for sweep in range(2):
+        x = int(x0)
+        y = int(y0)
+        sx = dx
+        sy = dy
+        if sweep == 1:
+            x = x0 + (length - 1) * dx
+            y = y0 + (length - 1) * dy
+            sx = -dx
+            sy = -dy
+        prev = _Chunk()
+        m = int(_UNDEF)             # the previous pixel's minimum over d
+        below = int(_UNDEF)         # L'(d - 1) of this lane's first sample (the lane below's last)
+        above = int(_UNDEF)         # L'(d + 1) of its last sample (the lane above's first)
+        for t in range(length):
+            cur = _Chunk()
+            mv = int(_UNDEF)
+            for j in range(GROUP_CHUNK):
+                k = k0 + j
+                v = int(_UNDEF)
+                if k < nd:
+                    c = int(cost[y, x, k])
+                    if c == _COST_OUT:
+                        total[y, x, k] = wp.int16(_OUT_OF_VIEW)
+                    else:
+                        v = c
+                        if t > 0:
+                            lower = below
+                            if j > 0:
+                                lower = prev[wp.max(j - 1, 0)]
+                            upper = above
+                            if j < GROUP_CHUNK - 1:
+                                upper = prev[wp.min(j + 1, GROUP_CHUNK - 1)]
+                            stay = prev[j]
+                            if stay >= _UNDEF:
+                                stay = m
+                            v = c + wp.min(wp.min(stay, wp.min(lower, upper) + p1), m + p2) - m
+                        if sweep == 1 or accumulate != 0:
+                            total[y, x, k] = wp.int16(int(total[y, x, k]) + v)
+                        else:
+                            total[y, x, k] = wp.int16(v)
+                cur[j] = v
+                mv = wp.min(mv, v)
+            prev = cur
+            # every lane reaches these (the line's length is the block's): the minimum over d and the
+            # neighbours' chunk edges for the next step
+            m = wp.tile_extract(wp.tile_min(wp.tile(mv)), 0)
+            below = wp.tile_extract(wp.tile(cur[GROUP_CHUNK - 1]), wp.max(lane - 1, 0))
+            above = wp.tile_extract(wp.tile(cur[0]), wp.min(lane + 1, lanes - 1))
+            if lane == 0:
+                below = _UNDEF
+            if lane == lanes - 1:
+                above = _UNDEF
+            x = x + sx
+            y = y + sy
+
+
+@wp.func
+def _key(v: int, k: int):
+    # (cost, k) as one key: the least cost, ties to the smaller k; no key out of view
+    if v < 0:
+        return _NO_KEY
+    return (wp.uint32(v) << wp.uint32(16)) | wp.uint32(k)
+
+
+@wp.kernel(module="unique")
+def group_select(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.float32),
+                 right: wp.array2d(dtype=wp.int32), margin: wp.array2d(dtype=wp.float32), d_min: int,
+                 steps: int, uniqueness: int):
+    """select_disparity for a block per row: per pixel x each lane keys its samples, the block takes
+    the least key of the left winner and of the right view's (pixel x), then the best cost more than
+    one step from the winner; lane 0 tests and refines (select_disparity_reference)."""
+    y, lane = wp.tid()
+    w = agg.shape[1]
+    nd = agg.shape[2]
+    k0 = lane * _GROUP_CHUNK
+    for x in range(w):
+        kl = wp.uint32(_NO_KEY)
+        kr = wp.uint32(_NO_KEY)
+        vals = _Chunk()
+        for j in range(GROUP_CHUNK):
+            k = k0 + j
+            v = int(-1)
+            if k < nd:
+                v = int(agg[y, x, k])
+                xl = x + d_min + k / steps
+                if xl >= 0 and xl < w:
+                    kr = wp.min(kr, _key(int(agg[y, xl, k]), k))
+            vals[j] = v
+            kl = wp.min(kl, _key(v, k))
+        best_key = wp.tile_extract(wp.tile_min(wp.tile(kl)), 0)
+        right_key = wp.tile_extract(wp.tile_min(wp.tile(kr)), 0)
+        kb = int(0)
+        best = int(0)
+        if best_key != _NO_KEY:
+            kb = int(best_key & wp.uint32(0xFFFF))
+            best = int(best_key >> wp.uint32(16))
+        k2 = wp.uint32(_NO_KEY)
+        for j in range(GROUP_CHUNK):
+            if wp.abs(k0 + j - kb) > 1:
+                k2 = wp.min(k2, _key(vals[j], 0))
+        second_key = wp.tile_extract(wp.tile_min(wp.tile(k2)), 0)
+        if lane == 0:
+            if right_key == _NO_KEY:
+                right[y, x] = _NO_MATCH
+            else:
+                right[y, x] = d_min * steps + int(right_key & wp.uint32(0xFFFF))
+            second = int(second_key >> wp.uint32(16))
+            unique = best_key != _NO_KEY and second_key != _NO_KEY and \
+                wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
+            sm = int(agg[y, x, wp.max(kb - 1, 0)])
+            sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
+            cut = (kb > 0 and sm < 0) or (kb < nd - 1 and sp < 0)
+            den = float(sm - 2 * best + sp)
+            delta = float(0.0)
+            if kb > 0 and kb < nd - 1 and den > 0.0:
+                delta = float(sm - sp) / (2.0 * den)
+            if steps == 2 and kb >= 2 and kb <= nd - 3:
+                # half-pixel samples: one baseline per phase (spec._half_pixel_fit)
+                sm2 = int(agg[y, x, kb - 2])
+                sp2 = int(agg[y, x, kb + 2])
+                den2 = sm2 + sp2 - 2 * best
+                if sm >= 0 and sp >= 0 and sm2 >= 0 and sp2 >= 0 and den2 > 0:
+                    delta = wp.min(wp.max(float(2 * (sm - sp) + sm2 - sp2) / (2.0 * float(den2)), -1.0), 1.0)
+            if unique and not cut:
+                disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
+                margin[y, x] = float(second - best) / float(second)
+            else:
+                disp[y, x] = wp.nan
+                margin[y, x] = 0.0
+
+
 @wp.kernel
 def left_right(disp: wp.array2d(dtype=wp.float32), right: wp.array2d(dtype=wp.int32),
                margin: wp.array2d(dtype=wp.float32), steps: int, tol: wp.float64):
@@ -316,14 +523,50 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
                inputs=[aggregated, disp, disp_right, margin, int(d_min), int(steps), int(uniqueness)])
     return disp, disp_right, margin
 
+def group_lanes(n, cuda=True):
+    """Lanes (threads) per block of the group kernels for ``n`` samples: ``ceil(n / GROUP_CHUNK)``
+    rounded up to a whole number of 32-thread warps on CUDA, to a power of two, at least 4, on the
+    CPU (whose cooperative blocks, ``wp.config.enable_cpu_blocks``, only the tests use: few widths,
+    each compiling the two block kernels once, and chunk edges between lanes even for 1 sample)."""
+    lanes = -(-int(n) // GROUP_CHUNK)
+    return -(-lanes // 32) * 32 if cuda else max(4, 1 << (lanes - 1).bit_length())
+
+
+def _group_match(be, census_left, census_right, disp, disp_right, margin, first_step, n, steps, block, p1, p2,
+                 paths, uniqueness, lanes, workspace):
+    # byte costs, one int16 sum volume the paths add into, the selection a block per row
+    h, w = disp.shape
+    cost = _empty(be, workspace, "cost", (h, w, n), np.uint8)
+    wpl.launch(be, census_cost_bytes, dim=cost.shape,
+               inputs=[census_left, census_right, cost, int(first_step), int(steps), int(block),
+                       cost_shift(int(block))])
+    total = _empty(be, workspace, "sum", (h, w, n), np.int16)
+    for i, (dy, dx) in enumerate(((0, 1), (1, 0), (1, 1), (1, -1))[:paths // 2]):
+        lines = w if dx == 0 else h if dy == 0 else h + w - 1
+        wp.launch(group_paths, dim=(lines, lanes), inputs=[cost, total, dy, dx, int(p1), int(p2), int(i > 0)],
+                  block_dim=lanes, device=be.wp_device)
+    wp.launch(group_select, dim=(h, lanes),
+              inputs=[total, disp, disp_right, margin, int(first_step // steps), int(steps), int(uniqueness)],
+              block_dim=lanes, device=be.wp_device)
+    return disp, disp_right, margin
+
+
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
                  p1, p2, paths, uniqueness, budget=None, workspace=None):
-    # whole (H, W, D) volumes: each path's lines run in parallel (GPUs; disparity() checks the
-    # memory before allocating)
     h, w = disp.shape
-    cost = _empty(be, workspace, "cost", (h, w, int(n_disp)), np.int16)
+    n = int(n_disp)
+    cuda = not be.wp_device.is_cpu
+    lanes = group_lanes(n, cuda)
+    if be.kind != "cpu" and lanes <= 1024 and (cuda or wp.config.enable_cpu_blocks) and disp.size:
+        # GPUs: a block of threads per line, the samples across its lanes (a CPU device runs such
+        # blocks only with wp.config.enable_cpu_blocks: the tests force it there)
+        return _group_match(be, census_left, census_right, disp, disp_right, margin, first_step, n, steps, block,
+                            p1, p2, paths, uniqueness, lanes, workspace)
+    # whole (H, W, D) volumes: each path's lines in parallel (disparity() checks the memory before
+    # allocating)
+    cost = _empty(be, workspace, "cost", (h, w, n), np.int16)
     launch_cost(be, census_left, census_right, cost, first_step, steps, block)
-    agg = _empty(be, workspace, "aggregated", (h, w, int(n_disp)), np.int16)
+    agg = _empty(be, workspace, "aggregated", (h, w, n), np.int16)
     launch_sgm(be, cost, agg, p1, p2, paths, workspace)
     del cost
     return launch_select(be, agg, disp, disp_right, margin, first_step // steps, steps, uniqueness)

@@ -1,8 +1,9 @@
-"""The GPU-shaped matcher (OpenCL ``sgm_groups.cl``: a work-group per line, the disparity samples
-across its work-items, a uint8 cost and one int16 sum volume) forced on the CPU device, against
-``semi_global_match_reference`` bit for bit: odd and tiny shapes, rows not a multiple of the cost
-kernel's column tile, sample counts not a multiple of the lanes, one sample, every option of
-the branch, every input dtype through ``disparity``."""
+"""The GPU-shaped matcher (OpenCL ``sgm_groups.cl``, Warp's group kernels in ``_warp.py``: a
+work-group / block per line, the disparity samples across its work-items, a uint8 cost and one
+int16 sum volume) forced on the CPU devices, against ``semi_global_match_reference`` bit for bit:
+odd and tiny shapes, rows not a multiple of the cost kernel's column tile, sample counts not a
+multiple of the lanes, one sample, every option of the branch, every input dtype through
+``disparity``."""
 
 import numpy as np
 import pytest
@@ -15,9 +16,10 @@ from gfgpu.stereo import spec as specs
 
 from .scenes import random_dot_pair, shifted_pair
 
-# conftest's gpu_shaped fixture (the backend on its CPU device taking the GPU launch shapes),
-# OpenCL only: Warp's GPU branch is not this matcher
-pytestmark = pytest.mark.parametrize("gpu_shaped", ["opencl"], indirect=True)
+# conftest's gpu_shaped fixture (the backend on its CPU device taking the GPU launch shapes) for one
+# backend; OpenCL's tests reach its launcher's internals (group shapes), Warp's have their own below
+opencl = pytest.mark.parametrize("gpu_shaped", ["opencl"], indirect=True)
+warp = pytest.mark.parametrize("gpu_shaped", ["warp"], indirect=True)
 
 
 def _codes(rng, h, w, steps, shift, flip, bits=48):
@@ -31,9 +33,10 @@ def _check(be, left, right, first, n, steps, block, p1, p2, paths, uniq, shape=N
     from gfgpu.stereo import _opencl_groups
     h, w = left.shape[1:]
     outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
-    if shape is None:      # through the registered kernel: _opencl.launch_match's GPU branch
+    if shape is None:      # through the registered kernel: the launchers' GPU branches
+        extra = {} if workspace is None else {"workspace": workspace}
         kernels.match(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, block, p1, p2, paths,
-                      uniq, None)
+                      uniq, None, **extra)
     else:
         _opencl_groups.launch_match(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, block, p1,
                                     p2, paths, uniq, workspace, shape=shape)
@@ -44,6 +47,7 @@ def _check(be, left, right, first, n, steps, block, p1, p2, paths, uniq, shape=N
         np.testing.assert_array_equal(be.to_host(got), want, err_msg=what)
 
 
+@opencl
 def test_group_matcher_bit_exact_on_awkward_shapes(gpu_shaped):
     # 1..3 rows, 1..5 columns (one partial lane group everywhere), 33 and 70 columns (partial
     # column tiles of the cost kernel), one sample, ranges below, straddling and beyond the
@@ -59,6 +63,7 @@ def test_group_matcher_bit_exact_on_awkward_shapes(gpu_shaped):
         _check(gpu_shaped, left, right, first, n, steps, block, 5, 40, paths, (0, 10, 100)[i % 3])
 
 
+@opencl
 def test_group_matcher_saturated_codes_and_largest_penalties(gpu_shaped):
     # full 64-bit codes and 15x15 blocks (sums up to 14400, saturated at 254); the largest p2 that
     # disparity's int16 guard admits, and p1 = 0 or p1 = p2
@@ -71,6 +76,7 @@ def test_group_matcher_saturated_codes_and_largest_penalties(gpu_shaped):
             _check(gpu_shaped, left, right, -2, 33, 1, 15, p1, p2, paths, 0)
 
 
+@opencl
 @pytest.mark.parametrize("shape", [(1, 8), (4, 3), (8, 2), (16, 1)])
 def test_chunk_edges_between_many_lanes(gpu_shaped, shape):
     # small work-groups put a chunk edge (d - 1, d + 1 through local memory) next to most samples;
@@ -83,6 +89,7 @@ def test_chunk_edges_between_many_lanes(gpu_shaped, shape):
         _check(gpu_shaped, left, right, -(n // 3) // steps * steps, n, steps, 3, 6, 90, paths, 10, shape=shape)
 
 
+@opencl
 def test_group_matcher_holds_one_sum_volume(gpu_shaped):
     # memory: a uint8 cost and one int16 sum volume (3 bytes per sample), kept in the workspace
     rng = np.random.default_rng(4)
@@ -93,6 +100,7 @@ def test_group_matcher_holds_one_sum_volume(gpu_shaped):
     assert volumes == [("int16", (8, 30, 25)), ("uint8", (8, 30, 25))]
 
 
+@opencl
 def test_memory_estimate_counts_three_bytes_per_sample(gpu_shaped):
     # disparity_memory (what disparity checks the working set against) counts the two volumes
     from gfgpu.stereo import matching
@@ -101,6 +109,7 @@ def test_memory_estimate_counts_three_bytes_per_sample(gpu_shaped):
     assert need == matching._sgm_base((100, 200), 2) + 3 * 100 * 200 * n
 
 
+@opencl
 def test_one_build_for_every_count_of_a_group_shape(gpu_shaped):
     # the kernels are built for (lanes, samples per lane) only: 33..64 samples share a build
     from gfgpu.stereo._opencl_groups import group_shape
@@ -132,6 +141,7 @@ def _pairs():
     yield "subnormal", left * np.float32(1e-41), right * np.float32(1e-41)
 
 
+@opencl
 @pytest.mark.parametrize("options", [
     dict(), dict(paths=8, subpixel_steps=1), dict(window=5, min_disparity=-3, subpixel_steps=3),
     dict(window=1, uniqueness=0, subpixel_steps=4), dict(window=15, paths=8, uniqueness=30, speckle_size=0)])
@@ -143,6 +153,7 @@ def test_disparity_maps_identical_to_numpy_for_every_dtype(gpu_shaped, options):
         np.testing.assert_array_equal(conf, conf_want, err_msg=f"{what} {options}")
 
 
+@opencl
 def test_out_of_range_arguments_are_refused_by_name(gpu_shaped):
     from gfgpu.stereo import _opencl_groups
     rng = np.random.default_rng(6)
@@ -157,3 +168,70 @@ def test_out_of_range_arguments_are_refused_by_name(gpu_shaped):
             _opencl_groups.launch_match(gpu_shaped, cl, cr, *outs, *args, 4, 10)
     with pytest.raises(ValueError, match="shape"):
         _opencl_groups.launch_match(gpu_shaped, cl, cr, *outs, 0, 9, 1, 3, 6, 90, 4, 10, shape=(4, 2))
+
+
+# --------------------------------------------------------------------------------------
+# Warp: a block of threads per line (tile reductions).  A CPU device runs blocks of several
+# threads only with wp.config.enable_cpu_blocks (Warp's cooperative CPU blocks): these tests turn
+# it on; without it the forced branch keeps the whole-volume kernels (last test)
+# --------------------------------------------------------------------------------------
+@pytest.fixture
+def cpu_blocks(monkeypatch):
+    import warp as wp
+    monkeypatch.setattr(wp.config, "enable_cpu_blocks", True)
+
+
+def _volumes(workspace):
+    return sorted((np.dtype(dt).name, name) for (name, _, dt) in workspace)
+
+
+@warp
+def test_warp_group_matcher_bit_exact(gpu_shaped, cpu_blocks):
+    # blocks of 4 and 8 lanes (group_lanes on the CPU), so chunk edges between lanes, lanes
+    # without samples and n = 1; tiny and odd shapes, ranges below, straddling and beyond the
+    # image, steps 1-4, paths 4 and 8, windows 1-15, uniqueness 0-100, the largest p2
+    from gfgpu.stereo import matching
+    from gfgpu.stereo._warp import group_lanes
+    rng = np.random.default_rng(8)
+    cases = [(1, 1, 1), (3, 5, 9), (2, 33, 17), (11, 35, 31), (7, 20, 64), (9, 13, 40), (6, 19, 8)]
+    assert sorted({group_lanes(n, cuda=False) for _, _, n in cases}) == [4, 8]
+    for i, (h, w, n) in enumerate(cases):
+        steps, paths = 1 + i % 4, (4, 8)[i % 2]
+        first = (-2 * n, -n // 2, 0, 3)[i % 4] // steps * steps
+        block = (1, 3, 5, 15)[i % 4]
+        p1, p2 = (5, 40) if i < 6 else (0, (matching._INT16_MAX - 1) // paths - specs.COST_MAX)
+        left, right = _codes(rng, h, w, steps, 2, 0.05, bits=64 if i == 6 else 48)
+        workspace = {}
+        _check(gpu_shaped, left, right, first, n, steps, block, p1, p2, paths, (0, 10, 100)[i % 3],
+               workspace=workspace)
+        assert _volumes(workspace) == [("int16", "sum"), ("uint8", "cost")]      # the group kernels ran
+
+
+def test_warp_group_lanes():
+    pytest.importorskip("warp")
+    from gfgpu.stereo._warp import GROUP_CHUNK, group_lanes
+    for n in range(1, 3000, 7):
+        cuda, cpu = group_lanes(n), group_lanes(n, cuda=False)
+        assert cuda % 32 == 0 and cuda * GROUP_CHUNK >= n > (cuda - 32) * GROUP_CHUNK
+        assert cpu & (cpu - 1) == 0 and cpu * GROUP_CHUNK >= n and (cpu == 4 or n > cpu * GROUP_CHUNK // 2)
+
+
+@warp
+@pytest.mark.parametrize("options", [dict(), dict(paths=8, window=5, min_disparity=-3, subpixel_steps=3)])
+def test_warp_disparity_maps_identical_to_numpy_for_every_dtype(gpu_shaped, cpu_blocks, options):
+    for what, left, right in _pairs():
+        want, conf_want = stereo.disparity(left, right, 7, return_confidence=True, backend="numpy", **options)
+        got, conf = stereo.disparity(left, right, 7, return_confidence=True, backend=gpu_shaped, **options)
+        np.testing.assert_array_equal(got, want, err_msg=f"{what} {options}")
+        np.testing.assert_array_equal(conf, conf_want, err_msg=f"{what} {options}")
+
+
+@warp
+def test_warp_without_cpu_blocks_keeps_the_whole_volumes(gpu_shaped):
+    import warp as wp
+    assert not wp.config.enable_cpu_blocks
+    rng = np.random.default_rng(9)
+    left, right = _codes(rng, 5, 17, 2, 2, 0.05)
+    workspace = {}
+    _check(gpu_shaped, left, right, -2, 9, 2, 3, 54, 576, 4, 10, workspace=workspace)
+    assert _volumes(workspace) == [("int16", "aggregated"), ("int16", "cost"), ("int32", "path_scratch")]
