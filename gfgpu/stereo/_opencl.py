@@ -293,20 +293,24 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # CPUs: bands of k rows through the two sweeps (one per core).  The up sweep's state at
     # each band's top is kept from a first, checkpointing up sweep, and each band's up sums are
     # recomputed from its checkpoint: O(k W D + (H / k) W D) for the sums instead of (H, W, D)
-    # volumes.  The byte costs of the whole image are kept between the two sweeps when
-    # ``budget`` allows (H W D bytes), else computed again for each band.
-    k, keep, _ = band_plan.match_plan(h, w, n, paths, block, budget)
+    # volumes.  The byte costs of the whole image are kept between the two sweeps where they fit
+    # band_plan.KEEP_BYTES and ``budget``; else the image runs in coarse bands of K rows
+    # (band_plan.match_plan): the first sweep keeps the up state at each coarse band's top only,
+    # and each coarse band computes its costs again, sweeps up through them once more to keep the
+    # state at its fine bands' tops, then runs its fine bands (O(K W D + (H / K + K / k) W D)).
+    plan = band_plan.match_plan(h, w, n, paths, block, budget)
+    k, keep = plan.rows, plan.keep
     # the kernels are built for the bucket of n (nb samples, the rest padding), n an argument: a
     # new range within a built bucket builds nothing
     nb, nv_full = band_plan.sample_bucket(n)
     bucket = (nb, nv_full, block, steps)
     ri = _interleave(be, cr, h, w, steps, nb, workspace, bucket)
-    cost = _padded(be, h if keep else k, w, nb, np.uint8, workspace, "cost")
+    coarse = h if keep else plan.coarse          # rows of a coarse band (the whole image: one)
+    cost = _padded(be, coarse, w, nb, np.uint8, workspace, "cost")
     down = _padded(be, k, w, nb, np.int16, workspace, "down")
     up = _padded(be, k, w, nb, np.int16, workspace, "up")
     state, state_min = _sgm_state(be, w, nb, workspace)
-    bound = _empty(be, workspace, "bound", (2, k, nb + 1), np.int16)
-    bands = [(y0, min(k, h - y0)) for y0 in range(0, h, k)]
+    bound = _empty(be, workspace, "bound", (2, max(k, coarse if not keep else k), nb + 1), np.int16)
     view = (block, first_step, steps)
     # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
     # and the matching rows of the minima
@@ -314,41 +318,69 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     st_off, st_len = (5 + 1) * srow, (4 if paths == 8 else 1) * srow
     mrow = state_min.shape[2] * 2
     mn_off, mn_len = 4 * mrow, (4 if paths == 8 else 1) * mrow
-    ckpt = _empty(be, workspace, "checkpoints", (max(len(bands) - 1, 1), st_len // 2), np.int16)
-    ckpt_min = _empty(be, workspace, "checkpoint_minima", (max(len(bands) - 1, 1), mn_len // 2), np.int16)
+    coarse_bands = [(y0, min(coarse, h - y0)) for y0 in range(0, h, coarse)]
+    per_coarse = -(-coarse // k)                 # fine bands of a coarse band
 
-    def copy(dst, src, nbytes, dst_off, src_off):
-        ocl.copy_bytes(be, dst, src, nbytes, dst_off, src_off)
+    def checkpoints(name, count):
+        return (_empty(be, workspace, name, (max(count, 1), st_len // 2), np.int16),
+                _empty(be, workspace, name + "_minima", (max(count, 1), mn_len // 2), np.int16))
+
+    def save(ckpt, index):
+        ocl.copy_bytes(be, ckpt[0], state, st_len, index * st_len, st_off)
+        ocl.copy_bytes(be, ckpt[1], state_min, mn_len, index * mn_len, mn_off)
+
+    def restore(ckpt, index):
+        ocl.copy_bytes(be, state, ckpt[0], st_len, st_off, index * st_len)
+        ocl.copy_bytes(be, state_min, ckpt[1], mn_len, mn_off, index * mn_len)
+
+    def costs(y0, rows):
+        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket)
+
+    def sweep(y0, rows, row0, init, active, write_up=True):
+        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
+                     init=init, active=active, view=view, write_up=write_up, bucket=bucket)
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
-        _band_cost(be, cl_, ri, cost, None, 0, h, 0, h, w, n, first_step, steps, block, workspace, bucket)
-
-    def band_cost(y0, rows):
-        if keep:
-            return y0
-        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket)
-        return 0
-
-    # pass 1: up the image, saving the state at the top of bands 1 .. last (band b's up sweep
-    # starts from checkpoint b + 1: the state after the first row of band b + 1)
-    for b in range(len(bands) - 1, 0, -1):
-        y0, rows = bands[b]
-        row0 = band_cost(y0, rows)
-        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
-                     init=2 if b == len(bands) - 1 else 0, active=2, view=view, write_up=False,
-                     bucket=bucket)
-        copy(ckpt, state, st_len, (b - 1) * st_len, st_off)
-        copy(ckpt_min, state_min, mn_len, (b - 1) * mn_len, mn_off)
+        costs(0, h)
+    # pass 1: up the image, saving the state at the top of coarse bands 1 .. last (band b's up
+    # sweep starts from checkpoint b: the state after the first row of band b + 1); with the costs
+    # kept, a coarse band is a band of k rows
+    step = k if keep else coarse
+    top = checkpoints("checkpoints", -(-h // step) - 1)
+    for b in range(-(-h // step) - 1, 0, -1):
+        y0 = b * step
+        rows = min(step, h - y0)
+        if not keep:
+            costs(y0, rows)
+        sweep(y0, rows, y0 if keep else 0, init=2 if y0 + rows == h else 0, active=2, write_up=False)
+        save(top, b - 1)
+    fine = checkpoints("fine_checkpoints", per_coarse - 1) if not keep else None
     # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
-    for b, (y0, rows) in enumerate(bands):
-        last = b == len(bands) - 1
-        row0 = band_cost(y0, rows)
-        if not last:
-            copy(state, ckpt, st_len, st_off, b * st_len)
-            copy(state_min, ckpt_min, mn_len, mn_off, b * mn_len)
-        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
-                     init=(1 if b == 0 else 0) | (2 if last else 0), active=3, view=view, bucket=bucket)
-        _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps, uniqueness, bucket)
+    for cb, (c0, crows) in enumerate(coarse_bands):
+        bands = [(y0, min(k, c0 + crows - y0)) for y0 in range(c0, c0 + crows, k)]
+        last_coarse = cb == len(coarse_bands) - 1
+        if not keep:
+            costs(c0, crows)
+            # the up state at the top of this coarse band's fine bands 1 .. last
+            if len(bands) > 1 and not last_coarse:
+                restore(top, cb)
+            for f in range(len(bands) - 1, 0, -1):
+                y0, rows = bands[f]
+                sweep(y0, rows, y0 - c0, init=2 if last_coarse and f == len(bands) - 1 else 0, active=2,
+                      write_up=False)
+                save(fine, f - 1)
+        for f, (y0, rows) in enumerate(bands):
+            last = y0 + rows == h
+            if keep:
+                if not last:
+                    restore(top, y0 // k)
+            elif f < len(bands) - 1:
+                restore(fine, f)
+            elif not last_coarse:
+                restore(top, cb)
+            sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3)
+            _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps, uniqueness,
+                    bucket)
     return disp, disp_right, margin
 
 

@@ -9,9 +9,10 @@ from __future__ import annotations
 
 import math
 import os
+from typing import NamedTuple
 
-__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "BUCKET_VECTORS", "padded_samples",
-           "sample_bucket", "band_rows", "match_plan", "match_memory"]
+__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "KEEP_BYTES", "BUCKET_VECTORS",
+           "MatchPlan", "padded_samples", "sample_bucket", "band_rows", "coarse_rows", "match_plan", "match_memory"]
 
 #: the band sweeps' column tiles (4 paths): as many columns as hold this many bytes of vertical
 #: path states, so that they stay in a core's L2 cache while the tile's rows are swept
@@ -82,36 +83,73 @@ def band_rows(h, paths, w=1, n=1):
 #: BAND_BYTES; motorcycle, 314 MB of them, 11 %; same maps); larger ones stream bands
 WHOLE_BYTES = 512 * 2**20
 
+#: larger images keep the byte costs of the whole image between the two sweeps where they take at
+#: most this many bytes (and the working set allows); above it each coarse band computes its
+#: costs again (1000 x 1500 x 383 samples: 576 MB of costs, the process's peak 1.1 GB; recomputed,
+#: about a fifth more time)
+KEEP_BYTES = 128 * 2**20
+
+
+class MatchPlan(NamedTuple):
+    """How the CPU matcher runs an image (:func:`match_plan`)."""
+
+    #: rows per band of the two sweeps and the selection
+    rows: int
+    #: the byte costs of the whole image are kept (else computed per coarse band, twice)
+    keep: bool
+    #: bytes the matcher allocates (:func:`match_memory`)
+    nbytes: int
+    #: rows per coarse band (a multiple of ``rows``; the image's height where ``keep``)
+    coarse: int
+
+
+def coarse_rows(h, paths, k, w=1, n=1):
+    """Rows per coarse band of the CPU matcher when it recomputes the costs: a multiple of the
+    band rows ``k`` that balances the coarse checkpoints (h / K state rows of ~2 bytes per sample,
+    c of them: 1 for 4 paths, 4 for 8) against the coarse band's byte costs and its fine
+    checkpoints (K (1 + 2 c / k) bytes per sample of a row): K = sqrt(2 c h / (1 + 2 c / k))."""
+    c = 1 if paths == 4 else 4
+    best = math.sqrt(2 * c * h / (1 + 2 * c / k))
+    return int(min(h, max(k, k * round(best / k))))
+
 
 def match_plan(h, w, n, paths, block=3, budget=None):
     """How the CPU matcher runs an (h, w) image with n disparity samples within ``budget``
-    bytes (None: no limit): ``(rows per band, keep the whole image's byte costs, bytes)``.
-    One band where :data:`WHOLE_BYTES` and the budget allow, else bands of :func:`band_rows`
-    with the costs kept if they fit, else recomputed per band (the least memory)."""
+    bytes (None: no limit), a :class:`MatchPlan`.  One band where :data:`WHOLE_BYTES` and the
+    budget allow, else bands of :func:`band_rows` with the whole image's byte costs kept where
+    they fit :data:`KEEP_BYTES` and the budget, else coarse bands of :func:`coarse_rows` whose
+    costs are computed in each of the two sweeps (the least memory)."""
     if 7 * h * w * n <= WHOLE_BYTES:
         nbytes = match_memory(h, w, n, paths, True, block, rows=h)
         if budget is None or nbytes <= budget:
-            return h, True, nbytes
+            return MatchPlan(h, True, nbytes, h)
     k = band_rows(h, paths, w, n)
-    nbytes = match_memory(h, w, n, paths, True, block, rows=k)
-    if budget is None or nbytes <= budget:
-        return k, True, nbytes
-    return k, False, match_memory(h, w, n, paths, False, block, rows=k)
+    if h * w * sample_bucket(n)[0] <= KEEP_BYTES:
+        nbytes = match_memory(h, w, n, paths, True, block, rows=k)
+        if budget is None or nbytes <= budget:
+            return MatchPlan(k, True, nbytes, h)
+    return MatchPlan(k, False, match_memory(h, w, n, paths, False, block, rows=k), coarse_rows(h, paths, k, w, n))
 
 
 def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
-    """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a band of it,
-    the cost kernel's Hamming ring (``block`` rows and their column sums), the band's sums, the
-    path states and their checkpoints, the horizontal paths' states at the column tiles' edges;
-    bands of ``rows`` rows (default :func:`band_rows`)."""
+    """Bytes the CPU matcher allocates: the byte cost volume (``keep_cost``) or a coarse band of
+    it, the cost kernel's Hamming ring (``block`` rows and their column sums), the band's sums,
+    the path states and their checkpoints (coarse and fine where the costs are recomputed), the
+    horizontal paths' states at the column tiles' edges; bands of ``rows`` rows (default
+    :func:`band_rows`)."""
     k = band_rows(h, paths, w, n) if rows is None else int(rows)
     nb = sample_bucket(n)[0]                               # the build's padded samples
     cell = nb + 16                                         # stereo.cl's CELL
     state_row = 2 * (16 + (w + 2) * cell)
     c = 1 if paths == 4 else 4
-    checkpoints = -(-h // k) * c * (state_row + 2 * (w + 2))
+    checkpoint = c * (state_row + 2 * (w + 2))
     npix = nb                                              # a pixel's samples in _padded
-    cost = h * w * npix if keep_cost else k * w * npix
+    if keep_cost:
+        cost, checkpoints, coarse = h * w * npix, -(-h // k) * checkpoint, k
+    else:
+        coarse = coarse_rows(h, paths, k, w, n)
+        cost = coarse * w * npix
+        checkpoints = (-(-h // coarse) + -(-coarse // k)) * checkpoint
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
     ring = splits * (block + 2) * (-(-w // splits) + block) * nb
-    return cost + ring + 14 * w * n + 4 * k * w * npix + 10 * state_row + checkpoints + 4 * k * cell
+    return cost + ring + 14 * w * n + 4 * k * w * npix + 10 * state_row + checkpoints + 4 * max(k, coarse) * cell

@@ -342,19 +342,29 @@ def matching_views(left, right, steps):
     rgt = _flush(_scale2(right, exp))
     planes = np.empty((steps,) + rgt.shape, np.float32)
     planes[0] = rgt
-    wide = rgt.astype(np.float64)
+    # the shifts run on blocks of rows (each row is its own recursion: the same values), so that
+    # their float64 temporaries stay a few hundred kB: whole images of them (~5 per plane, 57 MB
+    # at 1000 x 1500) stayed in the process's heap after the call and added to its peak memory
+    for r0 in range(0, rgt.shape[0], _SHIFT_ROWS):
+        wide = rgt[r0:r0 + _SHIFT_ROWS].astype(np.float64)
+        for f in range(1, steps):
+            # the sub-pixel disparity samples of the cost volume
+            moved = _green_shift_rows(wide, f / steps)
+            if 2 * f == steps:
+                # the half-pixel plane: the mean of the causal G_{1/2} shift and of the anticausal
+                # G_{-1/2} shift moved by one pixel, a kernel symmetric about the half-pixel point.
+                # The causal shift alone blurs to one side: samples half a pixel below and above a
+                # whole-pixel match cost unequally, and an exact 8 px shift came out 7.95 (median)
+                moved += _green_shift_rows(wide, -0.5, 1)
+                moved *= 0.5
+            planes[f, r0:r0 + _SHIFT_ROWS] = moved      # rounded to float32 as astype rounds
     for f in range(1, steps):
-        # the sub-pixel disparity samples of the cost volume
-        moved = _green_shift_rows(wide, f / steps)
-        if 2 * f == steps:
-            # the half-pixel plane: the mean of the causal G_{1/2} shift and of the anticausal
-            # G_{-1/2} shift moved by one pixel, a kernel symmetric about the half-pixel point.
-            # The causal shift alone blurs to one side: samples half a pixel below and above a
-            # whole-pixel match cost unequally, and an exact 8 px shift came out 7.95 (median)
-            moved += _green_shift_rows(wide, -0.5, 1)
-            moved *= 0.5
-        planes[f] = _flush(moved.astype(np.float32))
+        _flush(planes[f])
     return lft, planes
+
+
+#: rows per block of the right view's sub-pixel shifts in :func:`matching_views`
+_SHIFT_ROWS = 32
 
 
 def _scale2(image, exp):
@@ -469,6 +479,9 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         cen_r = _buffer(be, buffers, "census_right", (steps, h, w), np.uint64)
         for f in range(steps):
             kernels.census(be, be.asarray(planes[f]), cen_r, f, census_radius)
+    # the views are not read again: released before the matcher's buffers are allocated (the
+    # process's peak memory)
+    del lft, planes
     progress(1)
     disp = _buffer(be, buffers, "disp", (h, w), np.float32)
     right_steps = _buffer(be, buffers, "disp_right", (h, w), np.int32)
@@ -781,9 +794,11 @@ def disparity_memory(shape, max_disparity, *, min_disparity=0, method="sgm", sub
 
     ``"sgm"`` on OpenCL CPU devices streams bands of ``k ≈ sqrt(H/2)`` rows through its two
     sweeps: it keeps the byte costs of the whole image (1 byte per pixel and disparity sample,
-    ``D = (max - min) * subpixel_steps + 1``) when the working set allows, else recomputes them
-    per band, plus O(k·W·D) band buffers, the cost kernel's ring of ``window`` rows of Hamming
-    distances (O(window·W·D) bytes) and O((H/k)·W·D) path-state checkpoints.  On OpenCL GPUs
+    ``D = (max - min) * subpixel_steps + 1``) when they take at most 128 MiB and the working set
+    allows, plus O((H/k)·W·D) path-state checkpoints; else it recomputes them per coarse band of
+    ``K ≈ sqrt(2H)`` rows (O(K·W·D) bytes and O((H/K + K/k)·W·D) checkpoints); plus O(k·W·D)
+    band buffers and the cost kernel's ring of ``window`` rows of Hamming distances
+    (O(window·W·D) bytes).  On OpenCL GPUs
     it holds a uint8 cost and one int16 sum (H, W, D) volume (3 bytes per sample), on Warp two
     int16 volumes (4 bytes), on the numpy specification ~40.  Plus O(H·W) images and census
     codes; the sweeps hold O(H·W).  :func:`disparity` refuses (a ``ValueError`` before

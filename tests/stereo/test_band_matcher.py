@@ -58,3 +58,37 @@ def test_host_cpu_defines_follow_the_cpu_flags(require_backend, monkeypatch):
     assert _opencl._host_cpu_defines(be) == {"VPOPCNTQ": 1}
     monkeypatch.setattr(_opencl, "_CPU_FLAGS", frozenset({"avx2", "avx512f"}))
     assert _opencl._host_cpu_defines(be) == {}
+
+
+def test_camera_size_plan_recomputes_costs_in_coarse_bands():
+    # 1000 x 1500 with max_disparity 191 and half-pixel samples (383): the whole image's byte
+    # costs (576 MB) exceed KEEP_BYTES, so the plan recomputes them per coarse band: a multiple
+    # of the band rows, fewer rows than the image, and the matcher's own memory a fraction of
+    # the costs it no longer keeps
+    plan = band_plan.match_plan(1000, 1500, 383, 4)
+    assert not plan.keep and plan.rows < plan.coarse < 1000 and plan.coarse % plan.rows == 0
+    assert plan.nbytes == band_plan.match_memory(1000, 1500, 383, 4, False)
+    assert plan.nbytes < 0.25 * 1000 * 1500 * 384
+    # a smaller image whose costs fit KEEP_BYTES keeps them; a budget below that recomputes
+    small = band_plan.match_plan(400, 1500, 191, 4)
+    assert small.keep and small.coarse == 400 and small.rows < 400
+    tight = band_plan.match_plan(400, 1500, 191, 4, budget=small.nbytes - 1)
+    assert not tight.keep and tight.nbytes < small.nbytes
+
+
+@pytest.mark.parametrize("h,k,paths", [(23, 2, 4), (30, 3, 8), (17, 4, 4), (9, 2, 4)])
+def test_coarse_bands_match_the_specification(require_backend, monkeypatch, h, k, paths):
+    # costs recomputed per coarse band: coarse bands of several fine bands, a last coarse band
+    # shorter than the others (down to one row), the fine checkpoints of each; against the spec
+    be = _cpu_opencl(require_backend)
+    monkeypatch.setattr(band_plan, "WHOLE_BYTES", 0)
+    monkeypatch.setattr(band_plan, "KEEP_BYTES", 0)
+    monkeypatch.setattr(band_plan, "band_rows", lambda h_, paths_, w=1, n=1: min(h_, k))
+    w, n, steps, first = 26, 21, 2, -4
+    plan = band_plan.match_plan(h, w, n, paths)
+    assert not plan.keep and plan.rows == k and plan.coarse < h
+    left, right = _codes(np.random.default_rng(h), h, w, steps, 2, 0.25)
+    got = _match(be, left, right, first, n, steps, 3, paths)
+    want = specs.semi_global_match_reference(left[0], right, first, n, steps, 3, 5, 40, paths, 10)
+    for g, r in zip(got, want):
+        np.testing.assert_array_equal(g, r)
