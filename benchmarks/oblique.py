@@ -33,14 +33,25 @@ What is printed (Markdown):
     third-order allpass (now) and the former second-order one (delays 2.05 to 3.05), with the
     phase error spread of each design over its delay range at 1/8 .. 1/4 cycles/px beside.
 
+(g) with ``--compare REV``: issue 27's oblique rows, ``motion_blur`` on OpenCL as of the git revision
+    REV (extracted by ``git archive`` and imported as a package of its own) and now, in one process,
+    alternated call by call (best of ``--repeat`` rounds), beside ``cv2.filter2D`` with the
+    equivalent 2-D line kernels (benchmarks/motion_refs.py: the box along the segment and the
+    sampled G_u) in the same rounds, per shape of ``--shapes``; the load average before and after.
+
 Usage:  python benchmarks/oblique.py [--size 4096] [--repeat 3] [--backends numpy,warp,opencl]
-        [--skip-speed] [--designs-only]
+        [--skip-speed] [--designs-only] [--compare REV [--shapes 4096x4096,2048x2048,1999x3001]]
 """
 
 from __future__ import annotations
 
 import argparse
+import io
+import os
+import subprocess
 import sys
+import tarfile
+import tempfile
 import time
 from dataclasses import replace
 from functools import lru_cache
@@ -436,6 +447,92 @@ def design_table():
     return lines
 
 
+# --------------------------------------------------------------------------------------
+# (g) before and now, with OpenCV's 2-D line kernels, in one process
+# --------------------------------------------------------------------------------------
+#: issue 27's oblique velocities and their mirror images (vy -> -vy)
+COMPARE_VELOCITIES = [(2, 7), (7, 25), (23, 101), (-2, 7), (-7, 25), (-23, 101)]
+#: issue 27's acceptance (Mpix/s on OpenCL, and the ratio to cv2.filter2D)
+OBLIQUE_TARGET = {"green": 150.0, "box": 100.0}
+OBLIQUE_VS_CV2 = 1.5
+
+
+def gfgpu_at(rev):
+    """gfgpu as of git revision ``rev``, imported as the package ``gfgpu_at_<rev>`` (its modules
+    import one another relatively, so it runs beside the working tree's own)."""
+    root = Path(__file__).resolve().parents[1]
+    sha = subprocess.run(["git", "-C", str(root), "rev-parse", "--short", rev], check=True, capture_output=True,
+                         text=True).stdout.strip()
+    name = f"gfgpu_at_{sha}"
+    tmp = Path(tempfile.mkdtemp(prefix="gfgpu_before_"))
+    archive = subprocess.run(["git", "-C", str(root), "archive", sha, "gfgpu"], check=True,
+                             capture_output=True).stdout
+    with tarfile.open(fileobj=io.BytesIO(archive)) as tar:
+        tar.extractall(tmp, filter="data")
+    (tmp / "gfgpu").rename(tmp / name)
+    sys.path.insert(0, str(tmp))
+    return __import__(name), sha
+
+
+def compare_table(rev, shapes, repeat):
+    """Table (g): Markdown lines."""
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import motion_refs as refs
+    before, sha = gfgpu_at(rev)
+    try:
+        import cv2
+    except ImportError:
+        cv2 = None
+    lines = [f"### (g) issue 27's oblique rows: OpenCL as of {sha} and now, one process, best of {repeat} "
+             f"alternated rounds, float32, Mpix/s", "",
+             f"load average before: `{os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} {os.getloadavg()[2]:.2f}`", "",
+             "| shape | velocity | PSF | before | now | now / before | cv2.filter2D (kernel) | now / cv2 | "
+             "issue 27 target |", "|---|---|---|---:|---:|---:|---:|---:|---|"]
+    for shape in shapes:
+        img = np.random.default_rng(0).random(shape, dtype=np.float32)
+        out = np.empty_like(img)
+        n = img.size / 1e6
+        for v in COMPARE_VELOCITIES:
+            calls = {}
+            for psf in ("green", "box"):
+                calls["before", psf] = lambda v=v, psf=psf, img=img, out=out: before.motion.motion_blur(
+                    img, v, psf=psf, output=out, backend="opencl")
+                calls["now", psf] = lambda v=v, psf=psf, img=img, out=out: motion_blur(
+                    img, v, psf=psf, output=out, backend="opencl")
+            kernels = {}
+            if cv2 is not None:
+                for psf, make in (("green", refs.green_line_kernel), ("box", refs.box_line_kernel)):
+                    ker, anchor = make(v)
+                    kernels[psf] = ker.shape
+                    calls["cv2", psf] = lambda ker=ker, anchor=anchor, img=img, out=out: cv2.filter2D(
+                        img, -1, ker, dst=out, anchor=anchor, borderType=cv2.BORDER_REFLECT)
+            for fn in calls.values():      # builds, plans
+                fn()
+            best = {k: float("inf") for k in calls}
+            for _ in range(repeat):
+                for k, fn in calls.items():
+                    t0 = time.perf_counter()
+                    fn()
+                    best[k] = min(best[k], time.perf_counter() - t0)
+            for psf in ("green", "box"):
+                old, new = n / best["before", psf], n / best["now", psf]
+                if ("cv2", psf) in best:
+                    peer = n / best["cv2", psf]
+                    ker = kernels[psf]
+                    peer_cell, ratio = f"{peer:.0f} ({ker[0]}x{ker[1]})", f"{new / peer:.2f}"
+                    need = max(OBLIQUE_TARGET[psf], OBLIQUE_VS_CV2 * peer)
+                else:
+                    peer_cell, ratio, need = "no OpenCV", "", OBLIQUE_TARGET[psf]
+                verdict = f"{'met' if new >= need else 'NOT met'} (>= {need:.0f})"
+                lines.append(f"| {shape[0]}x{shape[1]} | {v} | {psf} | {old:.0f} | {new:.0f} | {new / old:.2f} | "
+                             f"{peer_cell} | {ratio} | {verdict} |")
+            print(lines[-2] + "\n" + lines[-1], file=sys.stderr, flush=True)
+    load = os.getloadavg()
+    lines += ["", f"load average after: `{load[0]:.2f} {load[1]:.2f} {load[2]:.2f}` (2 cores shared: absolute "
+              f"figures are inflated by it, the ratios less)"]
+    return lines
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, default=4096)
@@ -443,7 +540,14 @@ def main(argv=None):
     ap.add_argument("--backends", default="numpy,warp,opencl")
     ap.add_argument("--skip-speed", action="store_true", help="accuracy tables only")
     ap.add_argument("--designs-only", action="store_true", help="table (f) only")
+    ap.add_argument("--compare", metavar="REV", help="table (g) only: OpenCL as of git revision REV against now")
+    ap.add_argument("--shapes", default="4096x4096,2048x2048,1999x3001",
+                    help="table (g): comma-separated HxW (default: %(default)s)")
     args = ap.parse_args(argv)
+    if args.compare:
+        shapes = [tuple(int(x) for x in s.split("x")) for s in args.shapes.split(",")]
+        print("\n".join(compare_table(args.compare, shapes, args.repeat)), flush=True)
+        return
     backends = []
     for name in args.backends.split(","):
         try:

@@ -27,10 +27,12 @@ filters have exact first moments), so nothing is quantised to whole pixels.  Mea
 
 A backend with ``shear_lines`` (OpenCL) runs each shear as one kernel: the gather by index
 arithmetic on a table of O(H + W) numbers (:func:`gfgpu._core.lines.shear_geometry`) and both
-allpass sections in the same sweep, each started at the steady state of its line's first sample
-(:class:`ShearPlan`); the others run the gather with whole-image index maps and one per-line
-recursion per section.  Both read the same layout and give the same values (the start state's
-influence is below the plan tolerance at the lines read back).  The layout holds about
+allpass sections in the same sweep, each started at the steady state of the first sample its walk
+reads (its line's first, or one up to a vector's spread of shear offsets before it: the CPU
+kernels walk a vector of adjacent columns down the image rows together) (:class:`ShearPlan`);
+the others run the gather with whole-image index maps and one per-line recursion per section.
+Both read the same layout and give the same values (the start state's influence is below the
+plan tolerance at the lines read back).  The layout holds about
 ``(across + |γ| steps + 2 margin) x steps`` samples: a thin strip along a slope can cost far
 more than its pixels, so more than :data:`LAYOUT_PER_PIXEL` samples per pixel (beyond
 :data:`LAYOUT_FLOOR`) are refused before any work (:func:`check_oblique_cost`).

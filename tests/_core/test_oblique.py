@@ -170,6 +170,47 @@ def test_both_layouts_give_the_same_result(backend, rng, angle):
         np.testing.assert_allclose(outs[0], outs[1], rtol=0, atol=1e-5 if dtype == np.float32 else 1e-12)
 
 
+#: shallow and steep directions of both signs, a diagonal-ish one (slope near 1: the widest
+#: spread of shear offsets within a vector of lanes)
+SHEAR_ANGLES = [0.3, -2.9, 1.2, -1.9, 0.76]
+
+
+def _oblique_against_numpy(be, img, angle, mode, transposed):
+    """run_oblique_passes on ``be`` (float32 and, where it has it, float64) against the numpy
+    backend's (the generic gather and per-line recursions), rel. L2 within TOL."""
+    steps, plane = direction_steps(3, [greens.UniformGreen(3.0).line_pass()], angle, None)
+    passes = steps[0][0]
+    numpy_be = gfgpu.get_backend("numpy")
+    ref = numpy_be.empty(img.shape, np.float64)
+    oblique.run_oblique_passes(numpy_be, numpy_be.asarray(img), ref, np.float64, passes, mode, 0.4, angle, plane,
+                               transposed)
+    for dtype in _dtypes(be):
+        dst = be.empty(img.shape, dtype)
+        oblique.run_oblique_passes(be, be.asarray(img.astype(dtype)), dst, dtype, passes, mode, 0.4, angle, plane,
+                                   transposed)
+        err = relerr(be.to_host(dst), ref)
+        assert err <= TOL[dtype], f"{dtype.__name__}: relative error {err:.2e}"
+
+
+@pytest.mark.parametrize("transposed", [None, False, True])
+@pytest.mark.parametrize("mode", MODES)
+@pytest.mark.parametrize("angle", SHEAR_ANGLES)
+def test_every_shear_layout_matches_the_generic_path(backend, angle, mode, transposed):
+    """Every layout and boundary mode (OpenCL: each variant of its fused shear kernels, the CPU
+    ones with partial vectors of steps) equals the numpy backend's gathers and per-line passes."""
+    img = np.random.default_rng(31).standard_normal((2, 45, 53))
+    _oblique_against_numpy(backend, img, angle, mode, transposed)
+
+
+@pytest.mark.parametrize("transposed", [False, True])
+@pytest.mark.parametrize("angle", SHEAR_ANGLES)
+def test_shears_in_gpu_launch_shapes(gpu_shaped, angle, transposed):
+    """The GPU launch shapes (OpenCL: one step per work-item) forced on the CPU devices."""
+    img = np.random.default_rng(32).standard_normal((2, 29, 38))
+    for mode in ("reflect", "constant", "wrap"):
+        _oblique_against_numpy(gpu_shaped, img, angle, mode, transposed)
+
+
 def test_steps_along_one_direction_share_one_shear(backend, rng):
     """run_oblique_steps: the groups in turn between one shear and one shear back."""
     img = _image(rng, (15, 19))

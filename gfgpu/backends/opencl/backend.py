@@ -31,9 +31,6 @@ from . import launch
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
-_SHEAR_BYTES = (64, 32)    # bytes of adjacent columns per vector of the shears (recurse_lines.cl), by layout
-_SHEAR_BAND = 1            # most vectors per work-item of the shears
-_SHEAR_ITEMS = 32          # fewest work-items of the shears, where the columns allow
 _BAND = 64                 # most vectors (cache lines) of adjacent columns per CPU work-item
 _STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU)
 _MIN_BLOCK = 1024          # shortest block of a block-parallel line on a CPU (steps)
@@ -264,6 +261,27 @@ def _interior(index):
     ends = np.concatenate([breaks + 1, [same.size]])
     longest = int(np.argmax(ends - starts))
     return int(same[starts[longest]]), int(same[ends[longest] - 1]) + 1, shift
+
+
+def shear_launch(geometry, itemsize, kind):
+    """``(lanes, variant)`` of the shears of a sheared layout (recurse_lines.cl, ``shear_in`` and
+    ``shear_out``): adjacent steps per work-item and the kernels' ``SHEAR_TILE``.
+
+    A CPU work-item runs one cache line of adjacent steps (``64 / itemsize`` lanes) where every
+    access can be a whole vector: steep directions in the layout ``(steps, lines)`` (the lanes are
+    rows of both arrays: tiles transposed in registers, variant 1) and shallow ones in ``(lines,
+    steps)`` (a row of either array holds the lanes: variant 2), the layouts
+    :func:`gfgpu._core.oblique.run_oblique_lines` takes by default.  Other layouts, and GPU
+    launches (adjacent work-items on adjacent steps), run one step per work-item (variant 0).
+    """
+    g = geometry
+    lanes = _CACHE_LINE // itemsize
+    if kind == "cpu":
+        if g.transposed and g.stride == 1 and g.lines % lanes == 0:
+            return lanes, 1
+        if not g.transposed and g.tstride == 1:
+            return lanes, 2
+    return 1, 0
 
 
 class RecurseShape(NamedTuple):
@@ -658,12 +676,6 @@ class OpenCLBackend(Backend):
         if src.size == 0 or dst.size == 0:
             return dst
         g = plan.geometry
-        # CPU: adjacent columns in vector lanes; where they are rows of the layout (transposed),
-        # each lane is a stream of its own: fewer of them (16 rows 2**k floats apart share a set
-        # of the L1 cache)
-        lanes = (_SHEAR_BYTES[g.transposed] // dtype.itemsize) if self.kind == "cpu" else 1
-        coef, base, shift, start = self._plan_buffers(plan.grouped(lanes), dtype)   # uploaded once
-        g = plan.geometry
         qs, ts = (1, g.lines) if g.transposed else (g.steps, 1)
         image_plane, layout_plane = int(np.prod(plan.plane)), g.lines * g.steps
         image, layout = (src, dst) if forward else (dst, src)
@@ -671,26 +683,22 @@ class OpenCLBackend(Backend):
         if image.size != batch * image_plane or layout.size != batch * layout_plane:
             raise ValueError(f"shear_lines: arrays of {image.size} and {layout.size} samples do not hold whole "
                              f"planes of {plan.plane} and layouts of {g.lines * g.steps}")
-        # a band of nv vectors per work-item (CPU: whole cache lines of a row per step), enough
-        # work-items to share among the cores
-        groups = -(-g.steps // lanes)
-        nv = max(1, min(_SHEAR_BAND, groups * batch // _SHEAR_ITEMS)) if self.kind == "cpu" else 1
+        lanes, variant = shear_launch(g, dtype.itemsize, self.kind)
+        coef, base, shift, start = self._plan_buffers(plan.grouped(lanes), dtype)   # uploaded once
         item = dtype.itemsize
-        defines = dict(SHEAR_LANES=lanes, MAXV=_SHEAR_BAND)
+        defines = dict(SHEAR_LANES=lanes, SHEAR_TILE=variant, SHEAR_INT="int" if item == 4 else "long")
+        head = (src.base_data, np.int64(src.offset // item), dst.base_data, np.int64(dst.offset // item), coef)
+        strides = (np.int64(qs), np.int64(ts), np.int64(g.stride), np.int64(g.tstride))
         if forward:
             knl = launch.kernel(self, __package__, "recurse_lines.cl", "shear_in", dtype, **defines)
-            args = (src.base_data, np.int64(src.offset // item), dst.base_data, np.int64(dst.offset // item), coef,
-                    base, shift, np.int32(g.lines), np.int32(g.steps), np.int64(qs), np.int64(ts),
-                    np.int64(g.tstride), np.int64(image_plane), np.int64(layout_plane), dtype.type(cval),
-                    np.int32(nv))
+            args = head + (base, shift, np.int32(g.lines), np.int32(g.steps)) + strides + (
+                np.int64(image_plane), np.int64(layout_plane), dtype.type(cval))
         else:
             knl = launch.kernel(self, __package__, "recurse_lines.cl", "shear_out", dtype, **defines)
-            args = (src.base_data, np.int64(src.offset // item), dst.base_data, np.int64(dst.offset // item), coef,
-                    start, np.int32(g.lines), np.int32(g.steps), np.int32(g.across), np.int64(qs), np.int64(ts),
-                    np.int64(g.stride), np.int64(g.tstride), np.int64(layout_plane), np.int64(image_plane),
-                    np.int32(nv))
+            args = head + (start, np.int32(g.lines), np.int32(g.steps), np.int32(g.across)) + strides + (
+                np.int64(layout_plane), np.int64(image_plane))
         group = 1 if self.kind == "cpu" else launch.group_size(self)
-        items = -(-groups // nv)
+        items = -(-g.steps // lanes)
         launch.launch(self, knl, (-(-items // group) * group, batch), (group, 1), [src], [dst], args)
         return dst
 

@@ -27,9 +27,22 @@
 #ifndef REAL
 #define REAL float
 #endif
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+#define INLINE static inline __attribute__((always_inline))
+
+/* THE section step of this file (the per-line primitive's and the shears'): with F = fr + i fi,
+ * output y = Re F + tap v, then F <- lam F + kap v; T the type of the lines' vector (REAL or a
+ * vector of lanes, one line each) */
+#define SECTION_STEP(T, y, fr, fi, lr, li, kr, ki, tap, v) do {                                     \
+        const T v_ = (v), r_ = (fr);                                                                 \
+        (y) = r_ + (tap) * v_;                                                                       \
+        (fr) = (lr) * r_ - (li) * (fi) + (kr) * v_;                                                  \
+        (fi) = (lr) * (fi) + (li) * r_ + (ki) * v_;                                                  \
+    } while (0)
 
 /* line i (of batch b) from s to d: the whole recursion of the header */
-static inline __attribute__((always_inline)) void one_line(
+INLINE void one_line(
     __global const REAL *src, __global REAL *dst, const long src_off, const long dst_off,
     __global const REAL *lam, __global const REAL *kap, __global const REAL *tap, __global const int *reverse,
     __global const REAL *omega, __global const REAL *omega_c, const int L, const int n, const int i,
@@ -54,10 +67,9 @@ static inline __attribute__((always_inline)) void one_line(
     for (int k = 0; k < n; ++k) {
         const long x = first + k * stride;
         const REAL v = s[x];                 /* read before written: dst may alias src */
-        d[x] = fr + t * v;
-        const REAL nr = lr * fr - li * fi + kr * v;
-        fi = lr * fi + li * fr + ki * v;
-        fr = nr;
+        REAL y;
+        SECTION_STEP(REAL, y, fr, fi, lr, li, kr, ki, t, v);
+        d[x] = y;
     }
 }
 
@@ -80,8 +92,6 @@ __kernel void recurse_lines(__global const REAL *src, __global REAL *dst, const 
 #ifndef VECS
 #define VECS 2       /* vectors per work-item: 2 x 32 bytes, a cache line of adjacent columns */
 #endif
-#define CAT_(a, b) a##b
-#define CAT(a, b) CAT_(a, b)
 typedef CAT(REAL, LANES) VT;
 /* lanes p[0], p[ls], ... (per-lane coefficients, rows' samples); PoCL calls vloadn and
  * vstoren out of line: plain element accesses, or (clang) a vector of the element's alignment */
@@ -112,7 +122,7 @@ typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
 
 /* nv (1 or VECS, a constant after inlining) vectors of LANES lines from line i0, all of
  * direction rev: independent chains, so the CPU overlaps their multiply-adds */
-static inline __attribute__((always_inline)) void lanes_run(
+INLINE void lanes_run(
     __global const REAL *src, __global REAL *dst, const long src_off, const long dst_off,
     __global const REAL *lam, __global const REAL *kap, __global const REAL *tap,
     __global const REAL *omega, __global const REAL *omega_c, const int L, const int n, const int i0,
@@ -151,17 +161,15 @@ static inline __attribute__((always_inline)) void lanes_run(
 #pragma unroll
         for (int q = 0; q < nv; ++q) {
             const VT v = LOADV(s + q * vec + x);       /* read before written: dst may alias src */
-            STOREV(fr[q] + t[q] * v, d + q * vec + x);
-            const VT nr = lr[q] * fr[q] - li[q] * fi[q] + kr[q] * v;
-            fi[q] = lr[q] * fi[q] + li[q] * fr[q] + ki[q] * v;
-            fr[q] = nr;
+            VT y;
+            SECTION_STEP(VT, y, fr[q], fi[q], lr[q], li[q], kr[q], ki[q], t[q], v);
+            STOREV(y, d + q * vec + x);
         }
     }
 }
 
 /* whether lines i0 .. i0 + count - 1 exist and share reverse[i0] */
-static inline __attribute__((always_inline)) int one_direction(__global const int *reverse, const int i0,
-                                                               const int count, const int lines)
+INLINE int one_direction(__global const int *reverse, const int i0, const int count, const int lines)
 {
     int same = i0 + count <= lines;
     for (int l = 1; l < count && same; ++l)
@@ -199,179 +207,400 @@ __kernel void recurse_lines_lanes(__global const REAL *src, __global REAL *dst, 
 }
 #endif
 
+
 /*
  * The shears of an oblique pass (spec: gfgpu/_core/oblique.py, run_oblique_lines), each one kernel:
  *
  *   shear_in:  layout[q, t] = A_t(column t of the image read at base[q + shift[t]])   (anticausal)
- *   shear_out: image[q + start[t], t] = A_t(layout column t)                           (causal)
+ *   shear_out: image[m, t] = A_t(layout column t)[m - start[t]]                        (causal)
  *
- * A_t the cascade of the column's two allpass sections, one complex pair (lam, kap, tap) and one
- * real pole (p, k, tapb), both started at the steady state of the line's first sample
- * ("nearest": the layout's margin makes the start irrelevant at the lines read back).  The gather
- * is index arithmetic on a table of O(H + W) numbers: no whole-image index array and no
- * intermediate layout between the gather and the sections.  Layout sample (q, t) at
- * q * qs + t * ts; image pixel (minor c, step t) at c * stride + t * tstride (base holds
- * c * stride, -1 for cval).
+ * Column t of the layout is a line of the per-line primitive above with two cascaded sections
+ * (SECTION_STEP): A_t, one complex pair (lam, kap, tap) and one real pole (p, k, tapb: a section
+ * whose imaginary parts are 0), started at the steady state of the first sample its walk reads
+ * ("nearest": the layout's margin makes the start irrelevant at the lines read back).  The
+ * gather is index arithmetic on a table of O(H + W) numbers: base[j] is the offset of minor
+ * coordinate first + min(r) + j (extended by the mode; -1 for cval).  Layout sample (q, t) at
+ * q * qs + t * ts; image pixel (minor m, step t) at m * stride + t * tstride.
  *
- * A work-item runs nv vectors of SHEAR_LANES adjacent columns (a band of nv * SHEAR_LANES
- * columns: on a CPU each step of the walk down the columns touches whole cache lines of one row),
- * one vector after the other at each step; the states wait in private arrays.  Coefficients come
- * grouped per vector, coef[g][j][lane] (g = t / SHEAR_LANES, j < NCOEF): lam re, im, kap re, im,
- * tap, g re, im (= kap / (1 - lam)), p, k, tapb, gb (= k / (1 - p)); columns past the last repeat
- * it (computed, never written).
+ * SHEAR_TILE 0 (SHEAR_LANES 1: GPU launch shapes, and layouts the CPU kernels do not take): one
+ * step t per work-item, any strides.  CPU kernels: SHEAR_LANES adjacent steps per work-item (one
+ * cache line), every access a whole vector:
+ *   SHEAR_TILE 1, steep directions in the layout (steps, lines) (stride = qs = 1): each lane's
+ *     samples are consecutive in its own row of both arrays; tiles of SHEAR_LANES x SHEAR_LANES
+ *     are loaded one row vector per lane, transposed in registers (a vector per line position),
+ *     run, transposed back and stored (each lane streams along its rows, as the row passes do).
+ *   SHEAR_TILE 2, shallow directions in the layout (lines, steps) (tstride = ts = 1): a row of
+ *     either array holds the lanes; the walk goes down both arrays one row at a time.  The lanes
+ *     enter their lines at rows up to `spread` apart (about SHEAR_LANES x the slope): the last
+ *     row vectors wait in a ring in private memory and each lane takes its own (a blend of
+ *     spread + 1 vectors).  shear_in's lanes all start at the walk's first image row.
+ * Coefficients come grouped per vector, coef[g][j][lane] (g = t / SHEAR_LANES, j < NCOEF): lam
+ * re, im, kap re, im, tap, g re, im (= kap / (1 - lam)), p, k, tapb, gb (= k / (1 - p)); lanes past
+ * the last step repeat it (computed, never written).  -D SHEAR_INT=int|long: the lane masks'
+ * element type (REAL's width).
  */
 #ifndef SHEAR_LANES
 #define SHEAR_LANES 1
 #endif
-#ifndef MAXV
-#define MAXV 16
+#ifndef SHEAR_TILE
+#define SHEAR_TILE 0
+#endif
+#ifndef SHEAR_INT
+#define SHEAR_INT int
 #endif
 #define NCOEF 11
-#define CAT2_(a, b) a##b
-#define CAT2(a, b) CAT2_(a, b)
-
 #define SMIN(a, b) ((a) < (b) ? (a) : (b))     /* PoCL calls min() out of line */
+#define SMAX(a, b) ((a) > (b) ? (a) : (b))
+
 #if SHEAR_LANES == 1
 typedef REAL SVT;
-#define CVEC(p) (*(p))
-#elif defined(__clang__)
-typedef CAT2(REAL, SHEAR_LANES) SVT;
-/* a vector of the element's alignment: rows of the layout start anywhere */
-typedef REAL SVTU __attribute__((ext_vector_type(SHEAR_LANES), aligned(sizeof(REAL))));
-#define CVEC(p) ((SVT)(*(__global const SVTU *)(p)))
+#define SLOAD(p) (*(p))
+#define SSTORE(v, p) (*(p) = (v))
+#define SLANE(v, l) (v)
 #else
-typedef CAT2(REAL, SHEAR_LANES) SVT;
-#define CVEC(p) CAT2(vload, SHEAR_LANES)(0, (p))
+/* vectors of the element's alignment (rows start anywhere); lanes by subscript (clang) */
+typedef CAT(REAL, SHEAR_LANES) SVT;
+typedef REAL SVTU __attribute__((ext_vector_type(SHEAR_LANES), aligned(sizeof(REAL))));
+#define SLOAD(p) ((SVT)(*(__global const SVTU *)(p)))
+#define SSTORE(v, p) (*(__global SVTU *)(p) = (SVTU)(v))
+#define SLANE(v, l) ((v)[l])
 #endif
-typedef union { SVT v; REAL s[SHEAR_LANES]; } shear_lanes;
 
-#define COEFS(g)                                                                                  \
-    __global const REAL *c_ = coef + (long)(g) * (NCOEF * SHEAR_LANES);                          \
-    const SVT lr = CVEC(c_), li = CVEC(c_ + SHEAR_LANES), kr = CVEC(c_ + 2 * SHEAR_LANES),        \
-        ki = CVEC(c_ + 3 * SHEAR_LANES), ta = CVEC(c_ + 4 * SHEAR_LANES),                          \
-        pp = CVEC(c_ + 7 * SHEAR_LANES), kb = CVEC(c_ + 8 * SHEAR_LANES), tb = CVEC(c_ + 9 * SHEAR_LANES)
+typedef struct {
+    SVT lr, li, kr, ki, ta, pp, kb, tb, gr, gi, gb;
+} shear_coef;
 
-#define START(g, v0, k) do {                                                                       \
-        __global const REAL *c0_ = coef + (long)(g) * (NCOEF * SHEAR_LANES);                       \
-        far[k] = CVEC(c0_ + 5 * SHEAR_LANES) * (v0);                                               \
-        fai[k] = CVEC(c0_ + 6 * SHEAR_LANES) * (v0);                                               \
-        fb[k] = CVEC(c0_ + 10 * SHEAR_LANES) * (v0);                                               \
-    } while (0)
-
-/* one step of the cascade on every lane of vector k: input v, output y */
-#define CASCADE(k, v, y) do {                                                                      \
-        const SVT fr_ = far[k], fi_ = fai[k], fb_ = fb[k];                                         \
-        const SVT ya_ = fr_ + ta * (v);                                                            \
-        far[k] = lr * fr_ - li * fi_ + kr * (v);                                                   \
-        fai[k] = lr * fi_ + li * fr_ + ki * (v);                                                   \
-        (y) = fb_ + tb * ya_;                                                                      \
-        fb[k] = pp * fb_ + kb * ya_;                                                               \
-    } while (0)
-
-/* lane l of vector k of this work-item: column t (clamped to the last) */
-#define COLUMN(k, l) SMIN(t0 + (k) * SHEAR_LANES + (l), steps - 1)
-
-static inline __attribute__((always_inline)) SVT read_in(
-    __global const REAL *s, __global const int *base, __global const int *shift, const int q, const int t0,
-    const int k, const int steps, const long tstride, const REAL cval)
+/* the coefficients of vector g (registers for the whole walk) */
+INLINE shear_coef shear_coefs(__global const REAL *coef, const int g)
 {
-    shear_lanes v;
+    __global const REAL *c = coef + (long)g * (NCOEF * SHEAR_LANES);
+    shear_coef k;
+    k.lr = SLOAD(c);
+    k.li = SLOAD(c + SHEAR_LANES);
+    k.kr = SLOAD(c + 2 * SHEAR_LANES);
+    k.ki = SLOAD(c + 3 * SHEAR_LANES);
+    k.ta = SLOAD(c + 4 * SHEAR_LANES);
+    k.gr = SLOAD(c + 5 * SHEAR_LANES);
+    k.gi = SLOAD(c + 6 * SHEAR_LANES);
+    k.pp = SLOAD(c + 7 * SHEAR_LANES);
+    k.kb = SLOAD(c + 8 * SHEAR_LANES);
+    k.tb = SLOAD(c + 9 * SHEAR_LANES);
+    k.gb = SLOAD(c + 10 * SHEAR_LANES);
+    return k;
+}
+
+/* the cascade's state, started at the steady state of input v0 */
+typedef struct {
+    SVT ar, ai, br, bi;
+} shear_state;
+
+INLINE shear_state shear_start(const shear_coef *c, const SVT v0)
+{
+    shear_state f;
+    f.ar = c->gr * v0;
+    f.ai = c->gi * v0;
+    f.br = c->gb * v0;
+    f.bi = (SVT)(0);
+    return f;
+}
+
+/* one step of A_t on every lane: input v, returns the output */
+INLINE SVT shear_step(shear_state *f, const shear_coef *c, const SVT v)
+{
+    const SVT zero = (SVT)(0);
+    SVT ya, y;
+    SECTION_STEP(SVT, ya, f->ar, f->ai, c->lr, c->li, c->kr, c->ki, c->ta, v);
+    SECTION_STEP(SVT, y, f->br, f->bi, c->pp, zero, c->kb, zero, c->tb, ya);
+    return y;
+}
+
+/* the lanes of a vector at p (lane l at p + l * st; valid real lanes, the rest repeat the last) */
+INLINE SVT load_lanes(__global const REAL *p, const int valid, const long st)
+{
+#if SHEAR_LANES == 1
+    return *p;
+#else
+    if (valid == SHEAR_LANES && st == 1)
+        return SLOAD(p);
+    SVT v;
+#pragma unroll
+    for (int l = 0; l < SHEAR_LANES; ++l)
+        SLANE(v, l) = p[SMIN(l, valid - 1) * st];
+    return v;
+#endif
+}
+
+INLINE void store_lanes(__global REAL *p, const SVT v, const int valid, const long st)
+{
+#if SHEAR_LANES == 1
+    *p = v;
+#else
+    if (valid == SHEAR_LANES && st == 1) {
+        SSTORE(v, p);
+        return;
+    }
+    for (int l = 0; l < valid; ++l)
+        p[l * st] = SLANE(v, l);
+#endif
+}
+
+/* what both shears start with: work-item (g, b) runs steps t0 .. t0 + valid - 1 of plane b, with
+ * the coefficients c of their vector */
+#define SHEAR_PROLOGUE                                                                             \
+    const int t0 = (int)get_global_id(0) * SHEAR_LANES;                                            \
+    const long b = get_global_id(1);                                                               \
+    if (t0 >= steps)                                                                               \
+        return;                                                                                    \
+    const int valid = SMIN(SHEAR_LANES, steps - t0);                                               \
+    const shear_coef c = shear_coefs(coef, t0 / SHEAR_LANES);                                      \
+    __global const REAL *s = src + src_off + b * src_plane;                                        \
+    __global REAL *d = dst + dst_off + b * dst_plane
+
+#define SHEAR_IN_ARGS                                                                              \
+    __global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,          \
+    __global const REAL *coef, __global const int *base, __global const int *shift, const int lines, \
+    const int steps, const long qs, const long ts, const long stride, const long tstride,          \
+    const long src_plane, const long dst_plane, const REAL cval
+#define SHEAR_OUT_ARGS                                                                             \
+    __global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,          \
+    __global const REAL *coef, __global const int *start, const int lines, const int steps,        \
+    const int across, const long qs, const long ts, const long stride, const long tstride,         \
+    const long src_plane, const long dst_plane
+
+#if SHEAR_TILE == 0
+__kernel void shear_in(SHEAR_IN_ARGS)
+{
+    SHEAR_PROLOGUE;
+    const int sh = shift[t0];
+    __global const REAL *p = s + (long)t0 * tstride;
+    __global REAL *out = d + (long)t0 * ts;
+    int row = base[lines - 1 + sh];
+    shear_state f = shear_start(&c, row >= 0 ? p[row] : cval);
+    for (int q = lines - 1; q >= 0; --q) {
+        row = base[q + sh];
+        out[q * qs] = shear_step(&f, &c, row >= 0 ? p[row] : cval);
+    }
+}
+
+__kernel void shear_out(SHEAR_OUT_ARGS)
+{
+    SHEAR_PROLOGUE;
+    const int st = start[t0];
+    __global const REAL *p = s + (long)t0 * ts;
+    __global REAL *out = d + (long)t0 * tstride;
+    /* image rows from the line's first sample to the last row (the lines beyond are not read) */
+    shear_state f = shear_start(&c, p[0]);
+    for (int m = st; m < across; ++m) {
+        const REAL y = shear_step(&f, &c, p[(m - st) * qs]);
+        if (m >= 0)
+            out[m * stride] = y;
+    }
+}
+
+#elif SHEAR_TILE == 2
+/* ---- shallow directions: rows of lanes, a ring of the last SHEAR_RING row vectors ------------ */
+#define SHEAR_RING 32      /* > spread: at most SHEAR_LANES for a slope of at most 1 */
+typedef CAT(SHEAR_INT, SHEAR_LANES) SVI;
+
+/* lane l: ring[(i + ds[l]) % SHEAR_RING] (ds[l] in 0 .. spread) */
+INLINE SVT from_ring(const SVT *ring, const int i, const SVI ds, const int spread)
+{
+    SVT v = ring[i & (SHEAR_RING - 1)];
+    for (int j = 1; j <= spread; ++j)
+        v = ds == (SVI)(j) ? ring[(i + j) & (SHEAR_RING - 1)] : v;
+    return v;
+}
+
+/* the lanes' table values less their least (returned in *least), and their spread */
+INLINE SVI lanes_of(__global const int *table, const int t0, const int steps, int *least, int *spread)
+{
+    SVI v;
+    int lo = table[t0], hi = lo;
 #pragma unroll
     for (int l = 0; l < SHEAR_LANES; ++l) {
-        const int t = COLUMN(k, l);
-        const int row = base[q + shift[t]];
-        v.s[l] = row >= 0 ? s[row + t * tstride] : cval;
+        const int x = table[SMIN(t0 + l, steps - 1)];
+        SLANE(v, l) = x;
+        lo = SMIN(lo, x);
+        hi = SMAX(hi, x);
     }
-    return v.v;
+    *least = lo;
+    *spread = hi - lo;
+    return v - (SVI)(lo);
 }
 
-__kernel void shear_in(__global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,
-                       __global const REAL *coef, __global const int *base, __global const int *shift,
-                       const int lines, const int steps, const long qs, const long ts, const long tstride,
-                       const long src_plane, const long dst_plane, const REAL cval, const int nv)
+__kernel void shear_in(SHEAR_IN_ARGS)
 {
-    const int t0 = get_global_id(0) * (nv * SHEAR_LANES);
-    const long b = get_global_id(1);
-    if (t0 >= steps)
-        return;
-    const int g0 = t0 / SHEAR_LANES;
-    const int vecs = SMIN(nv, (steps - t0 + SHEAR_LANES - 1) / SHEAR_LANES);
-    __global const REAL *s = src + src_off + b * src_plane;
-    __global REAL *d = dst + dst_off + b * dst_plane;
-    SVT far[MAXV], fai[MAXV], fb[MAXV];
-    for (int k = 0; k < vecs; ++k) {
-        const SVT v0 = read_in(s, base, shift, lines - 1, t0, k, steps, tstride, cval);
-        START(g0 + k, v0, k);
+    SHEAR_PROLOGUE;
+    int lo, spread;
+    const SVI ds = lanes_of(shift, t0, steps, &lo, &spread);
+    /* base rows j down from the last line end of the lanes (lane l: line j - shift[t]); line q is
+     * whole at j = q + lo, lane l's value ds[l] rows back */
+    const int top = lines - 1 + lo + spread;
+    __global const REAL *p = s + t0;
+    SVT ring[SHEAR_RING];
+    int off = base[top];
+    shear_state f = shear_start(&c, off >= 0 ? load_lanes(p + off, valid, 1) : (SVT)(cval));
+    for (int j = top; j >= lo; --j) {
+        off = base[j];
+        const SVT x = off >= 0 ? load_lanes(p + off, valid, 1) : (SVT)(cval);
+        ring[j & (SHEAR_RING - 1)] = shear_step(&f, &c, x);
+        const int q = j - lo;
+        if (q < lines)
+            store_lanes(d + q * qs + t0, from_ring(ring, j, ds, spread), valid, 1);
     }
-    for (int q = lines - 1; q >= 0; --q) {
-        for (int k = 0; k < vecs; ++k) {
-            COEFS(g0 + k);
-            const SVT v = read_in(s, base, shift, q, t0, k, steps, tstride, cval);
-            shear_lanes y;
-            CASCADE(k, v, y.v);
-            const int tk = t0 + k * SHEAR_LANES;
-            __global REAL *out = d + q * qs + (long)tk * ts;
-            if (ts == 1 && tk + SHEAR_LANES <= steps) {
+}
+
+__kernel void shear_out(SHEAR_OUT_ARGS)
+{
+    SHEAR_PROLOGUE;
+    int lo, spread;
+    const SVI ds = lanes_of(start, t0, steps, &lo, &spread);
+    /* image rows m from the least line start: line m - lo is read at row m, lane l's line
+     * m - start[t] ds[l] rows back; every lane starts at the steady state of its line's first
+     * sample, with which the ring starts full */
+    __global const REAL *p = s + t0;
+    const SVT x0 = load_lanes(p, valid, 1);
+    shear_state f = shear_start(&c, x0);
+    SVT ring[SHEAR_RING];
 #pragma unroll
-                for (int l = 0; l < SHEAR_LANES; ++l)
-                    out[l] = y.s[l];
-            } else {
+    for (int i = 0; i < SHEAR_RING; ++i)
+        ring[i] = x0;
+    for (int m = lo; m < across; ++m) {
+        ring[(-m) & (SHEAR_RING - 1)] = load_lanes(p + (m - lo) * qs, valid, 1);
+        const SVT y = shear_step(&f, &c, from_ring(ring, -m, ds, spread));
+        if (m >= 0)
+            store_lanes(d + m * stride + t0, y, valid, 1);
+    }
+}
+
+#elif SHEAR_TILE == 1
+/* ---- steep directions: tiles transposed in registers ----------------------------------------- */
+#if SHEAR_LANES == 4
+#define LOG2_SL 2
+#define ZIPLO(a, b) ((SVT)((a).s0, (b).s0, (a).s1, (b).s1))
+#define ZIPHI(a, b) ((SVT)((a).s2, (b).s2, (a).s3, (b).s3))
+#elif SHEAR_LANES == 8
+#define LOG2_SL 3
+#define ZIPLO(a, b) ((SVT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3))
+#define ZIPHI(a, b) ((SVT)((a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
+#elif SHEAR_LANES == 16
+#define LOG2_SL 4
+#define ZIPLO(a, b) ((SVT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3, \
+                           (a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
+#define ZIPHI(a, b) ((SVT)((a).s8, (b).s8, (a).s9, (b).s9, (a).sa, (b).sa, (a).sb, (b).sb, \
+                           (a).sc, (b).sc, (a).sd, (b).sd, (a).se, (b).se, (a).sf, (b).sf))
+#else
+#error "SHEAR_TILE needs SHEAR_LANES 4, 8 or 16"
+#endif
+
+/* in-place transpose of the square tile whose rows are w[0..SHEAR_LANES-1]: each round rotates
+ * the bits [row | column] of every element's index left by one; LOG2_SL rounds swap them */
+INLINE void transpose_tile(SVT *w)
+{
 #pragma unroll
-                for (int l = 0; l < SHEAR_LANES; ++l)
-                    if (tk + l < steps)
-                        out[l * ts] = y.s[l];
-            }
+    for (int r = 0; r < LOG2_SL; ++r) {
+        SVT u[SHEAR_LANES];
+#pragma unroll
+        for (int i = 0; i < SHEAR_LANES / 2; ++i) {
+            u[2 * i] = ZIPLO(w[i], w[i + SHEAR_LANES / 2]);
+            u[2 * i + 1] = ZIPHI(w[i], w[i + SHEAR_LANES / 2]);
         }
+#pragma unroll
+        for (int i = 0; i < SHEAR_LANES; ++i)
+            w[i] = u[i];
     }
 }
 
-__kernel void shear_out(__global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,
-                        __global const REAL *coef, __global const int *start, const int lines, const int steps,
-                        const int across, const long qs, const long ts, const long stride, const long tstride,
-                        const long src_plane, const long dst_plane, const int nv)
+/* SHEAR_LANES samples of minor coordinates base[k .. k + SHEAR_LANES - 1] of the row at p: one
+ * vector where they are consecutive pixels (the image's interior), else one by one */
+INLINE SVT run_of(__global const REAL *p, __global const int *base, const int k, const REAL cval)
 {
-    const int t0 = get_global_id(0) * (nv * SHEAR_LANES);
-    const long b = get_global_id(1);
-    if (t0 >= steps)
-        return;
-    const int g0 = t0 / SHEAR_LANES;
-    const int vecs = SMIN(nv, (steps - t0 + SHEAR_LANES - 1) / SHEAR_LANES);
-    __global const REAL *s = src + src_off + b * src_plane;
-    __global REAL *d = dst + dst_off + b * dst_plane;
-    /* no pixel lies beyond line across - the least start: those lines are not read */
-    int lo = start[t0];
-    for (int t = t0 + 1; t < SMIN(t0 + vecs * SHEAR_LANES, steps); ++t)
-        lo = SMIN(lo, start[t]);
-    const int last = SMIN(lines, across - lo);
-    SVT far[MAXV], fai[MAXV], fb[MAXV];
-    for (int k = 0; k < vecs; ++k) {
-        shear_lanes v0;
+    const int a = base[k];
+    /* an extension never steps up by more than 1: a + SHEAR_LANES - 1 at the end means consecutive */
+    if (a >= 0 && base[k + SHEAR_LANES - 1] == a + SHEAR_LANES - 1)
+        return SLOAD(p + a);
+    SVT v;
+#pragma unroll
+    for (int i = 0; i < SHEAR_LANES; ++i) {
+        const int o = base[k + i];
+        SLANE(v, i) = o >= 0 ? p[o] : cval;
+    }
+    return v;
+}
+
+/* lines a multiple of SHEAR_LANES (the host checks) */
+__kernel void shear_in(SHEAR_IN_ARGS)
+{
+    SHEAR_PROLOGUE;
+    int sh[SHEAR_LANES];
+#pragma unroll
+    for (int l = 0; l < SHEAR_LANES; ++l)
+        sh[l] = shift[SMIN(t0 + l, steps - 1)];
+    shear_state f;
+    for (int q0 = lines - SHEAR_LANES; q0 >= 0; q0 -= SHEAR_LANES) {
+        SVT w[SHEAR_LANES];
 #pragma unroll
         for (int l = 0; l < SHEAR_LANES; ++l)
-            v0.s[l] = s[(long)COLUMN(k, l) * ts];
-        START(g0 + k, v0.v, k);
+            w[l] = run_of(s + (long)SMIN(t0 + l, steps - 1) * tstride, base, q0 + sh[l], cval);
+        transpose_tile(w);                     /* w[i]: line q0 + i of every lane */
+        if (q0 == lines - SHEAR_LANES)
+            f = shear_start(&c, w[SHEAR_LANES - 1]);
+#pragma unroll
+        for (int i = SHEAR_LANES - 1; i >= 0; --i)
+            w[i] = shear_step(&f, &c, w[i]);
+        transpose_tile(w);
+        for (int l = 0; l < valid; ++l)
+            SSTORE(w[l], d + (long)(t0 + l) * ts + q0);
     }
-    for (int q = 0; q < last; ++q) {
-        for (int k = 0; k < vecs; ++k) {
-            COEFS(g0 + k);
-            const int tk = t0 + k * SHEAR_LANES;
-            shear_lanes v;
-            if (ts == 1 && tk + SHEAR_LANES <= steps) {
-                v.v = CVEC(s + q * qs + tk);
-            } else {
+}
+
+__kernel void shear_out(SHEAR_OUT_ARGS)
+{
+    SHEAR_PROLOGUE;
+    int st[SHEAR_LANES];
+    int lo = start[t0];
 #pragma unroll
-                for (int l = 0; l < SHEAR_LANES; ++l)
-                    v.s[l] = s[q * qs + (long)COLUMN(k, l) * ts];
+    for (int l = 0; l < SHEAR_LANES; ++l) {
+        st[l] = start[SMIN(t0 + l, steps - 1)];
+        lo = SMIN(lo, st[l]);
+    }
+    /* tiles of image columns m0 .. m0 + SHEAR_LANES - 1 ending at across, the first at or before
+     * the least start (each lane starts at its line's first sample) */
+    const int tiles = (across - lo + SHEAR_LANES - 1) / SHEAR_LANES;
+    SVT v0;
+#pragma unroll
+    for (int l = 0; l < SHEAR_LANES; ++l)
+        SLANE(v0, l) = s[(long)SMIN(t0 + l, steps - 1) * ts];
+    shear_state f = shear_start(&c, v0);
+    for (int m0 = across - tiles * SHEAR_LANES; m0 < across; m0 += SHEAR_LANES) {
+        SVT w[SHEAR_LANES];
+#pragma unroll
+        for (int l = 0; l < SHEAR_LANES; ++l) {
+            __global const REAL *row = s + (long)SMIN(t0 + l, steps - 1) * ts;
+            const int q = m0 - st[l];
+            if (q >= 0) {
+                w[l] = SLOAD(row + q);
+            } else {       /* before the line's first sample: that sample (its steady state) */
+#pragma unroll
+                for (int i = 0; i < SHEAR_LANES; ++i)
+                    SLANE(w[l], i) = row[SMAX(q + i, 0)];
             }
-            shear_lanes y;
-            CASCADE(k, v.v, y.v);
+        }
+        transpose_tile(w);                     /* w[i]: image column m0 + i of every lane */
 #pragma unroll
-            for (int l = 0; l < SHEAR_LANES; ++l) {
-                const int t = tk + l;
-                const int m = q + start[SMIN(t, steps - 1)];
-                if (t < steps && m >= 0 && m < across)
-                    d[m * stride + t * tstride] = y.s[l];
+        for (int i = 0; i < SHEAR_LANES; ++i)
+            w[i] = shear_step(&f, &c, w[i]);
+        transpose_tile(w);
+        for (int l = 0; l < valid; ++l) {
+            __global REAL *row = d + (long)(t0 + l) * tstride;
+            if (m0 >= 0) {
+                SSTORE(w[l], row + m0);
+            } else {
+                for (int i = -m0; i < SHEAR_LANES; ++i)
+                    row[m0 + i] = SLANE(w[l], i);
             }
         }
     }
 }
+
+#endif
