@@ -4,44 +4,58 @@ The pixel at ``x`` gathers the image along the straight path ``x - t v(x)``, ``t
 shutter, weighted by the point-spread function in ``t`` (:data:`gfgpu.motion.spec.PSF_CODES`):
 the box (uniform exposure, ``t`` in ``[0, 1]``, or ``[-1/2, 1/2]`` centred) or the chapter's
 G_u along the path (``u = |v|``: mean exactly one velocity; centred: the autocorrelation of
-G_{|v|/2}).  The image is the cubic B-spline through its samples (:mod:`gfgpu.motion.spline`);
-the support is cut into ``n`` equal cells, each integrated by 3-point Gauss-Legendre quadrature
-(exact for the spline along an axis wherever a cell holds no knot) with the cell's exact PSF
-mass (the masses telescope: the gain is exactly 1).  A uniform field gives the uniform box to
-2e-4 on white noise (one midpoint sample per half pixel gave 2.4e-2 at L = 0.5).
+G_{|v|/2}).  The image is the cubic B-spline through its samples (:mod:`gfgpu.motion.spline`).
+Two rules integrate the path (:func:`field_rule` selects; ``docs/motion.md`` has the measurements):
 
-Cost per pixel: ``3 n`` samples of 16 coefficients, ``n = ceil(L (t1 - t0))`` cells of at most
-one pixel along the path, ``L`` the dominant component of the pixel's own velocity: ``3 ceil(L)``
+``"gauss"`` (the default; :func:`gfgpu.motion.spec.field_rule_reference`): a Gauss rule whose size
+depends only on the pixel's dominant component ``L``, read from tables computed once in float64
+(:func:`gfgpu.motion.spec.rule_table`).  Box: ``ceil(L / 2) + 1`` Gauss-Legendre nodes over the
+whole support (spectral accuracy on band-limited content: one node per 2 px of path).  G_u: its
+support cut at ``t = 6`` velocities (the tail, < 2e-3 of the mass, given to the end cells) and
+split into ``max(8, ceil(L))`` cells (16 at least centred) of 3 Gauss-Legendre nodes each, the
+cells' PSF masses restored: 2 px of path per node, and cells of at most 3/4 velocity for the
+shape.  Cost per pixel: ``ceil(L / 2) + 1`` samples (box) or ``3 max(8, ceil(L))`` (G_u) of 16
+coefficients, 1 for a still pixel, at most 64 and 384 (the tables: paths up to 126 px box,
+128 px G_u).  Against a rendering of 512-2048 exactly warped copies, |v| <= 30 px: 0.07-0.14 %
+(box) and 0.7-0.8 % (G_u) on Gaussian-filtered noise (sigma 2 px), up to 3.8 % on a photograph's
+sharp edges and 6.4 % on noise band-limited at 0.25 cycles/px (G_u), where the 2 px spacing
+aliases; those inputs want ``"exact"``.
+
+``"exact"`` (:func:`gfgpu.motion.spec.field_blur_reference`): the support cut into ``n`` equal
+cells of at most one pixel of ``L``, each integrated by 3-point Gauss-Legendre quadrature (exact
+for the spline along an axis wherever a cell holds no knot) with the cell's exact PSF mass.  A
+uniform field gives the uniform box to 2e-4 on white noise.  Cost per pixel: ``3 ceil(L)``
 samples for the box (3 at least), ``3 max(ceil(18 L), 36)`` for G_u (whose tail runs to 18
-velocities before its mass falls below float32 rounding, and whose shape needs cells of half
-a velocity however short the path; 72 cells at least for the centred G_u), 3 for a still
-pixel; and never more than :data:`FIELD_CELLS` cells (the budget): ``3 x 32 = 96`` samples for
-the box, ``3 x 144 = 432`` for G_u, however long the path (a 4096-px field once ran 64 s on
-64 x 64 pixels).  Beyond the budget the cells grow longer than a pixel, and their three nodes
-sample the spline more sparsely than its detail: the error against the unbounded quadrature
-(``most=0``, the float64 reference of the tests), rel. L2 on band-limited noise (cut 0.25
-cycles/px, 48², wrap, velocity (0.6, 0.8) L), measured::
-
-    box, 32 cells:   L = 10: 0.0 %   L = 30: 0.0 %    (16 cells: 0.01 % at 30; 8: 0.18 %)
-    G_u, 144 cells:  L = 10: 0.0 %   L = 30: 0.19 %   (72 cells: 4.7 % at 30; 36: > 100 %)
-
-Longer cells would alias (a 4096-px box field of noise came out 0.45 off), so the budget is
-never stretched: a field whose paths need more cells runs with its exact cells when their total
-is within the budget on average or within :data:`FIELD_TOTAL` samples, and is refused before
-any work otherwise (:func:`field_cells`).  The prefilter is two recursions per axis.
+velocities before its mass falls below float32 rounding; 72 cells at least centred), never more
+than :data:`FIELD_CELLS` cells (the budget) for the paths that fit in it.  Beyond the budget the
+cells would grow longer than a pixel and alias (a 4096-px box field of noise came out 0.45 off),
+so a field whose paths need more cells runs with its exact cells when their total is within the
+budget on average or within :data:`FIELD_TOTAL` samples, and is refused before any work
+otherwise (:func:`field_cells`).  A field whose longest path exceeds the Gauss rule's tables also
+runs the exact cells (one rule per call).  The prefilter is two recursions per axis.
 """
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import math
 
 import numpy as np
 
 from .kernels import field_blur
+from .kernels import field_rule as rule_kernel
 from .spline import spline_coefficients
 
-__all__ = ["FIELD_MAX", "FIELD_DENSITY", "FIELD_CELLS", "FIELD_TOTAL", "is_field", "check_field", "field_cells",
-           "apply_field"]
+__all__ = ["FIELD_MAX", "FIELD_DENSITY", "FIELD_CELLS", "FIELD_TOTAL", "FIELD_RULES", "is_field", "check_field",
+           "field_cells", "field_rule", "current_rule", "rule_fits", "apply_field"]
+
+#: the rules a field is blurred with: ``"gauss"`` (the default: a Gauss rule of a few nodes per path,
+#: :func:`gfgpu.motion.spec.field_rule_reference`) and ``"exact"`` (cells of at most one pixel,
+#: :func:`gfgpu.motion.spec.field_blur_reference`)
+FIELD_RULES = ("gauss", "exact")
+
+_RULE = contextvars.ContextVar("gfgpu_field_rule", default="gauss")
 
 #: largest velocity component of a field, in pixels (the cost per pixel grows with it)
 FIELD_MAX = 4096.0
@@ -109,13 +123,76 @@ def field_cells(field, code, planes=1):
                      f"with the length")
 
 
+@contextlib.contextmanager
+def field_rule(rule):
+    """Blur velocity fields with ``rule`` within the ``with`` block (this thread or task only).
+
+    Parameters
+    ----------
+    rule : {'gauss', 'exact'}
+        ``'gauss'`` (the default outside any block): each path takes a Gauss rule of a few nodes,
+        ``ceil(L / 2) + 1`` Gauss-Legendre nodes for the box, 3 per cell of 6 px of G_u's support
+        (cut at 6 velocities; at least 8 cells, 16 centred), ``L`` the pixel's dominant component:
+        within 0.15 % (box) and 0.8 % (G_u) of a supersampled rendering on Gaussian-filtered noise
+        (sigma 2 px) for ``|v| <= 30``, up to 4-6 % on sharp or rough content; a field with a path
+        longer than its tables (126 px box, 128 px G_u) takes the exact cells.
+        ``'exact'``: cells of at most one pixel, 3 nodes each (2e-4 of the path integral on white
+        noise), 5-20 times the samples.  ``docs/motion.md`` has the measured errors.
+
+    Raises
+    ------
+    ValueError
+        ``rule`` is not one of :data:`FIELD_RULES`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from gfgpu.motion import motion_blur
+    >>> from gfgpu.motion.field import field_rule
+    >>> yy, xx = np.mgrid[:32, :32]
+    >>> img = np.sin(np.pi * xx / 4) * np.cos(np.pi * yy / 8)       # smooth, periodic content
+    >>> v = np.stack([np.full((32, 32), 6.0), np.full((32, 32), 11.0)])
+    >>> with field_rule("exact"):                               # cells of <= 1 px: 33 per path
+    ...     exact = motion_blur(img, v, psf="box", mode="wrap", backend="numpy")
+    >>> gauss = motion_blur(img, v, psf="box", mode="wrap", backend="numpy")   # 7 nodes per path
+    >>> bool(np.abs(gauss - exact).max() < 1e-4)                # of a blur whose peak is 0.064
+    True
+    """
+    if not isinstance(rule, str) or rule not in FIELD_RULES:
+        raise ValueError(f"field rule must be one of {', '.join(map(repr, FIELD_RULES))}, got {rule!r}")
+    token = _RULE.set(rule)
+    try:
+        yield rule
+    finally:
+        _RULE.reset(token)
+
+
+def current_rule():
+    """The rule velocity fields are blurred with here (:func:`field_rule`; ``'gauss'`` by default)."""
+    return _RULE.get()
+
+
+def rule_fits(field, code):
+    """Whether every path of ``field`` fits in the Gauss rule's tables (its most nodes or cells):
+    a field with a longer path runs the exact cells (all of it: one rule per call)."""
+    from .spec import rule_limits
+    first, most, per_px, extra = rule_limits(code)
+    length = float(np.max(np.abs(field))) if np.size(field) else 0.0
+    return max(first, math.ceil(length * per_px - 1e-9) + extra) <= most
+
+
 def apply_field(job, field, code, mode, cval):
-    """Blur ``job``'s image planes along the per-pixel velocities ``field`` (checked)."""
+    """Blur ``job``'s image planes along the per-pixel velocities ``field`` (checked) with the
+    current rule (:func:`field_rule`)."""
     be, dtype, shape = job.backend, job.dtype, job.shape
     planes = (math.prod(shape[:-2]),) + tuple(shape[-2:])
-    most = field_cells(field, code, planes[0])
+    gauss = current_rule() == "gauss" and rule_fits(field, code)
+    most = None if gauss else field_cells(field, code, planes[0])     # refusals before any work
     coef = spline_coefficients(be, be.reshape(job.data, planes), dtype, planes, (mode, mode), cval)
     dev_field = be.asarray(np.ascontiguousarray(field, dtype=dtype))
     result = job.result_buffer()
-    field_blur(be, coef, dev_field, be.reshape(result, planes), code, FIELD_DENSITY, mode, cval, most)
+    if gauss:
+        rule_kernel(be, coef, dev_field, be.reshape(result, planes), code, mode, cval)
+    else:
+        field_blur(be, coef, dev_field, be.reshape(result, planes), code, FIELD_DENSITY, mode, cval, most)
     return job.finish(result)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from ..backends.fused import register
 from . import spec as specs
 
-__all__ = ["box_lines", "field_blur", "to_polar", "from_polar", "add_rows"]
+__all__ = ["box_lines", "field_blur", "field_rule", "to_polar", "from_polar", "add_rows"]
 
 
 def _launchers(name, package=__package__):
@@ -29,6 +29,12 @@ box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers
 #: (device code of its own, ``field_kernels/``: a field call builds only field code)
 field_blur = register("motion.field_blur", specs.field_blur_reference,
                       **_launchers("field_blur", f"{__package__}.field_kernels"))
+
+#: ``field_rule(be, coef, field, out, psf, mode, cval, most=None)``: ``out = field_rule_reference(coef, field, psf,
+#: mode, cval, most)``: the fields' default Gauss rule (same shapes as ``field_blur``; the launchers read the
+#: rule tables of ``spec.rule_table``)
+field_rule = register("motion.field_rule", specs.field_rule_reference,
+                      **_launchers("field_rule", f"{__package__}.field_kernels"))
 
 #: the polar kernels' device code (``polar_kernels/``): a spin or zoom builds only polar code
 _POLAR = f"{__package__}.polar_kernels"

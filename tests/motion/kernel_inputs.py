@@ -57,6 +57,19 @@ def _field_blur(be, kernel, rng):
             _close(be, out, kernel.spec(coef, field, psf, 2.0, mode, 0.3), dtype, f"field_blur {psf} {mode}")
 
 
+@builds("motion.field_rule")
+def _field_rule(be, kernel, rng):
+    for dtype in _motion_dtypes(be):
+        coef = rng.standard_normal((2, 20, 24)).astype(dtype)
+        field = (rng.standard_normal((2, 20, 24)) * 4).astype(dtype)
+        field[:, 5:9, 6:12] *= 0.2              # whole paths inside the image (the kernels' inner branch)
+        field[:, 2, 3] = 0.0                    # a still pixel
+        for psf, mode, most in ((0, "reflect", None), (1, "wrap", None), (2, "constant", 3), (3, "mirror", 17)):
+            out = be.empty(coef.shape, dtype)
+            kernel(be, be.asarray(coef), be.asarray(field), out, psf, mode, 0.3, most)
+            _close(be, out, kernel.spec(coef, field, psf, mode, 0.3, most), dtype, f"field_rule {psf} {mode} {most}")
+
+
 @builds("motion.to_polar")
 def _to_polar(be, kernel, rng):
     for dtype in _motion_dtypes(be):

@@ -1,5 +1,8 @@
 """The box exposure and the per-pixel velocity field against the cubic spline along the path.
 
+The field tests here check the exact cells (``field_rule("exact")``, cells of at most one pixel);
+the default Gauss rule has its own tests in ``test_field_rule.py``.
+
 References are independent of the library: scipy.ndimage.map_coordinates (order 3) on an image
 padded with numpy's own extension of each mode, averaged over many points of the path (G_u's
 weights integrated numerically from its closed form, eq. 9).
@@ -11,6 +14,7 @@ from scipy import ndimage as ndi
 
 from gfgpu.greens import g_uniform
 from gfgpu.motion import motion_blur
+from gfgpu.motion.field import field_rule
 
 NP_PAD = {"reflect": "symmetric", "mirror": "reflect", "nearest": "edge", "wrap": "wrap", "constant": "constant"}
 
@@ -114,9 +118,16 @@ def test_box_lengths_up_to_1e9_px_average_the_extension():
 
 
 # --------------------------------------------------------------------------------------
-# the velocity field
+# the velocity field (the exact cells)
 # --------------------------------------------------------------------------------------
-def test_field_nearest_border_matches_spline_of_edge_extended_image(backend):
+@pytest.fixture
+def exact_cells():
+    """The field tests of this module run the exact cells (the default is the Gauss rule)."""
+    with field_rule("exact"):
+        yield
+
+
+def test_field_nearest_border_matches_spline_of_edge_extended_image(backend, exact_cells):
     """The field blur reads the same extension in 'nearest' mode (an impulse on the edge, a path
     out of the image): the mean of a spline that never exceeds 1.1, not 1.4."""
     line = np.zeros((1, 12))
@@ -130,7 +141,7 @@ def test_field_nearest_border_matches_spline_of_edge_extended_image(backend):
 
 
 @pytest.mark.parametrize("mode", ["nearest", "constant"])
-def test_field_near_corners_is_the_spline_of_the_extended_image(backend, mode):
+def test_field_near_corners_is_the_spline_of_the_extended_image(backend, mode, exact_cells):
     """Oblique paths that leave the image across a corner read the 2-D extension (each axis in
     turn): against scipy on the image padded by numpy."""
     rng = np.random.default_rng(5)
@@ -146,7 +157,7 @@ def test_field_near_corners_is_the_spline_of_the_extended_image(backend, mode):
     np.testing.assert_allclose(out, ref, atol=1e-3)
 
 
-def test_field_uniform_equals_uniform_box(backend):
+def test_field_uniform_equals_uniform_box(backend, exact_cells):
     """A uniform field gives the uniform box: 3 Gauss-Legendre nodes per pixel of path (one
     midpoint per half pixel was 2.4e-2 off at L = 0.5 and 5e-3 at L = 2.5, on white noise)."""
     img = np.random.default_rng(1).random((4, 40))
@@ -159,7 +170,7 @@ def test_field_uniform_equals_uniform_box(backend):
             np.testing.assert_allclose(fld, uni, atol=2e-3, err_msg=f"vx={vx} displace={displace}")
 
 
-def test_green_field_is_the_mean_of_its_path_for_short_paths(backend):
+def test_green_field_is_the_mean_of_its_path_for_short_paths(backend, exact_cells):
     """G_u along a short path: cells of at most half a velocity whatever the length (one midpoint
     per half pixel put 1.6e-2 of error at L = 0.5 and 1.9e-2 at L = 0.25 on white noise)."""
     img = np.random.default_rng(6).random((6, 30))
@@ -225,7 +236,7 @@ def test_field_budget_kernel_matches_specification(backend, psf):
 
 
 @pytest.mark.parametrize("psf, copies", [("box", 512), ("green", 2048)])
-def test_field_up_to_30_px_matches_the_supersampled_rendering(backend, psf, copies):
+def test_field_up_to_30_px_matches_the_supersampled_rendering(backend, psf, copies, exact_cells):
     """A smooth field with |v| up to 30 px within the budget: within 2 % (rel. L2, 4-px margin) of
     the average of exactly warped copies (scipy's cubic spline; G_u's mass per time cell from its
     closed form), on band-limited noise (cut 0.25 cycles/px), float32 and float64."""
@@ -248,7 +259,7 @@ def test_field_up_to_30_px_matches_the_supersampled_rendering(backend, psf, copi
         assert np.linalg.norm(d) / np.linalg.norm(r) < 0.02, dtype
 
 
-def test_field_beyond_the_budget_runs_its_exact_cells_or_is_refused(backend):
+def test_field_beyond_the_budget_runs_its_exact_cells_or_is_refused(backend, exact_cells):
     """Paths longer than the budget's cells are never sampled more sparsely (a 4096-px box field
     of noise came out 0.45 off the row mean): within the total limit they run their exact cells
     (the unbounded specification, and the uniform blur for a uniform field); beyond it the call
@@ -280,7 +291,7 @@ def test_field_beyond_the_budget_runs_its_exact_cells_or_is_refused(backend):
 
 
 @pytest.mark.parametrize("bad, match", [(4096.5, "within ±4096"), (np.inf, "finite"), (np.nan, "finite")])
-def test_field_beyond_the_largest_velocity_is_refused_before_work(backend, bad, match):
+def test_field_beyond_the_largest_velocity_is_refused_before_work(backend, bad, match, exact_cells):
     img = np.random.default_rng(0).random((6, 7))
     field = np.zeros((2, 6, 7))
     field[0, 2, 3] = bad

@@ -8,3 +8,8 @@ from .. import spec as specs
 def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     out[...] = specs.field_blur_reference(coef, field, psf, density, mode, cval, most)
     return out
+
+
+def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
+    out[...] = specs.field_rule_reference(coef, field, psf, mode, cval, most)
+    return out

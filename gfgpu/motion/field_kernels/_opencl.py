@@ -7,7 +7,7 @@ import numpy as np
 
 from ..._core import boundary
 from ...backends.opencl import launch as ocl
-from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS
+from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS, rule_limits, rule_table
 
 
 def _constants():
@@ -34,4 +34,31 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     ocl.launch(be, knl, (w, h), None, [coef, field], [out],
                (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), np.int32(psf), pos(density),
                 np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff, np.int32(most)))
+    return out
+
+
+#: work-group of the rule kernel on a GPU: 16 x 16 pixels, whose paths read neighbouring coefficients
+GPU_TILE = (16, 16)
+
+
+def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
+    coef, field = ocl.plain(be, coef, "coef"), ocl.plain(be, field, "field")
+    obuf, ooff = ocl.written(be, out, "out")
+    dtype = np.dtype(coef.dtype)
+    pos = np.float64 if be.supports_float64 else np.float32
+    real = "double" if pos == np.float64 else "float"
+    knl = ocl.kernel(be, __package__, "field.cl", "field_rule", dtype, POS=real, GRID=real, **_constants())
+    first, top, per_px, extra = rule_limits(psf)
+    _, offsets, nodes, weights = rule_table(psf)
+    tables = [be.asarray(offsets), be.asarray(nodes.astype(pos)), be.asarray(weights.astype(dtype))]
+    bsz, h, w = (int(s) for s in coef.shape)
+    if be.kind == "cpu":
+        gsize, lsize = (w, h), None         # PoCL: the driver's groups (rows of work-items in vector lanes)
+    else:
+        lsize = GPU_TILE
+        gsize = tuple(-(-n // g) * g for n, g in zip((w, h), lsize))
+    ocl.launch(be, knl, gsize, lsize, [coef, field] + tables, [out],
+               (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), pos(per_px), np.int32(extra),
+                np.int32(first), np.int32(top if most is None else min(max(int(most), first), top)), tables[0].data,
+                tables[1].data, tables[2].data, np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
     return out

@@ -11,7 +11,7 @@ import warp as wp
 from ..._core.boundary import MODE_CODES
 from ...backends.warp import launch as wpl
 from ...backends.warp.bspline import spline_at
-from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS
+from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS, rule_limits, rule_table
 
 wp.set_module_options({"enable_backward": False})
 
@@ -130,9 +130,35 @@ def field_blur(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
             coef, base, h, w, wp.float64(y) - s2 * vy, wp.float64(x) - s2 * vx, mode, mode, cval)
     out[t] = acc
 
+@wp.kernel
+def field_rule(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
+               per_px: wp.float64, extra: int, first: int, most: int, offsets: wp.array(dtype=wp.int32),
+               nodes: wp.array(dtype=wp.float64), weights: wp.array(dtype=Any), mode: int, cval: Any):
+    """One thread per output pixel: the Gauss rule of its path from the tables (field_rule_reference)."""
+    t = wp.tid()
+    plane = t / (h * w)
+    pix = t - plane * h * w
+    y = pix / w
+    x = pix - y * w
+    vy = wp.float64(field[pix])
+    vx = wp.float64(field[h * w + pix])
+    length = wp.max(wp.abs(vy), wp.abs(vx))
+    n = wp.min(wp.max(first, int(wp.ceil(length * per_px - wp.float64(1e-9))) + extra), most)
+    base = plane * h * w
+    acc = coef.dtype(0.0)
+    if length > wp.float64(0.0):
+        for k in range(int(offsets[n - first]), int(offsets[n - first + 1])):
+            s = nodes[k]
+            acc = acc + weights[k] * spline_at(coef, base, h, w, wp.float64(y) - s * vy, wp.float64(x) - s * vx,
+                                               mode, mode, cval)
+    else:
+        acc = spline_at(coef, base, h, w, wp.float64(y), wp.float64(x), mode, mode, cval)
+    out[t] = acc
+
 for _real in (wp.float32, wp.float64):
     _a = wp.array(dtype=_real)
     wp.overload(field_blur, {"coef": _a, "field": _a, "out": _a, "cval": _real})
+    wp.overload(field_rule, {"coef": _a, "field": _a, "out": _a, "weights": _a, "cval": _real})
 del _real, _a
 
 
@@ -146,4 +172,17 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     wpl.launch(be, field_blur, dim=bsz * h * w,
                inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, int(psf), wp.float64(density),
                        MODE_CODES[mode], real(cval), int(most)])
+    return out
+
+
+def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
+    bsz, h, w = (int(s) for s in coef.shape)
+    real = wpl.real_type(be, coef)
+    first, top, per_px, extra = rule_limits(psf)
+    _, offsets, nodes, weights = rule_table(psf)
+    tables = [be.asarray(offsets), be.asarray(nodes), be.asarray(weights.astype(be.dtype_of(coef)))]
+    wpl.launch(be, field_rule, dim=bsz * h * w,
+               inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, wp.float64(per_px), int(extra),
+                       int(first), int(top if most is None else min(max(int(most), first), top)), *tables,
+                       MODE_CODES[mode], real(cval)])
     return out

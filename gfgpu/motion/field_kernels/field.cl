@@ -18,6 +18,8 @@
 
 #include "spline2d.cl"  // coef_taps and spline2: the 2-D cubic B-spline at a point
 
+#define FMAXABS(a, b) (fabs(a) > fabs(b) ? fabs(a) : fabs(b))
+
 static inline void support(const int psf, POS *t0, POS *t1)
 {
     const POS tail = (POS)GREEN_TAIL;
@@ -94,6 +96,66 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
             for (int i = 0; i < 3; ++i)
                 acc += (REAL)wt[i] * spline2(coef, b * hw, h, w, (POS)y - t[i] * vy, (POS)x - t[i] * vx, mode, mode, cval);
         }
+        out[out_off + b * hw + pix] = acc;
+    }
+}
+
+// the 2-D cubic B-spline of one plane at (py, px) where all 16 coefficients lie inside (no extension):
+// spline2's first branch, for the paths whose every node is inside
+INLINE REAL spline_inside(__global const REAL *src, const int w, const GRID py, const GRID px)
+{
+    const int iy = ifloor(py), ix = ifloor(px);
+    const REAL ty = (REAL)(py - (GRID)iy), tx = (REAL)(px - (GRID)ix);
+    __global const REAL *line = src + (long)(iy - 1) * w + (ix - 1);
+    REAL acc = 0;
+    for (int p = 0; p < 4; ++p, line += w)
+        acc += bweight(ty, p) * (bweight(tx, 0) * line[0] + bweight(tx, 1) * line[1] + bweight(tx, 2) * line[2]
+                                 + bweight(tx, 3) * line[3]);
+    return acc;
+}
+
+// The fields' default rule (spec: gfgpu.motion.spec.field_rule_reference): one work-item per pixel, whose
+// path x - t v(x) takes the Gauss rule of n nodes (box) or cells (G_u), n = max(first, ceil(L per_px - 1e-9)
+// + extra) at most `most`, L the dominant component; the rules' nodes and weights are the host's float64
+// tables (spec.rule_table), rule n at offsets[n - first] .. offsets[n - first + 1], nodes ascending: no
+// transcendental function and no per-cell arithmetic in the loop, only the samples.  A path whose two end
+// nodes (hence all, on a straight line) have their 16 coefficients inside the image samples without the
+// boundary extension.  A still pixel is the spline at itself.
+__kernel void field_rule(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
+                         const int w, const int planes, const POS per_px, const int extra, const int first,
+                         const int most, __global const int *offsets, __global const POS *nodes,
+                         __global const REAL *weights, const int mode, const REAL cval, const long out_off)
+{
+    const int x = get_global_id(0), y = get_global_id(1);
+    if (x >= w || y >= h)
+        return;
+    const long pix = (long)y * w + x, hw = (long)h * w;
+    const POS vy = (POS)field[pix], vx = (POS)field[hw + pix];
+    const POS length = FMAXABS(vy, vx);
+    // ceil by integer conversion (PoCL's ceil() is a library call; the argument is >= -1e-9, < 2^31)
+    const POS c = length * per_px - (POS)1e-9;
+    int m = (int)c;
+    m += c > (POS)m;
+    const int n = IMIN(IMAX(first, m + extra), most);
+    const int k0 = length > 0 ? offsets[n - first] : 0, k1 = length > 0 ? offsets[n - first + 1] : 1;
+    const POS ta = length > 0 ? nodes[k0] : 0, tb = length > 0 ? nodes[k1 - 1] : 0;
+    const POS ya = (POS)y - ta * vy, yb = (POS)y - tb * vy, xa = (POS)x - ta * vx, xb = (POS)x - tb * vx;
+    const int inside = fmin(ya, yb) >= (POS)1 && fmax(ya, yb) < (POS)(h - 3) && fmin(xa, xb) >= (POS)1
+                       && fmax(xa, xb) < (POS)(w - 3);
+    for (int b = 0; b < planes; ++b) {
+        REAL acc = 0;
+        if (length == 0)
+            acc = spline2(coef, b * hw, h, w, (POS)y, (POS)x, mode, mode, cval);
+        else if (inside)
+            for (int k = k0; k < k1; ++k) {
+                const POS t = nodes[k];
+                acc += weights[k] * spline_inside(coef + b * hw, w, (GRID)((POS)y - t * vy), (GRID)((POS)x - t * vx));
+            }
+        else
+            for (int k = k0; k < k1; ++k) {
+                const POS t = nodes[k];
+                acc += weights[k] * spline2(coef, b * hw, h, w, (POS)y - t * vy, (POS)x - t * vx, mode, mode, cval);
+            }
         out[out_off + b * hw + pix] = acc;
     }
 }

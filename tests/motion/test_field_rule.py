@@ -1,0 +1,244 @@
+"""The velocity fields' default Gauss rule (gfgpu.motion.spec.field_rule_reference, issue 27 item 2).
+
+Oracles independent of the rule: the PSFs' Fourier transforms in closed form (the rules in ``t``),
+supersampled renderings (scipy's cubic spline at many exactly warped copies, the PSF masses from the
+closed-form cumulatives) and the exact cells of ``field_rule("exact")`` (cells of at most one pixel).
+"""
+
+import numpy as np
+import pytest
+from scipy import ndimage as ndi
+
+from conftest import gpu_shaped_backend
+from gfgpu.motion import kernels, motion_blur, spec
+from gfgpu.motion.field import FIELD_RULES, current_rule, field_rule, rule_fits
+
+# the documented bounds (docs/motion.md, velocity fields): Gaussian-filtered noise (sigma 2 px), |v| <= 30
+RENDER_BOUND = {"box": 0.005, "green": 0.012}
+
+
+def texture(n, seed=0, sigma=2.0):
+    img = ndi.gaussian_filter(np.random.default_rng(seed).standard_normal((n, n)), sigma, mode="wrap")
+    return img / img.std()
+
+
+def smooth_field(n, peak, seed=1):
+    rng = np.random.default_rng(seed)
+    field = np.stack([ndi.gaussian_filter(rng.standard_normal((n, n)), n / 6, mode="wrap") for _ in range(2)])
+    return field * (peak / np.abs(field).max())
+
+
+def split_field(n, peak):
+    """Discontinuous: two halves moving in different directions and a still square."""
+    field = np.zeros((2, n, n))
+    field[:, :, : n // 2] = np.array([0.6, 0.8])[:, None, None] * peak
+    field[:, :, n // 2:] = np.array([-0.8, 0.6])[:, None, None] * peak
+    field[:, n // 4: n // 2, n // 4: n // 2] = 0.0
+    return field
+
+
+def time_masses(psf, copies):
+    """Midpoints and masses of ``copies`` cells of the PSF in ``t`` from its closed-form cumulative."""
+    if psf == "box":
+        edges = np.linspace(0.0, 1.0, copies + 1)
+        return 0.5 * (edges[1:] + edges[:-1]), np.full(copies, 1.0 / copies)
+    edges = np.linspace(0.0, 16.0, copies + 1)
+    cum = 1.0 - np.exp(-edges) * (np.sin(edges) + np.cos(edges))
+    cum[-1] = 1.0
+    return 0.5 * (edges[1:] + edges[:-1]), np.diff(cum)
+
+
+def rendering(img, field, psf, copies):
+    coef = ndi.spline_filter(img, 3, mode="grid-wrap")
+    yy, xx = np.mgrid[: img.shape[0], : img.shape[1]].astype(float)
+    ref = np.zeros_like(img)
+    for t, w in zip(*time_masses(psf, copies)):
+        ref += w * ndi.map_coordinates(coef, [yy - t * field[0], xx - t * field[1]], order=3, mode="grid-wrap",
+                                       prefilter=False)
+    return ref
+
+
+def rel_l2(out, ref, margin=4):
+    d, r = (out - ref)[margin:-margin, margin:-margin], ref[margin:-margin, margin:-margin]
+    return np.linalg.norm(d) / np.linalg.norm(r)
+
+
+# --------------------------------------------------------------------------------------
+# the rules in t
+# --------------------------------------------------------------------------------------
+def test_box_rule_is_gauss_legendre_with_unit_gain():
+    """The box rule integrates the polynomials of degree 2n - 1 exactly over the support, and its
+    weights sum to 1."""
+    for code in (0, 2):
+        t0, t1 = spec.rule_support(code)
+        for n in (1, 2, 5, 13, spec.BOX_NODES):
+            t, w = spec.gauss_rule(code, n)
+            assert t.size == n and (t > t0).all() and (t < t1).all() and (np.diff(t) > 0).all()
+            assert abs(w.sum() - 1.0) < 1e-14
+            for k in range(2 * n):
+                exact = (t1 ** (k + 1) - t0 ** (k + 1)) / ((k + 1) * (t1 - t0))
+                assert abs((w * t**k).sum() - exact) < 1e-12 * max(1.0, abs(t0) ** k, t1**k), (code, n, k)
+
+
+@pytest.mark.parametrize("code", [1, 3])
+def test_green_rule_matches_the_psf_transfer_function(code):
+    """G_u's rule against its Fourier transform in closed form, 2/((1 + i w)^2 + 1) (causal) and
+    |2/((1 + i w/2)^2 + 1)|^2 (centred: the autocorrelation of G_{1/2}), for frequencies of up to
+    3 rad per velocity: within the cut tail (the integral of |G_u| beyond t = 6 is 2.2e-3) whatever
+    the cells; nodes ascending (the
+    kernels read the first and last as the path's ends), gain exactly 1."""
+    first, most, _, _ = spec.rule_limits(code)
+    omega = np.linspace(0.0, 3.0, 61)
+    closed = 2.0 / ((1.0 + 1j * omega) ** 2 + 1.0) if code == 1 else np.abs(2.0 / ((1 + 0.5j * omega) ** 2 + 1)) ** 2
+    for n in (first, first + 1, 40, most):
+        t, w = spec.gauss_rule(code, n)
+        assert (np.diff(t) > 0).all() and abs(w.sum() - 1.0) < 1e-13
+        rule = (w[None, :] * np.exp(-1j * omega[:, None] * t[None, :])).sum(axis=1)
+        assert np.abs(rule - closed).max() < 3.3e-3, n
+
+
+def test_rule_counts_grow_with_the_path_and_are_bounded():
+    for code in range(4):
+        first, most, _, _ = spec.rule_limits(code)
+        lengths = np.array([0.0, 1e-6, 0.3, 2.0, 2.0001, 10.0, 30.0, 200.0, 4096.0])
+        n = spec.rule_count(code, lengths)
+        assert n[0] == 0 and (n[1:] >= first).all() and (n <= most).all() and (np.diff(n[1:]) >= 0).all()
+        assert (spec.rule_count(code, lengths, most=first + 1)[1:] <= first + 1).all()
+    assert list(spec.rule_count(0, [2.0, 2.0001, 30.0])) == [2, 3, 16]      # ceil(L / 2) + 1 Gauss-Legendre nodes
+    assert list(spec.rule_count(1, [0.5, 8.0, 30.0])) == [8, 8, 30]          # max(8, ceil(L)) cells of 3 nodes
+
+
+# --------------------------------------------------------------------------------------
+# against the rendering and the exact cells
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("psf, copies", [("box", 512), ("green", 2048)])
+@pytest.mark.parametrize("kind", ["smooth", "split"])
+def test_rule_matches_the_supersampled_rendering(backend, psf, copies, kind):
+    """|v| up to 30 px on Gaussian-filtered noise (sigma 2 px), smooth and discontinuous fields:
+    within the documented bound of the rendering, float32 and float64 (measured 0.07-0.14 % box,
+    0.7-0.8 % G_u)."""
+    img = texture(48, seed=2)
+    field = smooth_field(48, 30.0) if kind == "smooth" else split_field(48, 30.0)
+    ref = rendering(img, field, psf, copies)
+    assert current_rule() == "gauss"
+    for dtype in (np.float32, np.float64) if backend.supports_float64 else (np.float32,):
+        out = motion_blur(img.astype(dtype), field, psf=psf, mode="wrap", backend=backend.name)
+        assert rel_l2(out, ref) < RENDER_BOUND[psf], (dtype, rel_l2(out, ref))
+
+
+@pytest.mark.parametrize("peak", [0.3, 3.0, 30.0])
+def test_rule_against_the_exact_cells(backend, peak):
+    """The Gauss rule against the exact cells (the float64 specification without a budget), every
+    PSF code, on Gaussian-filtered noise: within the documented bounds (short paths far closer)."""
+    img = texture(40, seed=5)
+    field = smooth_field(40, peak, seed=3)
+    coef = ndi.spline_filter(img, 3, mode="grid-wrap")[None]
+    for code, (psf, displace) in enumerate((("box", True), ("green", True), ("box", False), ("green", False))):
+        exact = spec.field_blur_reference(coef, field, code, 1.0, "wrap", 0.0)[0]
+        out = motion_blur(img, field, psf=psf, displace=displace, mode="wrap", backend=backend.name)
+        bound = RENDER_BOUND[psf] if peak > 3 else 0.004
+        assert rel_l2(out, exact) < bound, (code, peak, rel_l2(out, exact))
+
+
+def test_still_pixels_and_a_uniform_field(backend):
+    """A zero field returns the image (the spline at the pixels); a uniform field along an axis is
+    the uniform box within the rule's error on smooth content."""
+    img = texture(32, seed=7)
+    np.testing.assert_allclose(motion_blur(img, np.zeros((2, 32, 32)), psf="green", mode="wrap",
+                                           backend=backend.name), img, atol=1e-12 if backend.supports_float64 else 1e-5)
+    for vx in (0.4, 2.5, 7.3, -11.0):
+        field = np.zeros((2, 32, 32))
+        field[1] = vx
+        uni = motion_blur(img, (0.0, vx), psf="box", mode="wrap", backend=backend.name)
+        fld = motion_blur(img, field, psf="box", mode="wrap", backend=backend.name)
+        assert np.abs(fld - uni).max() < 2e-3, vx
+
+
+def test_paths_longer_than_the_tables_take_the_exact_cells(backend):
+    """A field with a path beyond the Gauss rule's tables (126 px box) runs the exact cells, as
+    under field_rule('exact'); the rule says which."""
+    img = texture(24, seed=4)
+    field = np.zeros((2, 24, 24))
+    field[1] = 140.0
+    field[0] = np.linspace(-20, 20, 24)[None, :]
+    assert not rule_fits(field, 0) and rule_fits(field * 0.5, 0)
+    out = motion_blur(img, field, psf="box", mode="wrap", backend=backend.name)
+    with field_rule("exact"):
+        exact = motion_blur(img, field, psf="box", mode="wrap", backend=backend.name)
+    np.testing.assert_array_equal(out, exact)
+
+
+def test_stack_planes_are_blurred_alike(backend):
+    img = np.stack([texture(24, seed=s) for s in (1, 2, 3)])
+    field = smooth_field(24, 9.0)
+    for psf in ("box", "green"):
+        out = motion_blur(img, field, psf=psf, mode="reflect", backend=backend.name)
+        for i in range(3):
+            one = motion_blur(img[i], field, psf=psf, mode="reflect", backend=backend.name)
+            np.testing.assert_allclose(out[i], one, atol=1e-12 if backend.supports_float64 else 1e-6)
+
+
+# --------------------------------------------------------------------------------------
+# the kernels against the specification, every branch
+# --------------------------------------------------------------------------------------
+def _kernel_against_spec(be, shape, scale, seed):
+    rng = np.random.default_rng(seed)
+    for dtype in (np.float32, np.float64) if be.supports_float64 else (np.float32,):
+        coef = rng.standard_normal(shape).astype(dtype)
+        field = (rng.standard_normal((2,) + shape[1:]) * scale).astype(dtype)
+        field[:, shape[1] // 2, 3:9] = 0.0
+        for psf in range(4):
+            for mode in ("wrap", "nearest", "constant", "reflect", "mirror"):
+                for most in (None, 5):
+                    out = be.empty(shape, dtype)
+                    kernels.field_rule(be, be.asarray(coef), be.asarray(field), out, psf, mode, 0.3, most)
+                    ref = spec.field_rule_reference(coef, field, psf, mode, 0.3, most)
+                    got = be.to_host(out).reshape(ref.shape)
+                    tol = 1e-11 if dtype == np.float64 else 2e-5
+                    assert np.abs(got - ref).max() <= tol * max(1.0, np.abs(ref).max()), (dtype, psf, mode, most)
+
+
+def test_kernel_matches_specification(backend):
+    """Paths inside the image (the kernels' branch without the extension), across the border and
+    beyond it, still pixels, budgets below the rule's own."""
+    _kernel_against_spec(backend, (2, 37, 45), 2.0, 21)
+    _kernel_against_spec(backend, (1, 14, 17), 25.0, 22)
+
+
+@pytest.mark.parametrize("name", ["opencl", "warp"])
+def test_kernel_in_gpu_launch_shapes(name):
+    """The GPU launch shape (16 x 16 work-groups over a padded grid on OpenCL), forced on the CPU
+    devices, against the specification; sizes not multiples of 16."""
+    be = gpu_shaped_backend(name)
+    _kernel_against_spec(be, (2, 37, 45), 3.0, 23)
+
+
+# --------------------------------------------------------------------------------------
+# the rule's switch and bad input
+# --------------------------------------------------------------------------------------
+@pytest.mark.parametrize("bad", ["fast", "Exact", 3, None])
+def test_unknown_rule_is_refused(bad):
+    with pytest.raises(ValueError, match="field rule must be one of 'gauss', 'exact'"):
+        with field_rule(bad):
+            pass
+    assert current_rule() == "gauss"
+
+
+def test_rule_is_restored_after_the_block():
+    assert FIELD_RULES == ("gauss", "exact")
+    with pytest.raises(RuntimeError):
+        with field_rule("exact"):
+            assert current_rule() == "exact"
+            raise RuntimeError
+    assert current_rule() == "gauss"
+
+
+@pytest.mark.parametrize("bad, match", [(np.nan, "finite"), (5000.0, "within ±4096")])
+def test_bad_field_is_refused_before_work(backend, bad, match):
+    img = texture(12)
+    field = np.zeros((2, 12, 12))
+    field[1, 3, 4] = bad
+    out = np.full_like(img, 5.0)
+    with pytest.raises(ValueError, match=match):
+        motion_blur(img, field, output=out, backend=backend.name)
+    assert (out == 5.0).all()
