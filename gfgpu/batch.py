@@ -640,6 +640,11 @@ def _sigint_ignored():
     if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
         yield
         return
+    # multiprocessing's resource tracker, started at the first spawn, UNBLOCKS SIGINT in the thread
+    # that starts it (after blocking it for the tracker's own spawn): inside the block, that would
+    # leave every worker spawned after it acting on Ctrl-C.  Started here first, it stays out of the way.
+    from multiprocessing import resource_tracker
+    resource_tracker.ensure_running()
     previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
     try:
         yield

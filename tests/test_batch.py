@@ -508,6 +508,40 @@ def test_float_and_wide_integer_png_outputs_are_stated(tmp_path, capsys, rng):
         assert "note:" not in capsys.readouterr().out
 
 
+_SPAWN_IN_GUARD = """
+import multiprocessing as mp, time
+from gfgpu.batch import _sigint_ignored
+if __name__ == "__main__":
+    with _sigint_ignored():
+        child = mp.get_context("spawn").Process(target=time.sleep, args=(20,))
+        child.start()                   # the first spawn of the process: it starts the resource tracker
+        for _ in range(200):            # until the child's interpreter runs (its mask is set by then)
+            with open(f"/proc/{child.pid}/status") as f:
+                status = dict(line.split(":", 1) for line in f if ":" in line)
+            if "SigBlk" in status and int(status.get("SigCgt", "0").strip(), 16):
+                break
+            time.sleep(0.05)
+        child.kill()
+        child.join()
+    print(status["SigBlk"].strip())
+"""
+
+
+@pytest.mark.skipif(not (hasattr(__import__("signal"), "pthread_sigmask") and os.path.exists("/proc/self/status")),
+                    reason="no signal masks, or no /proc to read them, here")
+def test_workers_spawned_in_the_guard_keep_sigint_blocked(tmp_path):
+    """Dask's workers are multiprocessing 'spawn' children, and the first spawn starts multiprocessing's
+    resource tracker, which unblocks SIGINT in the spawning thread: in a fresh process (no tracker
+    yet) the workers then acted on Ctrl-C (each printed a traceback)."""
+    import signal
+    import subprocess
+    import sys
+    script = tmp_path / "spawn_in_guard.py"
+    script.write_text(_SPAWN_IN_GUARD)
+    res = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, check=True)
+    assert int(res.stdout.split()[-1], 16) & (1 << (signal.SIGINT - 1)), res.stdout
+
+
 @pytest.mark.skipif(not (hasattr(__import__("signal"), "pthread_sigmask") and os.path.exists("/proc/self/status")),
                     reason="no signal masks, or no /proc to read them, here")
 def test_ctrl_c_while_the_local_cluster_starts_is_kept_and_its_processes_never_see_it():
