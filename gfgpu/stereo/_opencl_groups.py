@@ -25,9 +25,17 @@ PATH_PAD = 1 << 14
 #: largest penalty P1, P2: a path value in view, at most ``COST_MAX + P2``, stays below :data:`PATH_PAD`
 PENALTY_MAX = PATH_PAD - 1 - specs.COST_MAX
 
-#: columns of a row that one work-group of the cost kernel takes (the window's first sums cost
-#: ``block`` columns of popcounts per tile, the rest 2 per column)
+#: columns of a row that one work-group of the cost kernels takes (group_cost: the window's first
+#: sums cost ``block`` columns of popcounts per tile, the rest 2 per column), at most
 COST_TILE = 32
+
+#: rows of a band that one work-group of ``group_cost_columns`` walks down (its column sums' first
+#: row costs ``block`` popcounts per entry, the others 2)
+COST_ROWS = 32
+
+#: local memory of ``group_cost_columns``'s column sums, in bytes (at most half the device's):
+#: ``(tile + window - 1) * lanes * CH`` ushorts; where 8 columns do not fit, ``group_cost``
+COST_LOCAL_BYTES = 32768
 
 #: the path directions of one launch each (with their opposites), in the order of
 #: :data:`gfgpu.stereo.spec.SGM_PATHS`
@@ -55,11 +63,24 @@ def group_shape(n):
     return lanes, -(-n // lanes)
 
 
+def _colsum_entries(be):
+    # the column sums' ushorts (a build option: a static local array; a few where the budget is 0)
+    return max(8, min(COST_LOCAL_BYTES, be.cl_device.local_mem_size // 2) // 2)
+
+
 def _kernel(be, name, lanes, ch):
     # INT_MIN (NO_MATCH) is no C literal: written as a difference, as limits.h does
     return ocl.kernel(be, __package__, "sgm_groups.cl", name, np.float32, LANES=int(lanes), CH=int(ch),
                       NO_MATCH=f"({specs.NO_MATCH + 1}-1)", OUT_OF_VIEW=int(specs.OUT_OF_VIEW),
-                      COST_MAX=int(specs.COST_MAX), PAD_COST=PATH_PAD)
+                      COST_MAX=int(specs.COST_MAX), PAD_COST=PATH_PAD, COLSUM_ENTRIES=_colsum_entries(be))
+
+
+def cost_tile(be, lanes, ch, block):
+    """Columns per work-group of ``group_cost_columns`` for this group shape and window: as many
+    as its column sums' local memory holds, at most :data:`COST_TILE`; 0 where fewer than 8 fit
+    (then ``group_cost``, which needs no local memory, runs)."""
+    tile = min(COST_TILE, _colsum_entries(be) // (lanes * ch) - (block - 1))
+    return tile if tile >= 8 else 0
 
 
 def _volume(be, workspace, name, shape, dtype):
@@ -115,10 +136,18 @@ def launch_match(be, cl_, cr, disp, disp_right, margin, first_step, n, steps, bl
         raise ValueError(f"shape {shape} holds {lanes * ch} samples per pixel, fewer than n_disp = {n}")
     cost = _volume(be, workspace, "cost", (h, w, n), np.uint8)
     total = _volume(be, workspace, "sum", (h, w, n), np.int16)
-    tiles = -(-w // COST_TILE)
-    ocl.launch(be, _kernel(be, "group_cost", lanes, ch), (tiles * lanes, h), (lanes, 1), [cl_, cr], [cost],
-               (cl_.data, cr.data, cost.data, np.int32(h), np.int32(w), np.int32(n), np.int32(first_step),
-                np.int32(steps), np.int32(block), np.int32(specs.cost_shift(int(block))), np.int32(COST_TILE)))
+    shift = specs.cost_shift(int(block))
+    tile = cost_tile(be, lanes, ch, block)
+    if tile:         # column sums in local memory: each Hamming distance about twice
+        ocl.launch(be, _kernel(be, "group_cost_columns", lanes, ch), (-(-w // tile) * lanes, -(-h // COST_ROWS)),
+                   (lanes, 1), [cl_, cr], [cost],
+                   (cl_.data, cr.data, cost.data, np.int32(h), np.int32(w), np.int32(n), np.int32(first_step),
+                    np.int32(steps), np.int32(block), np.int32(shift), np.int32(tile), np.int32(COST_ROWS)))
+    else:            # 2 * block per (pixel, sample)
+        ocl.launch(be, _kernel(be, "group_cost", lanes, ch), (-(-w // COST_TILE) * lanes, h), (lanes, 1),
+                   [cl_, cr], [cost],
+                   (cl_.data, cr.data, cost.data, np.int32(h), np.int32(w), np.int32(n), np.int32(first_step),
+                    np.int32(steps), np.int32(block), np.int32(shift), np.int32(COST_TILE)))
     knl = _kernel(be, "group_paths", lanes, ch)
     for i, (dy, dx) in enumerate(_DIRECTIONS[:paths // 2]):
         lines = w if dx == 0 else h if dy == 0 else h + w - 1

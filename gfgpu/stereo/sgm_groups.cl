@@ -113,6 +113,94 @@ __kernel void group_cost(__global const ulong *cl, __global const ulong *cr, __g
     }
 }
 
+// The same costs with each (row, column, sample) Hamming distance taken about twice instead of
+// 2 * block times: a work-group per (band of `rows` rows, tile of `tile` columns) keeps, for the
+// tile's columns and the block's margin, every sample's column sum over the block's rows in local
+// memory (`colsum`, (tile + 2r) * LANES * CH ushorts: at most 15 * 64 = 960 each) and walks down
+// its band, + the row entering the block, - the row leaving (rows clamped at the border as the
+// specification's window), then along each row as group_cost, reading the column sums.  A lane
+// reads and writes only its own samples' entries (laid out lane-fastest: no bank conflicts): no
+// barrier.  The launcher takes this kernel where `colsum` fits (COLSUM_ENTRIES, a build option: the
+// device's local-memory budget), group_cost otherwise.
+static inline void add_rows(__local ushort *col, __global const ulong *cl, __global const ulong *const *rbase,
+                            const int *nn, const int yr, const int xc, const int w, const int sign)
+{
+    const size_t row = (size_t)yr * w;
+    const ulong lc = cl[row + xc];
+    #pragma unroll
+    for (int j = 0; j < CH; ++j) {
+        const int xr = xc - nn[j];
+        if (xr >= 0 && xr < w)
+            col[j * LANES] += (ushort)(sign * (int)POPCOUNT(lc ^ rbase[j][row + xr]));
+    }
+}
+
+#ifndef COLSUM_ENTRIES
+#error "sgm_groups.cl is built with -D COLSUM_ENTRIES (the column sums' local memory, in ushorts)"
+#endif
+__kernel void group_cost_columns(__global const ulong *cl, __global const ulong *cr, __global uchar *cost,
+                                 const int h, const int w, const int n, const int first_step, const int steps,
+                                 const int block, const int shift, const int tile, const int rows)
+{
+    __local ushort colsum[COLSUM_ENTRIES];
+    const int lane = get_local_id(0);
+    const int x0 = get_group_id(0) * tile, x1 = IMIN(w, x0 + tile), r = block / 2;
+    const int y0 = get_group_id(1) * rows, y1 = IMIN(h, y0 + rows);
+    const int k0 = lane * CH, cols = x1 - x0 + 2 * r;
+    if (k0 >= n)          // no barrier in this kernel: a lane without samples may leave
+        return;
+    int nn[CH];
+    __global const ulong *rbase[CH];
+    #pragma unroll
+    for (int j = 0; j < CH; ++j) {
+        const int t = first_step + IMIN(k0 + j, n - 1);
+        nn[j] = floor_div(t, steps);
+        rbase[j] = cr + (size_t)(t - nn[j] * steps) * h * w;
+    }
+    // entry (i, j) of this lane: column position i (image column x0 - r + i, clamped), sample k0 + j
+    __local ushort *mine = colsum + lane;
+    for (int y = y0; y < y1; ++y) {
+        for (int i = 0; i < cols; ++i) {
+            __local ushort *col = mine + (size_t)i * CH * LANES;
+            const int xc = CLAMPI(x0 - r + i, 0, w - 1);
+            if (y == y0) {
+                #pragma unroll
+                for (int j = 0; j < CH; ++j)
+                    col[j * LANES] = 0;
+                for (int v = -r; v <= r; ++v)
+                    add_rows(col, cl, rbase, nn, CLAMPI(y + v, 0, h - 1), xc, w, 1);
+            } else {
+                add_rows(col, cl, rbase, nn, IMIN(y + r, h - 1), xc, w, 1);
+                add_rows(col, cl, rbase, nn, IMAX(y - 1 - r, 0), xc, w, -1);
+            }
+        }
+        int s[CH];
+        #pragma unroll
+        for (int j = 0; j < CH; ++j)
+            s[j] = 0;
+        for (int i = 0; i < 2 * r + 1; ++i) {         // the window at x0: positions 0 .. 2r
+            #pragma unroll
+            for (int j = 0; j < CH; ++j)
+                s[j] += mine[((size_t)i * CH + j) * LANES];
+        }
+        for (int x = x0; x < x1; ++x) {
+            if (x > x0) {     // + position x - x0 + 2r (column x + r), - position x - x0 - 1 (x - 1 - r)
+                #pragma unroll
+                for (int j = 0; j < CH; ++j)
+                    s[j] += (int)mine[((size_t)(x - x0 + 2 * r) * CH + j) * LANES] -
+                            (int)mine[((size_t)(x - x0 - 1) * CH + j) * LANES];
+            }
+            __global uchar *dst = cost + ((size_t)y * w + x) * n;
+            #pragma unroll
+            for (int j = 0; j < CH; ++j) {
+                const int in_view = x - nn[j] >= r && x - nn[j] <= w - 1 - r;
+                if (k0 + j < n)
+                    dst[k0 + j] = in_view ? (uchar)IMIN(s[j] >> shift, COST_MAX) : (uchar)COST_OUT;
+            }
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Semi-global aggregation along direction (dy, dx) and its opposite: one work-group per line of
 // pixels entering the image where (x - dx, y - dy) is outside (W, H or H + W - 1 groups, every

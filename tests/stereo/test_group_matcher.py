@@ -90,6 +90,27 @@ def test_chunk_edges_between_many_lanes(gpu_shaped, shape):
 
 
 @opencl
+@pytest.mark.parametrize("tile, rows, local", [(8, 3, None), (32, 5, 4000), (32, 32, 0)])
+def test_cost_kernels_in_every_tiling(gpu_shaped, monkeypatch, tile, rows, local):
+    # group_cost_columns in tiles of 8 columns and bands of 3 or 5 rows (partial tiles and bands:
+    # the column sums' first rows and their running sums across a band), tiles cut by a small
+    # local-memory budget, and group_cost where no 8 columns fit (local 0); windows 1 to 15
+    from gfgpu.stereo import _opencl_groups
+    monkeypatch.setattr(_opencl_groups, "COST_TILE", tile)
+    monkeypatch.setattr(_opencl_groups, "COST_ROWS", rows)
+    if local is not None:
+        monkeypatch.setattr(_opencl_groups, "COST_LOCAL_BYTES", local)
+    rng = np.random.default_rng(10)
+    for i, (h, w, n, block) in enumerate([(13, 29, 20, 1), (11, 19, 33, 3), (7, 41, 9, 7), (16, 17, 45, 15)]):
+        lanes, ch = _opencl_groups.group_shape(n)
+        want = 0 if local == 0 else min(tile, (local or 10**9) // 2 // (lanes * ch) - (block - 1))
+        assert _opencl_groups.cost_tile(gpu_shaped, lanes, ch, block) == (want if want >= 8 else 0)
+        steps = 1 + i % 3
+        left, right = _codes(rng, h, w, steps, 2, 0.05)
+        _check(gpu_shaped, left, right, -steps * 2, n, steps, block, 5, 40, 4, 10)
+
+
+@opencl
 def test_group_matcher_holds_one_sum_volume(gpu_shaped):
     # memory: a uint8 cost and one int16 sum volume (3 bytes per sample), kept in the workspace
     rng = np.random.default_rng(4)
