@@ -12,10 +12,15 @@ Both run on the same random census codes of a shifted pair; the maps are checked
 below ``--check-below`` samples in all, equal to the numpy specification).  Times: best of
 ``--repeat`` calls, the two alternated in one process, after a warm-up (builds).
 
+With ``--motorcycle``, also ``disparity()`` on scikit-image's motorcycle pair (500 x 741, range
+0..79, the defaults): the maps of the CPU band matcher, of the OpenCL GPU branch forced on the CPU
+device and of Warp's forced on Warp-CPU with cooperative blocks (``wp.config.enable_cpu_blocks``),
+compared bit for bit.
+
 Usage::
 
     python benchmarks/stereo_group_matcher.py [--sizes 120x160 375x450] [--max-disparity 63]
-                                              [--steps 2] [--paths 4] [--repeat 3]
+                                              [--steps 2] [--paths 4] [--repeat 3] [--motorcycle]
 """
 
 from __future__ import annotations
@@ -61,6 +66,7 @@ def main():
     ap.add_argument("--paths", type=int, default=4)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--check-below", type=int, default=3_000_000)
+    ap.add_argument("--motorcycle", action="store_true", help="also compare disparity() maps on motorcycle")
     args = ap.parse_args()
     cpu = resolve_backend("opencl")
     be = OpenCLBackend(cpu.queue)
@@ -96,6 +102,28 @@ def main():
         mb = h * w * n / 1e6
         print(f"| {h}x{w} | {n} | {best['lines']:.3f} | {best['groups']:.3f} | "
               f"{best['groups'] / best['lines']:.2f} | {5 * mb:.0f} / {3 * mb:.0f} | {verdict} |")
+    if args.motorcycle:
+        _motorcycle(cpu, be)
+
+
+def _motorcycle(cpu, forced_ocl):
+    import skimage.data
+    import warp as wp
+
+    from gfgpu import stereo
+    from gfgpu.backends.warp.backend import WarpBackend
+    wp.config.enable_cpu_blocks = True       # Warp-CPU runs blocks of several threads
+    forced_warp = WarpBackend(resolve_backend("warp").wp_device.alias)
+    forced_warp.kind = "gpu"
+    left, right, _ = skimage.data.stereo_motorcycle()
+    ref = stereo.disparity(left, right, 79, backend=cpu)
+    print(f"\nmotorcycle {left.shape[1]}x{left.shape[0]}, max_disparity 79, defaults; CPU band matcher: "
+          f"{np.isfinite(ref).mean():.1%} valid")
+    for what, be in (("OpenCL GPU branch forced", forced_ocl), ("Warp GPU branch forced", forced_warp)):
+        t = time.perf_counter()
+        got = stereo.disparity(left, right, 79, backend=be)
+        verdict = "identical" if np.array_equal(got, ref, equal_nan=True) else "DIFFERENT"
+        print(f"- {what}: {verdict} ({time.perf_counter() - t:.1f} s with builds, a CPU)")
 
 
 if __name__ == "__main__":
