@@ -31,6 +31,7 @@ from . import launch
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
+_SHEAR_VECS = 4            # vectors of adjacent steps per work-item of the shallow shears (recurse_lines.cl)
 _BAND = 64                 # most vectors (cache lines) of adjacent columns per CPU work-item
 _STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU)
 _MIN_BLOCK = 1024          # shortest block of a block-parallel line on a CPU (steps)
@@ -270,7 +271,8 @@ def shear_launch(geometry, itemsize, kind):
     A CPU work-item runs one cache line of adjacent steps (``64 / itemsize`` lanes) where every
     access can be a whole vector: steep directions in the layout ``(steps, lines)`` (the lanes are
     rows of both arrays: tiles transposed in registers, variant 1) and shallow ones in ``(lines,
-    steps)`` (a row of either array holds the lanes: variant 2), the layouts
+    steps)`` (a row of either array holds the lanes, ``_SHEAR_VECS`` vectors per work-item: variant
+    2), the layouts
     :func:`gfgpu._core.oblique.run_oblique_lines` takes by default.  Other layouts, and GPU
     launches (adjacent work-items on adjacent steps), run one step per work-item (variant 0).
     """
@@ -686,7 +688,8 @@ class OpenCLBackend(Backend):
         lanes, variant = shear_launch(g, dtype.itemsize, self.kind)
         coef, base, shift, start = self._plan_buffers(plan.grouped(lanes), dtype)   # uploaded once
         item = dtype.itemsize
-        defines = dict(SHEAR_LANES=lanes, SHEAR_TILE=variant, SHEAR_INT="int" if item == 4 else "long")
+        vecs = _SHEAR_VECS if variant == 2 else 1
+        defines = dict(SHEAR_LANES=lanes, SHEAR_TILE=variant, SHEAR_VECS=vecs, SHEAR_INT="int" if item == 4 else "long")
         head = (src.base_data, np.int64(src.offset // item), dst.base_data, np.int64(dst.offset // item), coef)
         strides = (np.int64(qs), np.int64(ts), np.int64(g.stride), np.int64(g.tstride))
         if forward:
@@ -698,7 +701,7 @@ class OpenCLBackend(Backend):
             args = head + (start, np.int32(g.lines), np.int32(g.steps), np.int32(g.across)) + strides + (
                 np.int64(layout_plane), np.int64(image_plane))
         group = 1 if self.kind == "cpu" else launch.group_size(self)
-        items = -(-g.steps // lanes)
+        items = -(-g.steps // (lanes * vecs))
         launch.launch(self, knl, (-(-items // group) * group, batch), (group, 1), [src], [dst], args)
         return dst
 

@@ -230,10 +230,11 @@ __kernel void recurse_lines_lanes(__global const REAL *src, __global REAL *dst, 
  *     are loaded one row vector per lane, transposed in registers (a vector per line position),
  *     run, transposed back and stored (each lane streams along its rows, as the row passes do).
  *   SHEAR_TILE 2, shallow directions in the layout (lines, steps) (tstride = ts = 1): a row of
- *     either array holds the lanes; the walk goes down both arrays one row at a time.  The lanes
- *     enter their lines at rows up to `spread` apart (about SHEAR_LANES x the slope): the last
- *     row vectors wait in a ring in private memory and each lane takes its own (a blend of
- *     spread + 1 vectors).  shear_in's lanes all start at the walk's first image row.
+ *     either array holds the lanes; the walk goes down both arrays one row at a time, 4 vectors
+ *     (4 cache lines of each row) per work-item.  The lanes enter their lines at rows up to
+ *     `spread` apart (about SHEAR_LANES x the slope): the last row vectors wait in a ring in
+ *     private memory and each lane takes its own (a blend of spread + 1 vectors).  shear_in's
+ *     lanes all start at their vector's first image row.
  * Coefficients come grouped per vector, coef[g][j][lane] (g = t / SHEAR_LANES, j < NCOEF): lam
  * re, im, kap re, im, tap, g re, im (= kap / (1 - lam)), p, k, tapb, gb (= k / (1 - p)); lanes past
  * the last step repeat it (computed, never written).  -D SHEAR_INT=int|long: the lane masks'
@@ -428,48 +429,90 @@ INLINE SVI lanes_of(__global const int *table, const int t0, const int steps, in
     return v - (SVI)(lo);
 }
 
+/* SHEAR_VECS (the host's -D, 4) vectors of adjacent steps per work-item, each with variables of
+ * its own (named A .. D: no private array is indexed by vector, which PoCL compiled 1.5-3x
+ * slower), so that a row step touches 4 cache lines of each row (every row a new page: 2-2.7x
+ * faster than one vector per work-item) */
+#if SHEAR_VECS != 4
+#error "the shallow shears run SHEAR_VECS = 4 vectors per work-item"
+#endif
+#define VEC_DECL(X, k, table)                                                                     \
+    const int t##X = SMIN(t0 + (k) * SHEAR_LANES, steps - 1);                                      \
+    const int has##X = t0 + (k) * SHEAR_LANES < steps;                                             \
+    const int v##X = has##X ? SMIN(SHEAR_LANES, steps - t##X) : 1;                                 \
+    const shear_coef c##X = shear_coefs(coef, t##X / SHEAR_LANES);                                 \
+    int lo##X, sp##X;                                                                              \
+    const SVI ds##X = lanes_of(table, t##X, steps, &lo##X, &sp##X);                                \
+    SVT ring##X[SHEAR_RING];                                                                       \
+    shear_state f##X
+
+/* base row j (offset off) into the layout: vector X's lines from its last end (top) to lo */
+#define VEC_IN(X)                                                                                  \
+    if (has##X && j <= lo##X + sp##X + lines - 1 && j >= lo##X) {                                  \
+        const SVT x = off >= 0 ? load_lanes(s + off + t##X, v##X, 1) : (SVT)(cval);               \
+        if (j == lo##X + sp##X + lines - 1)                                                        \
+            f##X = shear_start(&c##X, x);                                                          \
+        ring##X[j & (SHEAR_RING - 1)] = shear_step(&f##X, &c##X, x);                               \
+        if (j - lo##X < lines)                                                                     \
+            store_lanes(d + (j - lo##X) * qs + t##X, from_ring(ring##X, j, ds##X, sp##X), v##X, 1); \
+    }
+
+#define VECS_APPLY(M) M(A) M(B) M(C) M(D)
+#define VECS_DECL(table) VEC_DECL(A, 0, table); VEC_DECL(B, 1, table); VEC_DECL(C, 2, table); \
+    VEC_DECL(D, 3, table)
+#define VEC_RANGE(X) if (has##X) { lo = SMIN(lo, lo##X); hi = SMAX(hi, lo##X + sp##X); }
+
 __kernel void shear_in(SHEAR_IN_ARGS)
 {
-    SHEAR_PROLOGUE;
-    int lo, spread;
-    const SVI ds = lanes_of(shift, t0, steps, &lo, &spread);
-    /* base rows j down from the last line end of the lanes (lane l: line j - shift[t]); line q is
-     * whole at j = q + lo, lane l's value ds[l] rows back */
-    const int top = lines - 1 + lo + spread;
-    __global const REAL *p = s + t0;
-    SVT ring[SHEAR_RING];
-    int off = base[top];
-    shear_state f = shear_start(&c, off >= 0 ? load_lanes(p + off, valid, 1) : (SVT)(cval));
-    for (int j = top; j >= lo; --j) {
-        off = base[j];
-        const SVT x = off >= 0 ? load_lanes(p + off, valid, 1) : (SVT)(cval);
-        ring[j & (SHEAR_RING - 1)] = shear_step(&f, &c, x);
-        const int q = j - lo;
-        if (q < lines)
-            store_lanes(d + q * qs + t0, from_ring(ring, j, ds, spread), valid, 1);
+    const int t0 = (int)get_global_id(0) * (SHEAR_VECS * SHEAR_LANES);
+    const long b = get_global_id(1);
+    if (t0 >= steps)
+        return;
+    __global const REAL *s = src + src_off + b * src_plane;
+    __global REAL *d = dst + dst_off + b * dst_plane;
+    VECS_DECL(shift);
+    /* base rows j down from the last line end (lane l: line j - shift[t]); vector X's line q is
+     * whole at j = q + loX, lane l's value ds[l] rows back in its ring */
+    int lo = loA, hi = loA + spA;
+    VECS_APPLY(VEC_RANGE)
+    for (int j = hi + lines - 1; j >= lo; --j) {
+        const int off = base[j];
+        VECS_APPLY(VEC_IN)
     }
 }
 
+/* image row m from layout lines: vector X reads line m - loX (from row loX on; lane l's line
+ * m - start[t] ds[l] rows back in its ring, which starts full of line 0: every lane starts at
+ * the steady state of its line's first sample) */
+#define VEC_START(X)                                                                               \
+    {                                                                                              \
+        const SVT x0 = load_lanes(s + t##X, v##X, 1);                                              \
+        f##X = shear_start(&c##X, x0);                                                             \
+        for (int i = 0; i < SHEAR_RING; ++i)                                                       \
+            ring##X[i] = x0;                                                                       \
+    }
+#define VEC_OUT(X)                                                                                 \
+    if (has##X && m >= lo##X) {                                                                    \
+        ring##X[(-m) & (SHEAR_RING - 1)] = load_lanes(s + (m - lo##X) * qs + t##X, v##X, 1);       \
+        const SVT y = shear_step(&f##X, &c##X, from_ring(ring##X, -m, ds##X, sp##X));              \
+        if (m >= 0)                                                                                \
+            store_lanes(d + m * stride + t##X, y, v##X, 1);                                        \
+    }
+
 __kernel void shear_out(SHEAR_OUT_ARGS)
 {
-    SHEAR_PROLOGUE;
-    int lo, spread;
-    const SVI ds = lanes_of(start, t0, steps, &lo, &spread);
-    /* image rows m from the least line start: line m - lo is read at row m, lane l's line
-     * m - start[t] ds[l] rows back; every lane starts at the steady state of its line's first
-     * sample, with which the ring starts full */
-    __global const REAL *p = s + t0;
-    const SVT x0 = load_lanes(p, valid, 1);
-    shear_state f = shear_start(&c, x0);
-    SVT ring[SHEAR_RING];
-#pragma unroll
-    for (int i = 0; i < SHEAR_RING; ++i)
-        ring[i] = x0;
+    const int t0 = (int)get_global_id(0) * (SHEAR_VECS * SHEAR_LANES);
+    const long b = get_global_id(1);
+    if (t0 >= steps)
+        return;
+    __global const REAL *s = src + src_off + b * src_plane;
+    __global REAL *d = dst + dst_off + b * dst_plane;
+    VECS_DECL(start);
+    VECS_APPLY(VEC_START)
+    int lo = loA, hi = loA + spA;
+    VECS_APPLY(VEC_RANGE)
     for (int m = lo; m < across; ++m) {
-        ring[(-m) & (SHEAR_RING - 1)] = load_lanes(p + (m - lo) * qs, valid, 1);
-        const SVT y = shear_step(&f, &c, from_ring(ring, -m, ds, spread));
-        if (m >= 0)
-            store_lanes(d + m * stride + t0, y, valid, 1);
+        VECS_APPLY(VEC_OUT)
     }
 }
 
