@@ -417,9 +417,11 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 #undef ROW_AT
 #undef POS_AT
 #if PHASE == 1
+    /* not unrolled: PoCL 3.1 (LLVM 15, Debian's) unrolling this store beside the unrolled step
+     * above stored a wrong end state for section 0 of two, in one-work-item groups (a GPU-shaped
+     * launch of one or two columns); the loop runs once per work-item, so it costs nothing */
     for (int v = 0; v < vecs; ++v) {
         const int valid = v == vecs - 1 ? last : LANES;
-#pragma unroll
         for (int s = 0; s < SECTIONS; ++s) {
             store_lanes(carry + carry_index(b, blk, nblocks, s, 0, m0 + v * LANES, M), fr[s][v], valid);
             store_lanes(carry + carry_index(b, blk, nblocks, s, 1, m0 + v * LANES, M), fi[s][v], valid);
