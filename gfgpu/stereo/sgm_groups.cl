@@ -37,17 +37,19 @@ static inline int floor_div(const int a, const int b)
     return a >= 0 ? a / b : -((-a + b - 1) / b);
 }
 
-// The group's reductions read every lane's value from local memory, 16 bytes per load (a GPU
-// broadcasts a load that all its lanes make to one address): the arrays hold whole vectors, the
-// entries past LANES set to the reduction's neutral value once.
+// The group's reductions read every lane's value from local memory, 16 bytes per load (vload8 /
+// vload4; a GPU broadcasts a load that all its lanes make to one address): the arrays hold whole
+// vectors, the entries past LANES set to the reduction's neutral value once.
 #define SHORT8S ((LANES + 7) / 8)
 #define UINT4S ((LANES + 3) / 4)
 
-static inline short min_of_lanes(__local const short8 *v)
+static inline short min_of_lanes(__local const short *v)
 {
-    short8 m = v[0];
-    for (int q = 1; q < SHORT8S; ++q)
-        m = m < v[q] ? m : v[q];
+    short8 m = vload8(0, v);
+    for (int q = 1; q < SHORT8S; ++q) {
+        const short8 u = vload8(q, v);
+        m = m < u ? m : u;
+    }
     const short4 a = m.lo < m.hi ? m.lo : m.hi;
     const short2 b = a.lo < a.hi ? a.lo : a.hi;
     return b.x < b.y ? b.x : b.y;
@@ -219,12 +221,12 @@ __kernel void group_paths(__global const uchar *cost, __global short *sum, const
                           const int accumulate)
 {
     __local short edge_lo[2][LANES], edge_hi[2][LANES];
-    __local short8 minima[2][SHORT8S];
+    __local short minima[2][8 * SHORT8S];
     const int lane = get_local_id(0), i = get_group_id(0);
     const int k0 = lane * CH;
     for (int e = LANES + lane; e < 8 * SHORT8S; e += LANES)      // entries past LANES: no minimum
         for (int b = 0; b < 2; ++b)
-            ((__local short *)minima[b])[e] = PAD_COST;
+            minima[b][e] = PAD_COST;
     int x, y;
     if (dx == 0) {                      // vertical: one line per column
         x = i;
@@ -302,7 +304,7 @@ __kernel void group_paths(__global const uchar *cost, __global short *sum, const
             }
             edge_lo[b][lane] = cur[0];
             edge_hi[b][lane] = cur[CH - 1];
-            ((__local short *)minima[b])[lane] = mv;
+            minima[b][lane] = mv;
             barrier(CLK_LOCAL_MEM_FENCE);
             m = min_of_lanes(minima[b]);
         }
@@ -326,11 +328,13 @@ static inline uint lane_key(const int v, const int k)
     return v >= 0 ? ((uint)v << 16) | (uint)k : NO_KEY;
 }
 
-static inline uint group_min(__local const uint4 *keys)
+static inline uint group_min(__local const uint *keys)
 {
-    uint4 m = keys[0];
-    for (int q = 1; q < UINT4S; ++q)
-        m = m < keys[q] ? m : keys[q];
+    uint4 m = vload4(0, keys);
+    for (int q = 1; q < UINT4S; ++q) {
+        const uint4 u = vload4(q, keys);
+        m = m < u ? m : u;
+    }
     const uint2 a = m.lo < m.hi ? m.lo : m.hi;
     return a.x < a.y ? a.x : a.y;
 }
@@ -339,11 +343,11 @@ __kernel void group_select(__global const short *sum, __global float *disp, __gl
                            __global float *margin, const int h, const int w, const int n, const int d_min,
                            const int steps, const int uniqueness)
 {
-    __local uint4 keys[3][UINT4S];       // the left winner, the right winner, the left second
+    __local uint keys[3][4 * UINT4S];    // the left winner, the right winner, the left second
     const int lane = get_local_id(0), y = get_group_id(0);
     for (int e = LANES + lane; e < 4 * UINT4S; e += LANES)       // entries past LANES: no key
         for (int a = 0; a < 3; ++a)
-            ((__local uint *)keys[a])[e] = NO_KEY;
+            keys[a][e] = NO_KEY;
     const int k0 = lane * CH, cnt = CLAMPI(n - k0, 0, CH), t0 = d_min * steps;
     __global const short *row = sum + (size_t)y * w * n;
     for (int x = 0; x < w; ++x) {
@@ -359,8 +363,8 @@ __kernel void group_select(__global const short *sum, __global float *disp, __gl
             if (j < cnt && xl >= 0 && xl < w)
                 kr = IMIN(kr, lane_key(row[(size_t)xl * n + k], k));
         }
-        ((__local uint *)keys[0])[lane] = kl;
-        ((__local uint *)keys[1])[lane] = kr;
+        keys[0][lane] = kl;
+        keys[1][lane] = kr;
         barrier(CLK_LOCAL_MEM_FENCE);
         const uint best_key = group_min(keys[0]), right_key = group_min(keys[1]);
         const int has = best_key != NO_KEY;
@@ -370,7 +374,7 @@ __kernel void group_select(__global const short *sum, __global float *disp, __gl
         for (int j = 0; j < CH; ++j)
             if (k0 + j - kb > 1 || kb - (k0 + j) > 1)
                 k2 = IMIN(k2, lane_key(v[j], 0));
-        ((__local uint *)keys[2])[lane] = k2;
+        keys[2][lane] = k2;
         barrier(CLK_LOCAL_MEM_FENCE);
         const uint second_key = group_min(keys[2]);
         if (lane == 0) {      // the pixel's results
