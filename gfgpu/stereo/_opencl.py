@@ -127,12 +127,17 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     return out
 
 
-def _interleave(be, cr, h, w, steps, n, workspace=None, bucket=None):
-    ri = _empty(be, workspace, "interleaved", (h, w * steps), np.uint64)
+def _interleave(be, cr, h, w, steps, n, workspace=None, bucket=None, row0=0, rows=None, ri=None):
+    """The right census codes of image rows row0 .. row0 + rows - 1 (default: all) interleaved
+    with their sub-pixel planes (stereo.cl's census_interleave) into ``ri`` (a new buffer of
+    ``rows`` rows where None)."""
+    rows = h if rows is None else int(rows)
+    if ri is None:
+        ri = _empty(be, workspace, "interleaved", (rows, w * steps), np.uint64)
     knl = _stereo_kernel(be, "census_interleave", n) if bucket is None else _bucket_kernel(be, "census_interleave",
                                                                                           bucket)
-    ocl.launch(be, knl, (w, h), None, [cr], [ri],
-               (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps)))
+    ocl.launch(be, knl, (w, rows), None, [cr], [ri],
+               (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps), np.int32(row0)))
     return ri
 
 
@@ -152,12 +157,12 @@ def _block_scratch(be, w, n, block, workspace=None):
 
 
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block, workspace=None,
-               bucket=None):
+               bucket=None, ri_row0=0):
     """The cost of image rows y0 .. y0 + rows - 1 into out[out_row0:out_row0 + rows], int16 or
     byte costs as ``out``'s dtype, n samples per pixel (``out`` of :func:`_padded` where its
     last axis is longer; CPUs: with ``bucket`` (:func:`_bucket_kernel`) the bucket's kernel, n an
-    argument).  CPUs: straight from the census codes, each column range's rows in
-    sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
+    argument; ``ri`` holding image rows ri_row0, ...).  CPUs: straight from the census codes,
+    each column range's rows in sequence (block_cost); GPUs: Hamming distances of the rows and their block margin into
     ``ham`` (one work-item per pixel), then block sums."""
     padded = out.shape[2] != n
     group = ocl.group_size(be)
@@ -176,7 +181,7 @@ def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, s
         ocl.launch(be, knl, (splits,), (1,), [cl_, ri], [out, scratch],
                    (cl_.data, ri.data, out.data, scratch.data, np.int32(h), np.int32(w), np.int32(first_step),
                     np.int32(steps), np.int32(y0), np.int32(rows), np.int32(out_row0), np.int32(splits),
-                    np.int32(cols), np.int32(n)))
+                    np.int32(cols), np.int32(n), np.int32(ri_row0)))
         return
     if padded:
         raise ValueError("padded volumes are the CPU band matcher's")
@@ -304,8 +309,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # new range within a built bucket builds nothing
     nb, nv_full = band_plan.sample_bucket(n)
     bucket = (nb, nv_full, block, steps)
-    ri = _interleave(be, cr, h, w, steps, nb, workspace, bucket)
     coarse = h if keep else plan.coarse          # rows of a coarse band (the whole image: one)
+    # the interleaved right codes: of the whole image where the costs are kept, else of a coarse
+    # band and its block margin, interleaved before each computation of its costs
+    r = block // 2
+    ri = _interleave(be, cr, h, w, steps, nb, workspace, bucket) if keep else \
+        _empty(be, workspace, "interleaved", (min(h, coarse + 2 * r), w * steps), np.uint64)
     cost = _padded(be, coarse, w, nb, np.uint8, workspace, "cost")
     down = _padded(be, k, w, nb, np.int16, workspace, "down")
     up = _padded(be, k, w, nb, np.int16, workspace, "up")
@@ -334,7 +343,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         ocl.copy_bytes(be, state_min, ckpt[1], mn_len, mn_off, index * mn_len)
 
     def costs(y0, rows):
-        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket)
+        ya = 0
+        if not keep:
+            ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
+            _interleave(be, cr, h, w, steps, nb, bucket=bucket, row0=ya, rows=yb - ya, ri=ri)
+        _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket,
+                   ri_row0=ya)
 
     def sweep(y0, rows, row0, init, active, write_up=True):
         _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,

@@ -248,16 +248,17 @@ typedef short cost_t;
                               else store_last_short((v), (p) + 16 * (j)); } while (0)
 
 // Right census codes interleaved along the row with the sub-pixel planes in reverse order,
-// out[y][x*steps + steps-1-f] = cr[f][y][x]: the right pixel of disparity sample t = n*steps + f
-// at left column x is then index x*steps + steps-1 - t, consecutive (decreasing) in t.
+// out[y - row0][x*steps + steps-1-f] = cr[f][y][x]: the right pixel of disparity sample t = n*steps + f
+// at left column x is then index x*steps + steps-1 - t, consecutive (decreasing) in t.  Rows
+// row0 .. row0 + global size(1) - 1 (the CPU matcher's coarse bands: a band's rows, not the image's)
 __kernel void census_interleave(__global const ulong *cr, __global ulong *out, const int h, const int w,
-                                const int steps)
+                                const int steps, const int row0)
 {
-    const int x = get_global_id(0), y = get_global_id(1);
+    const int x = get_global_id(0), y = row0 + (int)get_global_id(1);
     if (x >= w || y >= h)
         return;
     const size_t plane = (size_t)h * w;
-    __global ulong *dst = out + ((size_t)y * w + x) * steps + steps - 1;
+    __global ulong *dst = out + ((size_t)(y - row0) * w + x) * steps + steps - 1;
     for (int f = 0; f < steps; ++f)
         dst[-f] = cr[f * plane + (size_t)y * w + x];
 }
@@ -457,14 +458,14 @@ static ALWAYS_INLINE VPOP_TARGET void hamming16_vpop(__global uchar *dst, const 
 
 static VPOP_TARGET void hamming_row(__global uchar *dst, __global const ulong *cl, __global const ulong *ri, const int y,
                         const int ca, const int cb, const int w, const int first_step, const int steps,
-                        const int n)
+                        const int n, const int ri_row0)
 {
     const int ws = w * steps;
     for (int c = ca; c < cb; ++c, dst += NP) {
         const int j0 = c * steps + steps - 1 - first_step;      // right code of sample k: j0 - k
         const int k_hi = CLAMPI(j0 + 1, 0, n), k_lo = CLAMPI(j0 - ws + 1, 0, k_hi);
         const ulong lc = cl[(size_t)y * w + c];
-        __global const ulong *row = ri + (size_t)y * ws;
+        __global const ulong *row = ri + (size_t)(y - ri_row0) * ws;     // ri holds rows ri_row0, ...
         int k = 0;
         for (; k < k_lo; ++k)
             dst[k] = 0;
@@ -498,7 +499,7 @@ static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size
 __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
                          __global uchar *scratch, const int h, const int w, const int first_step,
                          const int steps, const int y0, const int rows, const int out_row0, const int splits,
-                         const int slot_cols, const int n_valid)
+                         const int slot_cols, const int n_valid, const int ri_row0)
 {
     const int g = get_global_id(0), r = BLOCK / 2;
     if (g >= splits)
@@ -515,7 +516,8 @@ __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ul
         // the rows entering the window: all b at the first row, then y + r
         for (int t = i == 0 ? y - r : y + r; t <= y + r; ++t) {
             const int sl = ((t % BLOCK) + BLOCK) % BLOCK;
-            hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps, n_valid);
+            hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps, n_valid,
+                        ri_row0);
         }
         for (int c = 0; c < cb - ca; ++c) {
             UNROLL_NV
@@ -743,7 +745,9 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     if (!split && ((init >> pass) & 1)) {
         // (never with split: the vertical path reads the last guard lane of the cell before
         // its first, which the other work-item would be writing)
-        for (size_t q = 0; q < 5; ++q) {
+        // (4 paths: the horizontal and vertical rows only; the diagonals' rows are never read,
+        // and untouched they take no memory)
+        for (size_t q = 0; q < (diagonals ? 5 : 2); ++q) {
             __global short *p = st + q * row;
             for (int i = 0; i < 16; ++i)
                 p[i] = PAD_COST;
@@ -754,7 +758,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                     p[16 + c * CELL + i] = PAD_COST;
             }
         }
-        for (size_t i = 0; i < 4 * cells; ++i)
+        for (size_t i = 0; i < (diagonals ? 4 : 1) * cells; ++i)
             mins[i] = 0;
     }
     __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
