@@ -63,8 +63,10 @@ def test_block_powers_carry_a_state_across_a_block():
 
 
 # (B, N, M) shapes whose lines are too few to fill a 2-core CPU: block-parallel on every device
-# (1, 300, 1): one column in one-work-item groups on a GPU, where PoCL 3.1 miscompiled the carries
-FEW_LINES = [((1, 4, 20000), 2), ((1, 20000, 3), 1), ((1, 9000, 2), 1), ((1, 1, 30000), 2), ((1, 300, 1), 1)]
+FEW_LINES = [((1, 4, 20000), 2), ((1, 20000, 3), 1), ((1, 9000, 2), 1), ((1, 1, 30000), 2)]
+# short lines in blocks on a GPU only: one column in one-work-item groups, where PoCL 3.1 miscompiled
+# the carries of two sections
+GPU_FEW_LINES = [((1, 300, 1), 1), ((1, 2, 700), 2)]
 # shapes whose lines fill the device; 70 columns: bands end in a partial vector
 MANY_LINES = [((1, 300, 70), 1), ((1, 300, 70), 2), ((3, 40, 1100), 1), ((2, 33, 257), 2)]
 
@@ -109,9 +111,9 @@ def _blocks(be, shape, axis, dtype):
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_gpu_shapes_forced_on_cpu(gpu_shaped, dtype, rng):
     """The GPU branches (one line per work-item, blocks, composition) on the CPU devices."""
-    for shape, axis in FEW_LINES:
+    for shape, axis in FEW_LINES + GPU_FEW_LINES:
         assert _blocks(gpu_shaped, shape, axis, dtype) > 1
-    _check_backend(gpu_shaped, FEW_LINES + MANY_LINES, dtype, rng)
+    _check_backend(gpu_shaped, FEW_LINES + GPU_FEW_LINES + MANY_LINES, dtype, rng)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
