@@ -34,12 +34,16 @@ wp.compile_aot_module(mod, arch=arch, use_ptx=False)
 print("SECONDS", json.dumps(round(time.perf_counter() - t, 2)))
 """
 
-#: the Warp modules each operator's first call compiles on a GPU
+#: the Warp modules each operator's first call compiles on a GPU (the modules a fresh process had
+#: loaded after the call on Warp's CPU device, less the CPU-only ones)
 OPERATORS = {
     "shift, green_filter, derivative, gradient": ["gfgpu.backends.warp.recurse"],
     "canny": ["gfgpu.backends.warp.recurse", "gfgpu.edges._warp"],
     "disparity": ["gfgpu.backends.warp.recurse", "gfgpu.stereo._warp"],
-    "motion_blur": ["gfgpu.backends.warp.recurse", "gfgpu.motion._warp"],
+    "motion_blur, uniform or oblique, green PSF": ["gfgpu.backends.warp.recurse"],
+    "motion_blur, box PSF": ["gfgpu.backends.warp.recurse", "gfgpu.motion._warp"],
+    "motion_blur, velocity field": ["gfgpu.backends.warp.recurse", "gfgpu.motion.field_kernels._warp"],
+    "motion_blur, rotation or zoom": ["gfgpu.backends.warp.recurse", "gfgpu.motion.polar_kernels._warp"],
 }
 
 
