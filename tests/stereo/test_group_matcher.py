@@ -207,11 +207,12 @@ def _volumes(workspace):
 
 
 @warp
-def test_warp_group_matcher_bit_exact(gpu_shaped, cpu_blocks):
+def test_warp_group_matcher_bit_exact(gpu_shaped, cpu_blocks, monkeypatch):
     # blocks of 4 and 8 lanes (group_lanes on the CPU), so chunk edges between lanes, lanes
     # without samples and n = 1; tiny and odd shapes, ranges below, straddling and beyond the
-    # image, steps 1-4, paths 4 and 8, windows 1-15, uniqueness 0-100, the largest p2
-    from gfgpu.stereo import matching
+    # image, steps 1-4, paths 4 and 8, windows 1-15, uniqueness 0-100, the largest p2; the costs
+    # in partial tiles and bands
+    from gfgpu.stereo import _warp, matching
     from gfgpu.stereo._warp import group_lanes
     rng = np.random.default_rng(8)
     cases = [(1, 1, 1), (3, 5, 9), (2, 33, 17), (11, 35, 31), (7, 20, 64), (9, 13, 40), (6, 19, 8)]
@@ -222,10 +223,13 @@ def test_warp_group_matcher_bit_exact(gpu_shaped, cpu_blocks):
         block = (1, 3, 5, 15)[i % 4]
         p1, p2 = (5, 40) if i < 6 else (0, (matching._INT16_MAX - 1) // paths - specs.COST_MAX)
         left, right = _codes(rng, h, w, steps, 2, 0.05, bits=64 if i == 6 else 48)
+        # the cost's column sums in tiles of 32 or 8 columns and bands of 32 or 3 rows
+        monkeypatch.setattr(_warp, "COST_TILE", (32, 8)[i % 2])
+        monkeypatch.setattr(_warp, "COST_ROWS", (32, 3)[i // 2 % 2])
         workspace = {}
         _check(gpu_shaped, left, right, first, n, steps, block, p1, p2, paths, (0, 10, 100)[i % 3],
                workspace=workspace)
-        assert _volumes(workspace) == [("int16", "sum"), ("uint8", "cost")]      # the group kernels ran
+        assert _volumes(workspace) == [("int16", "column_sums"), ("int16", "sum"), ("uint8", "cost")]
 
 
 def test_warp_group_lanes():
