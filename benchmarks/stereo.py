@@ -421,7 +421,8 @@ def main():
             rows.append((scene, name, b1, b2, holes, seconds, peak, peak - base))
             shown[(scene, name)] = disp
             print(f"{scene:10s} {name:28s} bad-1 {b1:5.1f}  bad-2 {b2:5.1f}  holes {holes:4.1f}%  "
-                  f"{seconds:6.3f} s  peak RSS {peak:7.0f} MB (+{peak - base:.0f})", flush=True)
+                  f"{seconds:6.3f} s  peak RSS {peak:7.0f} MB (+{peak - base:.0f})  load {os.getloadavg()[0]:.1f}",
+                  flush=True)
         shown[(scene, "left")], shown[(scene, "gt")] = left, np.where(mask | (gt > 0), gt, np.nan)
 
     print("\n| scene | method | bad-1 % | bad-2 % | holes % | time (s) | time / SGBM | peak RSS (MB) | "

@@ -11,7 +11,7 @@ import math
 import os
 from typing import NamedTuple
 
-__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "KEEP_BYTES", "BUCKET_VECTORS",
+__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "KEEP_BYTES", "FINE_ROWS", "BUCKET_VECTORS",
            "MatchPlan", "padded_samples", "sample_bucket", "band_rows", "coarse_rows", "match_plan", "match_memory"]
 
 #: the band sweeps' column tiles (4 paths): as many columns as hold this many bytes of vertical
@@ -90,6 +90,11 @@ WHOLE_BYTES = 512 * 2**20
 KEEP_BYTES = 128 * 2**20
 
 
+#: rows of the fine bands where the costs are recomputed (at most): their sums are the largest
+#: buffers left (1000 x 1500 x 383: 27.6 MB at 12 rows, 39 MB at band_rows' 17; the same time)
+FINE_ROWS = 12
+
+
 class MatchPlan(NamedTuple):
     """How the CPU matcher runs an image (:func:`match_plan`)."""
 
@@ -128,6 +133,7 @@ def match_plan(h, w, n, paths, block=3, budget=None):
         nbytes = match_memory(h, w, n, paths, True, block, rows=k)
         if budget is None or nbytes <= budget:
             return MatchPlan(k, True, nbytes, h)
+    k = min(k, FINE_ROWS)
     return MatchPlan(k, False, match_memory(h, w, n, paths, False, block, rows=k), coarse_rows(h, paths, k, w, n))
 
 
@@ -136,8 +142,11 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     it, the cost kernel's Hamming ring (``block`` rows and their column sums), the band's sums,
     the path states and their checkpoints (coarse and fine where the costs are recomputed), the
     horizontal paths' states at the column tiles' edges; bands of ``rows`` rows (default
-    :func:`band_rows`)."""
-    k = band_rows(h, paths, w, n) if rows is None else int(rows)
+    :func:`band_rows`, at most :data:`FINE_ROWS` where the costs are recomputed)."""
+    if rows is None:
+        k = band_rows(h, paths, w, n) if keep_cost else min(band_rows(h, paths, w, n), FINE_ROWS)
+    else:
+        k = int(rows)
     nb = sample_bucket(n)[0]                               # the build's padded samples
     cell = nb + 16                                         # stereo.cl's CELL
     state_row = 2 * (16 + (w + 2) * cell)
