@@ -7,13 +7,21 @@ the rel. L2 and max abs error of ``motion_blur`` (numpy, float64, mode wrap, 16-
 the Gauss rule and under the exact cells against the supersampled rendering (>= 512 exactly warped
 copies, benchmarks/motion_refs.py) and of the Gauss rule against the exact cells.
 
-Usage:  python benchmarks/field_rule.py [--side 128] [--copies 512] [--backend numpy]
+With ``--speed N``: instead, the speed of both rules on the benchmark's field (2, N, N), |v| <= 30 px,
+float32, numpy in and out, alternated in one process (best of ``--repeat``; the exact G_u, 17 times the
+samples, once on an N/4 square, its cost refusal lifted: ``motion_blur`` refuses it), with the load
+average beside each row.
+
+Usage:  python benchmarks/field_rule.py [--side 128] [--copies 512] [--backend numpy] [--peaks 0.3,1,3,10,30]
+        python benchmarks/field_rule.py --speed 2048 [--repeat 3] [--backend opencl]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
+import time
 from importlib import resources
 from pathlib import Path
 
@@ -70,6 +78,40 @@ def exact_cells(img, field, psf, backend):
     return be.to_host(out)[0]
 
 
+def speed(n, backend, repeat):
+    import gfgpu.motion.field as fields
+    from gfgpu.motion.field import field_rule
+    # the exact G_u's cells on this field (737 samples per pixel on average) exceed the budget (432) and
+    # the call is refused; lifted here to time what it would cost
+    fields.FIELD_TOTAL = 10**13
+    print(f"load at start: {os.getloadavg()}")
+    print("| psf | rule | image | best of | s per call | Mpix/s | load (1 min) |")
+    print("|---|---|---|---|---|---|---|")
+    for psf in ("box", "green"):
+        sides = {"gauss": n, "exact": n if psf == "box" else n // 4}
+        data = {}
+        for side in set(sides.values()):
+            img = refs.texture((side, side), seed=3).astype(np.float32)
+            data[side] = (img, refs.velocity_field((side, side), 30.0), np.empty_like(img))
+        for rule, side in sides.items():         # builds and warms the kernels
+            img, field, out = data[side]
+            with field_rule(rule):
+                motion_blur(img[:64, :64], field[:, :64, :64], psf=psf, mode="wrap", backend=backend)
+        best = dict.fromkeys(sides, np.inf)
+        for _ in range(repeat):
+            for rule, side in sides.items():
+                img, field, out = data[side]
+                with field_rule(rule):
+                    t0 = time.perf_counter()
+                    motion_blur(img, field, psf=psf, mode="wrap", backend=backend, output=out)
+                    best[rule] = min(best[rule], time.perf_counter() - t0)
+                if rule == "exact" and psf == "green":
+                    break
+        for rule, side in sides.items():
+            print(f"| {psf} | {rule} | {side}² | {repeat} | {best[rule]:.3f} | {side * side / best[rule] / 1e6:.2f} | "
+                  f"{os.getloadavg()[0]:.1f} |", flush=True)
+
+
 def errors(out, ref):
     d, r = (out - ref)[MARGIN:-MARGIN, MARGIN:-MARGIN], ref[MARGIN:-MARGIN, MARGIN:-MARGIN]
     return float(np.linalg.norm(d) / np.linalg.norm(r)), float(np.abs(d).max())
@@ -81,7 +123,11 @@ def main(argv=None):
     ap.add_argument("--copies", type=int, default=512)
     ap.add_argument("--backend", default="numpy")
     ap.add_argument("--peaks", default="0.3,1,3,10,30")
+    ap.add_argument("--speed", type=int, metavar="N", help="time both rules on (2, N, N) instead")
+    ap.add_argument("--repeat", type=int, default=3)
     opts = ap.parse_args(argv)
+    if opts.speed:
+        return speed(opts.speed, opts.backend, opts.repeat)
     n = opts.side
     images = {"noise sigma 2": refs.texture((n, n), seed=3), "band-limited 0.25": bandlimited(n, 0.25, 1),
               "band-limited 0.1": bandlimited(n, 0.1, 2), "photograph": photograph(n)}

@@ -35,6 +35,7 @@ inflated by it.
 
 Usage:  python benchmarks/motion.py [--size 4096] [--repeat 3] [--backends opencl[,warp,numpy]]
         [--quick] [--json PATH] [--skip-speed] [--skip-accuracy] [--skip-record] [--figure]
+        [--section axis|oblique|field|polar ...]
 """
 
 from __future__ import annotations
@@ -793,6 +794,8 @@ def parse(argv=None):
     ap.add_argument("--skip-accuracy", action="store_true")
     ap.add_argument("--skip-record", action="store_true", help="skip issue 15's numpy accuracy table")
     ap.add_argument("--figure", action="store_true", help="write docs/motion_examples.png")
+    ap.add_argument("--section", action="append", choices=("axis", "oblique", "field", "polar"),
+                    help="run only these speed and accuracy sections (repeatable; default all)")
     # older commands' --targets: the renderings are now rows of the accuracy section
     ap.add_argument("--targets", action="store_true", help=argparse.SUPPRESS)
     opts = ap.parse_args(argv)
@@ -824,14 +827,19 @@ def main(argv=None):
           f"{opts.call_limit:g} s are not run at full size (shown as estimates).")
     if not opts.skip_speed:
         print("\n## Speed")
-        for section, run in (("uniform, axis-aligned", axis_section), ("uniform, oblique", oblique_section),
-                             ("velocity field", field_section), ("spin and zoom", polar_section)):
-            timed_section(bench, section, run, speed=True)
+        for key, section, run in (("axis", "uniform, axis-aligned", axis_section),
+                                  ("oblique", "uniform, oblique", oblique_section),
+                                  ("field", "velocity field", field_section),
+                                  ("polar", "spin and zoom", polar_section)):
+            if opts.section is None or key in opts.section:
+                timed_section(bench, section, run, speed=True)
     if not opts.skip_accuracy:
         print("\n## Accuracy (Gaussian-filtered noise, sigma = 2 px, float32, 16-px margin)")
-        for section, run in (("accuracy, oblique", oblique_accuracy), ("accuracy, field", field_accuracy),
-                             ("accuracy, spin and zoom", polar_accuracy)):
-            timed_section(bench, section, run, speed=False)
+        for key, section, run in (("oblique", "accuracy, oblique", oblique_accuracy),
+                                  ("field", "accuracy, field", field_accuracy),
+                                  ("polar", "accuracy, spin and zoom", polar_accuracy)):
+            if opts.section is None or key in opts.section:
+                timed_section(bench, section, run, speed=False)
     if not opts.skip_record:
         print("\n## Record: impulses, step edges and the zoom's pre-image (numpy, float64)\n")
         print(record_table())

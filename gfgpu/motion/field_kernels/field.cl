@@ -19,6 +19,7 @@
 #include "spline2d.cl"  // coef_taps and spline2: the 2-D cubic B-spline at a point
 
 #define FMAXABS(a, b) (fabs(a) > fabs(b) ? fabs(a) : fabs(b))
+#define OFF REAL        // offsets along a path from its pixel: the image's type (spline_inside)
 
 static inline void support(const int psf, POS *t0, POS *t1)
 {
@@ -100,17 +101,19 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
     }
 }
 
-// the 2-D cubic B-spline of one plane at (py, px) where all 16 coefficients lie inside (no extension):
-// spline2's first branch, for the paths whose every node is inside
-INLINE REAL spline_inside(__global const REAL *src, const int w, const GRID py, const GRID px)
+// the 2-D cubic B-spline of one plane at (y + oy, x + ox), all 16 coefficients inside (no extension):
+// spline2's first branch, the offsets from the pixel in OFF (float for float32 images: an offset of a
+// few hundred pixels keeps 1e-5 px, where a float position at 2000 px would keep 1e-4)
+INLINE REAL spline_inside(__global const REAL *src, const int w, const int y, const int x, const OFF oy,
+                          const OFF ox)
 {
-    const int iy = ifloor(py), ix = ifloor(px);
-    const REAL ty = (REAL)(py - (GRID)iy), tx = (REAL)(px - (GRID)ix);
-    __global const REAL *line = src + (long)(iy - 1) * w + (ix - 1);
+    const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
+    const REAL ty = (REAL)(oy - (OFF)jy), tx = (REAL)(ox - (OFF)jx);
+    __global const REAL *line = src + (long)(y + jy - 1) * w + (x + jx - 1);
+    const REAL wx0 = bweight(tx, 0), wx1 = bweight(tx, 1), wx2 = bweight(tx, 2), wx3 = bweight(tx, 3);
     REAL acc = 0;
     for (int p = 0; p < 4; ++p, line += w)
-        acc += bweight(ty, p) * (bweight(tx, 0) * line[0] + bweight(tx, 1) * line[1] + bweight(tx, 2) * line[2]
-                                 + bweight(tx, 3) * line[3]);
+        acc += bweight(ty, p) * (wx0 * line[0] + wx1 * line[1] + wx2 * line[2] + wx3 * line[3]);
     return acc;
 }
 
@@ -148,8 +151,8 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
             acc = spline2(coef, b * hw, h, w, (POS)y, (POS)x, mode, mode, cval);
         else if (inside)
             for (int k = k0; k < k1; ++k) {
-                const POS t = nodes[k];
-                acc += weights[k] * spline_inside(coef + b * hw, w, (GRID)((POS)y - t * vy), (GRID)((POS)x - t * vx));
+                const OFF t = (OFF)nodes[k];
+                acc += weights[k] * spline_inside(coef + b * hw, w, y, x, -t * (OFF)vy, -t * (OFF)vx);
             }
         else
             for (int k = k0; k < k1; ++k) {
