@@ -125,7 +125,10 @@ def field_cells(field, code, planes=1):
 
 @contextlib.contextmanager
 def field_rule(rule):
-    """Blur velocity fields with ``rule`` within the ``with`` block (this thread or task only).
+    """Blur velocity fields with ``rule`` within the ``with`` block.
+
+    The rule holds for the calls made in this thread (a context variable): Dask's worker threads
+    and processes, which do not inherit it, run the default rule.
 
     Parameters
     ----------
