@@ -91,7 +91,8 @@ def shear_offsets(steps, gamma):
     return r, d
 
 
-#: the sheared layout's line count is a multiple of this (16 float32 lanes: two AVX vectors)
+#: the sheared layout's line count is a multiple of this (16 float32 lanes, a cache line: the CPU
+#: passes' vector groups and the OpenCL steep shears' 16 x 16 tiles, which need whole groups)
 LINE_GROUP = 16
 
 
