@@ -239,8 +239,8 @@ def census_cost_columns(cl: wp.array3d(dtype=wp.uint64), cr: wp.array3d(dtype=wp
     ``colsum[tile index, i, k]`` (neighbouring threads: neighbouring k, coalesced), going down the
     band (+ the row entering the block, - the row leaving: rows clamped as the specification's
     window) and along each row (+ the column entering, - the column leaving): each Hamming distance
-    about twice instead of block^2 times.  A distance whose right pixel is outside the image counts 0, so the running sums
-    are exact and the stored sums (in view) never met one."""
+    about twice instead of block^2 times.  A distance whose right pixel is outside the image counts
+    0, so the running sums are exact and the stored sums (in view) never met one."""
     gx, gy, k = wp.tid()
     h = out.shape[0]
     w = out.shape[1]
