@@ -95,6 +95,7 @@ CALL_MARGIN = 10
 #: force the OpenCL GPU branch (FORCED_GPU_BRANCH); about 250 tests, 25 s on PoCL here
 TEST_FILES = ["tests/backends/test_fused.py", "tests/test_shift.py", "tests/test_api.py",
               "tests/stereo/test_kernels.py", "tests/stereo/test_matcher.py", "tests/stereo/test_disparity.py",
+              "tests/stereo/test_group_matcher.py",
               "tests/motion/test_uniform.py", "tests/motion/test_rotation.py", "tests/motion/test_zoom.py",
               "tests/motion/test_box_and_field.py", "tests/edges/test_canny.py", "tests/test_robustness.py",
               "tests/shading/test_operator.py"]
