@@ -315,47 +315,21 @@ INLINE SVT shear_step(shear_state *f, const shear_coef *c, const SVT v)
     return y;
 }
 
-/* the lanes of a vector at p (lane l at p + l * st; valid real lanes, the rest repeat the last) */
-INLINE SVT load_lanes(__global const REAL *p, const int valid, const long st)
-{
-#if SHEAR_LANES == 1
-    return *p;
-#else
-    if (valid == SHEAR_LANES && st == 1)
-        return SLOAD(p);
-    SVT v;
-#pragma unroll
-    for (int l = 0; l < SHEAR_LANES; ++l)
-        SLANE(v, l) = p[SMIN(l, valid - 1) * st];
-    return v;
-#endif
-}
-
-INLINE void store_lanes(__global REAL *p, const SVT v, const int valid, const long st)
-{
-#if SHEAR_LANES == 1
-    *p = v;
-#else
-    if (valid == SHEAR_LANES && st == 1) {
-        SSTORE(v, p);
-        return;
-    }
-    for (int l = 0; l < valid; ++l)
-        p[l * st] = SLANE(v, l);
-#endif
-}
-
-/* what both shears start with: work-item (g, b) runs steps t0 .. t0 + valid - 1 of plane b, with
- * the coefficients c of their vector */
-#define SHEAR_PROLOGUE                                                                             \
-    const int t0 = (int)get_global_id(0) * SHEAR_LANES;                                            \
+/* what every shear kernel starts with: work-item (g, b) runs `per_item` steps from t0 of plane b
+ * (s, d: the plane in src and dst) */
+#define SHEAR_PLANE(per_item)                                                                      \
+    const int t0 = (int)get_global_id(0) * (per_item);                                             \
     const long b = get_global_id(1);                                                               \
     if (t0 >= steps)                                                                               \
         return;                                                                                    \
-    const int valid = SMIN(SHEAR_LANES, steps - t0);                                               \
-    const shear_coef c = shear_coefs(coef, t0 / SHEAR_LANES);                                      \
     __global const REAL *s = src + src_off + b * src_plane;                                        \
     __global REAL *d = dst + dst_off + b * dst_plane
+
+/* ... one vector of them: steps t0 .. t0 + valid - 1, with the coefficients c of their vector */
+#define SHEAR_PROLOGUE                                                                             \
+    SHEAR_PLANE(SHEAR_LANES);                                                                      \
+    const int valid = SMIN(SHEAR_LANES, steps - t0);                                               \
+    const shear_coef c = shear_coefs(coef, t0 / SHEAR_LANES)
 
 #define SHEAR_IN_ARGS                                                                              \
     __global const REAL *src, const long src_off, __global REAL *dst, const long dst_off,          \
@@ -403,6 +377,28 @@ __kernel void shear_out(SHEAR_OUT_ARGS)
 #define SHEAR_RING 32      /* > spread: at most SHEAR_LANES for a slope of at most 1 */
 typedef CAT(SHEAR_INT, SHEAR_LANES) SVI;
 
+/* the vector at p (valid real lanes; the rest repeat the last: in bounds, never stored) */
+INLINE SVT load_lanes(__global const REAL *p, const int valid)
+{
+    if (valid == SHEAR_LANES)
+        return SLOAD(p);
+    SVT v;
+#pragma unroll
+    for (int l = 0; l < SHEAR_LANES; ++l)
+        SLANE(v, l) = p[SMIN(l, valid - 1)];
+    return v;
+}
+
+INLINE void store_lanes(__global REAL *p, const SVT v, const int valid)
+{
+    if (valid == SHEAR_LANES) {
+        SSTORE(v, p);
+        return;
+    }
+    for (int l = 0; l < valid; ++l)
+        p[l] = SLANE(v, l);
+}
+
 /* lane l: ring[(i + ds[l]) % SHEAR_RING] (ds[l] in 0 .. spread) */
 INLINE SVT from_ring(const SVT *ring, const int i, const SVI ds, const int spread)
 {
@@ -449,12 +445,12 @@ INLINE SVI lanes_of(__global const int *table, const int t0, const int steps, in
 /* base row j (offset off) into the layout: vector X's lines from its last end (top) to lo */
 #define VEC_IN(X)                                                                                  \
     if (has##X && j <= lo##X + sp##X + lines - 1 && j >= lo##X) {                                  \
-        const SVT x = off >= 0 ? load_lanes(s + off + t##X, v##X, 1) : (SVT)(cval);               \
+        const SVT x = off >= 0 ? load_lanes(s + off + t##X, v##X) : (SVT)(cval);               \
         if (j == lo##X + sp##X + lines - 1)                                                        \
             f##X = shear_start(&c##X, x);                                                          \
         ring##X[j & (SHEAR_RING - 1)] = shear_step(&f##X, &c##X, x);                               \
         if (j - lo##X < lines)                                                                     \
-            store_lanes(d + (j - lo##X) * qs + t##X, from_ring(ring##X, j, ds##X, sp##X), v##X, 1); \
+            store_lanes(d + (j - lo##X) * qs + t##X, from_ring(ring##X, j, ds##X, sp##X), v##X); \
     }
 
 #define VECS_APPLY(M) M(A) M(B) M(C) M(D)
@@ -464,12 +460,7 @@ INLINE SVI lanes_of(__global const int *table, const int t0, const int steps, in
 
 __kernel void shear_in(SHEAR_IN_ARGS)
 {
-    const int t0 = (int)get_global_id(0) * (SHEAR_VECS * SHEAR_LANES);
-    const long b = get_global_id(1);
-    if (t0 >= steps)
-        return;
-    __global const REAL *s = src + src_off + b * src_plane;
-    __global REAL *d = dst + dst_off + b * dst_plane;
+    SHEAR_PLANE(SHEAR_VECS * SHEAR_LANES);
     VECS_DECL(shift);
     /* base rows j down from the last line end (lane l: line j - shift[t]); vector X's line q is
      * whole at j = q + loX, lane l's value ds[l] rows back in its ring */
@@ -486,27 +477,22 @@ __kernel void shear_in(SHEAR_IN_ARGS)
  * the steady state of its line's first sample) */
 #define VEC_START(X)                                                                               \
     {                                                                                              \
-        const SVT x0 = load_lanes(s + t##X, v##X, 1);                                              \
+        const SVT x0 = load_lanes(s + t##X, v##X);                                              \
         f##X = shear_start(&c##X, x0);                                                             \
         for (int i = 0; i < SHEAR_RING; ++i)                                                       \
             ring##X[i] = x0;                                                                       \
     }
 #define VEC_OUT(X)                                                                                 \
     if (has##X && m >= lo##X) {                                                                    \
-        ring##X[(-m) & (SHEAR_RING - 1)] = load_lanes(s + (m - lo##X) * qs + t##X, v##X, 1);       \
+        ring##X[(-m) & (SHEAR_RING - 1)] = load_lanes(s + (m - lo##X) * qs + t##X, v##X);       \
         const SVT y = shear_step(&f##X, &c##X, from_ring(ring##X, -m, ds##X, sp##X));              \
         if (m >= 0)                                                                                \
-            store_lanes(d + m * stride + t##X, y, v##X, 1);                                        \
+            store_lanes(d + m * stride + t##X, y, v##X);                                        \
     }
 
 __kernel void shear_out(SHEAR_OUT_ARGS)
 {
-    const int t0 = (int)get_global_id(0) * (SHEAR_VECS * SHEAR_LANES);
-    const long b = get_global_id(1);
-    if (t0 >= steps)
-        return;
-    __global const REAL *s = src + src_off + b * src_plane;
-    __global REAL *d = dst + dst_off + b * dst_plane;
+    SHEAR_PLANE(SHEAR_VECS * SHEAR_LANES);
     VECS_DECL(start);
     VECS_APPLY(VEC_START)
     int lo = loA, hi = loA + spA;
