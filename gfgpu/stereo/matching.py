@@ -345,17 +345,18 @@ def matching_views(left, right, steps):
     # the shifts run on blocks of rows (each row is its own recursion: the same values), so that
     # their float64 temporaries stay a few hundred kB: whole images of them (~5 per plane, 57 MB
     # at 1000 x 1500) stayed in the process's heap after the call and added to its peak memory
+    # the sub-pixel disparity samples of the cost volume; the half-pixel plane: the mean of the
+    # causal G_{1/2} shift and of the anticausal G_{-1/2} shift moved by one pixel, a kernel
+    # symmetric about the half-pixel point.  The causal shift alone blurs to one side: samples
+    # half a pixel below and above a whole-pixel match cost unequally, and an exact 8 px shift
+    # came out 7.95 (median).  All shifts of a block of rows run as one batch.
+    jobs = [job for f in range(1, steps) for job in [(f / steps, 0)] + ([(-0.5, 1)] if 2 * f == steps else [])]
     for r0 in range(0, rgt.shape[0], _SHIFT_ROWS):
-        wide = rgt[r0:r0 + _SHIFT_ROWS].astype(np.float64)
+        shifted = iter(_green_shifts(rgt[r0:r0 + _SHIFT_ROWS].astype(np.float64), jobs)) if jobs else None
         for f in range(1, steps):
-            # the sub-pixel disparity samples of the cost volume
-            moved = _green_shift_rows(wide, f / steps)
+            moved = next(shifted)
             if 2 * f == steps:
-                # the half-pixel plane: the mean of the causal G_{1/2} shift and of the anticausal
-                # G_{-1/2} shift moved by one pixel, a kernel symmetric about the half-pixel point.
-                # The causal shift alone blurs to one side: samples half a pixel below and above a
-                # whole-pixel match cost unequally, and an exact 8 px shift came out 7.95 (median)
-                moved += _green_shift_rows(wide, -0.5, 1)
+                moved += next(shifted)
                 moved *= 0.5
             planes[f, r0:r0 + _SHIFT_ROWS] = moved      # rounded to float32 as astype rounds
     for f in range(1, steps):
@@ -364,7 +365,7 @@ def matching_views(left, right, steps):
 
 
 #: rows per block of the right view's sub-pixel shifts in :func:`matching_views`
-_SHIFT_ROWS = 512
+_SHIFT_ROWS = 256
 
 
 def _scale2(image, exp):
@@ -384,40 +385,77 @@ def _green_shift_rows(rows, amount, offset=0):
     + κ x[x]``, as one rational filter, :func:`_rational_rows`), started in the steady state of
     the edge value (the nearest extension from infinity): the values of :func:`gfgpu.shift` on
     the numpy backend to ~1e-13, in about half its time."""
-    lp, = greens.translation_passes(amount)
-    (sec,) = lp.sections
-    lam, kap, tap = complex(sec.lam), complex(sec.kap), float(lp.tap)
-    a = np.array([1.0, -2 * lam.real, abs(lam) ** 2])
-    b = np.array([tap, tap * a[1] + kap.real, tap * a[2] - (kap * lam.conjugate()).real])
-    n = lp.offset + offset                  # the result at x is the filtered line at x - n
-    src = rows
-    if n > 0:                               # the extension's first n columns are needed
-        src = np.concatenate([np.repeat(rows[:, :1], n, axis=1), rows], axis=1)
-    if lp.reverse:
-        src = src[:, ::-1]
-    out = _rational_rows(b, a, src)
-    if lp.reverse:
-        out = out[:, ::-1]
-    if n < 0:
-        out = np.concatenate([out[:, -n:], np.repeat(out[:, -1:], -n, axis=1)], axis=1)
-    return out[:, :rows.shape[1]] if n > 0 else out
+    return _green_shifts(rows, [(amount, offset)])[0]
+
+
+def _green_shifts(rows, jobs):
+    """``[_green_shift_rows(rows, amount, offset) for amount, offset in jobs]``, the recursions of
+    all jobs run as one batch of rows (one step per column for all of them)."""
+    rows = np.asarray(rows, np.float64)
+    h, w = rows.shape
+    srcs, coefs, layout = [], [], []
+    for amount, offset in jobs:
+        lp, = greens.translation_passes(amount)
+        (sec,) = lp.sections
+        lam, kap, tap = complex(sec.lam), complex(sec.kap), float(lp.tap)
+        a = np.array([1.0, -2 * lam.real, abs(lam) ** 2])
+        b = np.array([tap, tap * a[1] + kap.real, tap * a[2] - (kap * lam.conjugate()).real])
+        n = lp.offset + offset              # the result at x is the filtered line at x - n
+        src = rows
+        if n > 0:                           # the extension's first n columns are needed
+            src = np.concatenate([np.repeat(rows[:, :1], n, axis=1), rows], axis=1)
+        if lp.reverse:
+            src = src[:, ::-1]
+        srcs.append(src)
+        coefs.append((b, a))
+        layout.append((n, lp.reverse, src.shape[1]))
+    # one batch: every job's rows, as long as the longest (a recursion is causal: the columns
+    # appended after a shorter job's end change none of its outputs)
+    length = max(src.shape[1] for src in srcs)
+    batch = np.empty((len(jobs) * h, length))
+    for q, src in enumerate(srcs):
+        batch[q * h:(q + 1) * h, :src.shape[1]] = src
+        batch[q * h:(q + 1) * h, src.shape[1]:] = src[:, -1:]
+    b = np.repeat(np.array([c[0] for c in coefs]).T, h, axis=1)      # (3, jobs * h): per row
+    a = np.repeat(np.array([c[1] for c in coefs]).T, h, axis=1)
+    filtered = _rational_rows(b, a, batch)
+    outs = []
+    for q, (n, reverse, size) in enumerate(layout):
+        out = filtered[q * h:(q + 1) * h, :size]
+        if reverse:
+            out = out[:, ::-1]
+        if n < 0:
+            out = np.concatenate([out[:, -n:], np.repeat(out[:, -1:], -n, axis=1)], axis=1)
+        outs.append(out[:, :w] if n > 0 else out)
+    return outs
 
 
 def _rational_rows(b, a, src):
-    """Each row of ``src`` (R, N) float64 filtered by ``b(z) / a(z)`` (three taps each, a[0] = 1),
-    started in the steady state of its first value: the values of ``scipy.signal.lfilter(b, a,
-    src, axis=1, zi=lfilter_zi(b, a) * src[:, :1])`` bit for bit (its transposed direct form, the
-    same operations in the same order; tested), without importing scipy.signal (~40 MB of the
-    process's memory).  One step per column over all rows at once (the columns of a transposed
-    copy: contiguous)."""
-    # lfilter_zi: zi = (I - A)^-1 B with A the companion matrix of a, solved as it solves it
-    zi = np.linalg.solve(np.array([[1.0 + a[1], -1.0], [a[2], 1.0]]), b[1:] - a[1:] * b[0])
+    """Each row of ``src`` (R, N) float64 filtered by ``b(z) / a(z)`` (three taps each, a[0] = 1;
+    ``b``, ``a`` of shape (3,), or (3, R) for a filter per row), started in the steady state of its
+    first value: the values of ``scipy.signal.lfilter(b, a, src, axis=1, zi=lfilter_zi(b, a) *
+    src[:, :1])`` bit for bit (its transposed direct form, the same operations in the same order;
+    tested), without importing scipy.signal (~40 MB of the process's memory).  One step per column
+    over all rows at once (the columns of a transposed copy: contiguous)."""
+    b = np.asarray(b, np.float64)
+    a = np.asarray(a, np.float64)
+    r = src.shape[0]
+    if b.ndim == 1:
+        b, a = np.repeat(b[:, None], r, axis=1), np.repeat(a[:, None], r, axis=1)
+    # lfilter_zi: zi = (I - A)^-1 B with A the companion matrix of a, solved as it solves it (a
+    # 2 x 2 system per distinct filter)
+    zi = np.empty((2, r))
+    for ab in np.unique(np.concatenate([b, a]), axis=1).T:
+        bq, aq = ab[:3], ab[3:]
+        rows = np.all(b == bq[:, None], axis=0) & np.all(a == aq[:, None], axis=0)
+        zi[:, rows] = np.linalg.solve(np.array([[1.0 + aq[1], -1.0], [aq[2], 1.0]]),
+                                      bq[1:] - aq[1:] * bq[0])[:, None]
     src_t = np.ascontiguousarray(src.T)
-    a1, a2 = float(a[1]), float(a[2])
+    a1, a2 = a[1], a[2]
     z0, z1 = zi[0] * src_t[0], zi[1] * src_t[0]
     # the input's products for every column at once (the same products): 6 calls per column
-    out = src_t * float(b[0])
-    bx1, bx2 = src_t * float(b[1]), src_t * float(b[2])
+    out = src_t * b[0]
+    bx1, bx2 = src_t * b[1], src_t * b[2]
     t = np.empty_like(z0)
     for y, p1, p2 in zip(out, bx1, bx2):
         y += z0                             # y = z0 + b0 x
