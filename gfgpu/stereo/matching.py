@@ -410,15 +410,16 @@ def _green_shifts(rows, jobs):
         coefs.append((b, a))
         layout.append((n, lp.reverse, src.shape[1]))
     # one batch: every job's rows, as long as the longest (a recursion is causal: the columns
-    # appended after a shorter job's end change none of its outputs)
+    # appended after a shorter job's end change none of its outputs), written transposed (the
+    # recursion's layout)
     length = max(src.shape[1] for src in srcs)
-    batch = np.empty((len(jobs) * h, length))
+    batch_t = np.empty((length, len(jobs) * h))
     for q, src in enumerate(srcs):
-        batch[q * h:(q + 1) * h, :src.shape[1]] = src
-        batch[q * h:(q + 1) * h, src.shape[1]:] = src[:, -1:]
+        batch_t[:src.shape[1], q * h:(q + 1) * h] = src.T
+        batch_t[src.shape[1]:, q * h:(q + 1) * h] = src[:, -1]
     b = np.repeat(np.array([c[0] for c in coefs]).T, h, axis=1)      # (3, jobs * h): per row
     a = np.repeat(np.array([c[1] for c in coefs]).T, h, axis=1)
-    filtered = _rational_rows(b, a, batch)
+    filtered = _rational_rows(b, a, batch_t.T, overwrite=True)
     outs = []
     for q, (n, reverse, size) in enumerate(layout):
         out = filtered[q * h:(q + 1) * h, :size]
@@ -430,13 +431,14 @@ def _green_shifts(rows, jobs):
     return outs
 
 
-def _rational_rows(b, a, src):
+def _rational_rows(b, a, src, overwrite=False):
     """Each row of ``src`` (R, N) float64 filtered by ``b(z) / a(z)`` (three taps each, a[0] = 1;
     ``b``, ``a`` of shape (3,), or (3, R) for a filter per row), started in the steady state of its
     first value: the values of ``scipy.signal.lfilter(b, a, src, axis=1, zi=lfilter_zi(b, a) *
     src[:, :1])`` bit for bit (its transposed direct form, the same operations in the same order;
     tested), without importing scipy.signal (~40 MB of the process's memory).  One step per column
-    over all rows at once (the columns of a transposed copy: contiguous)."""
+    over all rows at once (the columns of a transposed copy: contiguous; ``overwrite``: ``src`` is
+    the transpose of a C-contiguous array that may be overwritten, used in place)."""
     b = np.asarray(b, np.float64)
     a = np.asarray(a, np.float64)
     r = src.shape[0]
@@ -450,12 +452,12 @@ def _rational_rows(b, a, src):
         rows = np.all(b == bq[:, None], axis=0) & np.all(a == aq[:, None], axis=0)
         zi[:, rows] = np.linalg.solve(np.array([[1.0 + aq[1], -1.0], [aq[2], 1.0]]),
                                       bq[1:] - aq[1:] * bq[0])[:, None]
-    src_t = np.ascontiguousarray(src.T)
+    src_t = src.T if overwrite and src.T.flags.c_contiguous else np.ascontiguousarray(src.T)
     a1, a2 = a[1], a[2]
     z0, z1 = zi[0] * src_t[0], zi[1] * src_t[0]
     # the input's products for every column at once (the same products): 6 calls per column
-    out = src_t * b[0]
     bx1, bx2 = src_t * b[1], src_t * b[2]
+    out = np.multiply(src_t, b[0], out=src_t if overwrite else None)
     t = np.empty_like(z0)
     for y, p1, p2 in zip(out, bx1, bx2):
         y += z0                             # y = z0 + b0 x
