@@ -6,8 +6,11 @@ specification's maps bit for bit."""
 import numpy as np
 import pytest
 
+from gfgpu import stereo
 from gfgpu.stereo import _opencl, band_plan, kernels
 from gfgpu.stereo import spec as specs
+
+from .scenes import random_dot_pair, slanted
 
 
 def _codes(rng, h, w, steps, shift, flip):
@@ -92,3 +95,24 @@ def test_coarse_bands_match_the_specification(require_backend, monkeypatch, h, k
     want = specs.semi_global_match_reference(left[0], right, first, n, steps, 3, 5, 40, paths, 10)
     for g, r in zip(got, want):
         np.testing.assert_array_equal(g, r)
+
+
+@pytest.mark.parametrize("paths", [4, 8])
+def test_stream_in_coarse_bands_equals_disparity(require_backend, monkeypatch, paths):
+    # StereoMatcher keeps the coarse bands' buffers (costs, interleaved codes of one coarse band,
+    # coarse and fine checkpoints) across frames: every frame equals a one-shot disparity() and
+    # the numpy specification's map
+    be = _cpu_opencl(require_backend)
+    monkeypatch.setattr(band_plan, "WHOLE_BYTES", 0)
+    monkeypatch.setattr(band_plan, "KEEP_BYTES", 0)
+    monkeypatch.setattr(band_plan, "band_rows", lambda h_, paths_, w=1, n=1: min(h_, 3))
+    shape = (29, 48)
+    assert not band_plan.match_plan(*shape, 27, paths).keep
+    matcher = stereo.StereoMatcher(shape, 13, min_disparity=-1, paths=paths, backend=be)
+    for k in range(3):
+        left, right, _ = random_dot_pair(lambda yy, xx, k=k: slanted(yy, xx) + 0.4 * k, shape=shape, seed=k)
+        got = matcher.compute(left, right)
+        want = stereo.disparity(left, right, 13, min_disparity=-1, paths=paths, backend=be)
+        np.testing.assert_array_equal(got, want)
+        np.testing.assert_array_equal(got, stereo.disparity(left, right, 13, min_disparity=-1, paths=paths,
+                                                            backend="numpy"))
