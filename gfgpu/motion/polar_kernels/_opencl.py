@@ -13,8 +13,18 @@ from ...backends.opencl import launch as ocl
 #: work-group size of the polar resampling kernels (None: the driver's choice)
 _LOCAL = None
 
-#: angles per work-item of to_polar on a CPU
+#: angles per work-item of the scalar to_polar on a CPU
 _CHUNK = 16
+
+#: lanes of the explicit-vector kernels (to_polar_vec, from_polar_vec; VW in polar.cl) and the rings
+#: (to_polar_vec) or rows (from_polar_vec) each of their work-items runs in turn (RB in polar.cl)
+_VW = 8
+_RB = 8
+
+
+def _vector(be):
+    """Whether the explicit-vector kernels run: on a CPU device (a GPU runs one sample per work-item)."""
+    return be.kind == "cpu"
 
 #: coefficients that to_polar materialises beyond every border in 'constant' and 'nearest' mode
 #: (read clamped beyond them: the extension to z^32, below 1e-18)
@@ -105,6 +115,14 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
         if (h > 3 and w > 3 and cy - reach >= -(h - 3) and cy + reach <= 2 * h - 4 and cx - reach >= -(w - 3)
                 and cx + reach <= 2 * w - 4):
             fast = {"MODE_Y": _code(mode), "MODE_X": _code(mode)}
+    if fast and _vector(be) and n_phi % _VW == 0 and n_r % _RB == 0:
+        # a CPU: _VW adjacent angles in explicit vectors (PoCL does not vectorise across work-items here),
+        # _RB rings in turn (each ring's taps about a pixel from the last ring's: cached)
+        ocl.launch(be, _kernel(be, "to_polar_vec", dtype, pos, grid, RB=_RB, **fast), (n_phi // _VW, n_r // _RB),
+                   None, [coef, trig], [out],
+                   (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
+                    np.int32(bsz), grid(cy), grid(cx), np.int32(r0)))
+        return out
     chunk = _CHUNK if be.kind == "cpu" else 1
     ocl.launch(be, _kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_phi // chunk), n_r)),
                _LOCAL, [coef, trig], [out],
@@ -145,10 +163,22 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
                    (angles.data, np.int32(h), np.int32(w), grid(cy), grid(cx)))
         return angles
     angles = _kept(be, ("angles", h, w, float(cy), float(cx), np.dtype(grid).str), make_angles)
+    common = (np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi), np.int32(bsz), grid(cy), grid(cx),
+              np.int32(r0), grid(r_lo), grid(reach))
+    vec = (x1 - x0) // _VW * _VW if fast and _vector(be) else 0
+    if vec:
+        # a CPU: _VW adjacent pixels of a row in explicit vectors, _RB rows in turn (whose polar taps lie
+        # about a pixel apart: cached); pixels beyond the band keep base (in place: rewritten unchanged)
+        ocl.launch(be, _kernel(be, "from_polar_vec", dtype, pos, grid, RB=_RB, **fast),
+                   (vec // _VW, -(-(y1 - y0) // _RB)), None, [pcoef, base, weights, angles], [out],
+                   (pcoef.data, bbuf, obuf, ooff, *common, np.int32(x0), np.int32(y0), np.int32(vec),
+                    np.int32(y1 - y0), boff, weights.data, np.int32(wcoef is not None), angles.data, np.int32(w)))
+        x0 += vec
+        if x0 == x1:
+            return out
     ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
                [pcoef, base, weights, angles], [out],
-               (pcoef.data, bbuf, obuf, ooff, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
-                np.int32(bsz), grid(cy), grid(cx), np.int32(r0), grid(r_lo), grid(reach),
+               (pcoef.data, bbuf, obuf, ooff, *common,
                 np.int32(x0), np.int32(y0), np.int32(x1 - x0), np.int32(y1 - y0), boff, weights.data,
                 np.int32(wcoef is not None), np.int32(not in_place), angles.data))
     return out
@@ -160,6 +190,10 @@ def launch_add_rows(be, src, dst, scale):
     dtype, pos = _setup(be, dst)
     bsz, n, m = (int(s) for s in dst.shape)
     weights = be.asarray(np.ascontiguousarray(scale, dtype))
+    if _vector(be):        # 64 elements of a row per work-item, in explicit vectors
+        ocl.launch(be, _kernel(be, "add_rows_vec", dtype, pos), (-(-m // 64), bsz * n), None, [src, weights], [dst],
+                   (sbuf, dbuf, doff, weights.data, np.int32(n), np.int32(m), np.int32(bsz * n), soff))
+        return dst
     ocl.launch(be, _kernel(be, "add_rows", dtype, pos), _global((m, bsz * n)), _LOCAL, [src, weights], [dst],
                (sbuf, dbuf, doff, weights.data, np.int32(n), np.int32(m), np.int32(bsz * n), soff))
     return dst

@@ -215,3 +215,190 @@ __kernel void add_rows(__global const REAL *src, __global REAL *dst, const long 
     const long t = (long)row * m + j;
     dst[dst_off + t] += scale[row % n] * src[src_off + t];
 }
+
+
+#ifdef MODE_X
+// Vector types of REAL and GRID: REALV / GRIDV / INTV are VW lanes (8), for the kernels that run VW
+// adjacent samples per work-item in explicit vectors (PoCL 3.1 does not vectorise these kernels across
+// work-items: its loop vectoriser refuses the work-item loop, so the scalar kernels run one sample
+// per instruction).
+#define VW 8
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+#define REALV CAT(REAL, 8)
+#define GRIDV CAT(GRID, 8)
+#define INTV int8
+#define GRID16 CAT(GRID, 16)
+#define TO_REALV(x) CAT(convert_, REALV)(x)
+#define TO_GRIDV(x) CAT(convert_, GRIDV)(x)
+#define TO_INTV(x) CAT(convert_int8, _rtz)(x)
+// the lanes of a comparison of GRIDV (and REALV: GRID is REAL's type wherever a kernel has both)
+#if GRID_IS_FLOAT
+#define MASKV int8
+#else
+#define MASKV long8
+#endif
+
+// floor as int lanes (|x| < 2^31): truncation, minus one where it rounded up (a true comparison
+// is -1 in every lane)
+INLINE INTV ifloor_v(const GRIDV x)
+{
+    const INTV t = TO_INTV(x);
+    return t + CAT(convert_, INTV)(x < TO_GRIDV(t));
+}
+
+// near_index on lanes, branch-free (selects)
+INLINE INTV near_index_v(const INTV i, const int n, const int mode)
+{
+    if (mode == MODE_NEAREST)
+        return select(select(i, (INTV)(n - 1), i >= n), (INTV)0, i < 0);
+    if (mode == MODE_WRAP)
+        return select(select(i, i - n, i >= n), i + n, i < 0);
+    if (mode == MODE_REFLECT)
+        return select(select(i, 2 * n - 1 - i, i >= n), -1 - i, i < 0);
+    if (n == 1)
+        return (INTV)0;
+    return select(select(i, 2 * n - 2 - i, i >= n), -i, i < 0);
+}
+
+// the cubic B-spline weights (bweights4) on lanes
+INLINE void bweights4_v(const REALV t, REALV *w0, REALV *w1, REALV *w2, REALV *w3)
+{
+    const REAL sixth = (REAL)1 / (REAL)6;
+    const REALV t2 = t * t, g = (REAL)1 - t;
+    const REALV t3 = t2 * t;
+    *w0 = g * g * g * sixth;
+    *w1 = ((REAL)0.5 * t3 - t2) + (REAL)2 / (REAL)3;
+    *w2 = (REAL)0.5 * (t + t2 - t3) + sixth;
+    *w3 = t3 * sixth;
+}
+
+// the lanes' values at the lanes' indices (PoCL makes the loads; a gather on AVX-512)
+#define GATHER8(p, i) ((REALV)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3], (p)[(i).s4], (p)[(i).s5], \
+                               (p)[(i).s6], (p)[(i).s7]))
+
+// spline2_near on VW points at once (positions (py, px) in lanes): the same taps in the same order
+INLINE REALV spline2_near_v(__global const REAL *src, const int h, const int w, const GRIDV py, const GRIDV px)
+{
+    const INTV iy = ifloor_v(py), ix = ifloor_v(px);
+    REALV wx0, wx1, wx2, wx3, wy0, wy1, wy2, wy3;
+    bweights4_v(TO_REALV(px - TO_GRIDV(ix)), &wx0, &wx1, &wx2, &wx3);
+    bweights4_v(TO_REALV(py - TO_GRIDV(iy)), &wy0, &wy1, &wy2, &wy3);
+    const INTV c0 = near_index_v(ix - 1, w, MODE_X), c1 = near_index_v(ix, w, MODE_X);
+    const INTV c2 = near_index_v(ix + 1, w, MODE_X), c3 = near_index_v(ix + 2, w, MODE_X);
+    REALV acc = (REALV)0;
+#define SPLINE_ROW(p, wy)                                                                                   \
+    {                                                                                                       \
+        const INTV row = near_index_v(iy + (p - 1), h, MODE_Y) * w;                                         \
+        const INTV a0 = row + c0, a1 = row + c1, a2 = row + c2, a3 = row + c3;                              \
+        acc += wy * (wx0 * GATHER8(src, a0) + wx1 * GATHER8(src, a1) + wx2 * GATHER8(src, a2)               \
+                     + wx3 * GATHER8(src, a3));                                                              \
+    }
+    SPLINE_ROW(0, wy0)
+    SPLINE_ROW(1, wy1)
+    SPLINE_ROW(2, wy2)
+    SPLINE_ROW(3, wy3)
+#undef SPLINE_ROW
+    return acc;
+}
+
+// to_polar with VW adjacent angles of RB adjacent rings per work-item (n_phi is a multiple of 16 and
+// n_r of 8: whole vectors and blocks): ring after ring at the same angles, the 4 x 4 taps of one move
+// by about a pixel from the last one's, so 3 of the 4 rows a ring reads are in the L1 cache (ring after
+// ring around the whole circle, every ring read the image afresh from memory: half the kernel's time)
+#ifndef RB
+#define RB 8
+#endif
+__kernel void to_polar_vec(__global const REAL *coef, __global REAL *out, const long out_off,
+                           __global const GRID *trig, const int h, const int w, const int n_r, const int n_phi,
+                           const int planes, const GRID cy, const GRID cx, const int r0)
+{
+    const int i0 = get_global_id(1) * RB, j0 = get_global_id(0) * VW;
+    if (i0 >= n_r || j0 >= n_phi)
+        return;
+    const GRID16 cs = vload16(0, trig + 2 * j0);
+    const GRIDV sn = cs.odd, cn = cs.even;
+    for (int b = 0; b < planes; ++b)
+        for (int i = i0; i < i0 + RB; ++i) {
+            const GRID r = (GRID)(r0 + i);
+            vstore8(spline2_near_v(coef + (long)b * h * w, h, w, cy - r * sn, cx + r * cn), 0,
+                    out + out_off + ((long)b * n_r + i) * n_phi + j0);
+        }
+}
+
+#define SQRT8(v) ((GRIDV)(SQRT_GRID((v).s0), SQRT_GRID((v).s1), SQRT_GRID((v).s2), SQRT_GRID((v).s3), \
+                          SQRT_GRID((v).s4), SQRT_GRID((v).s5), SQRT_GRID((v).s6), SQRT_GRID((v).s7)))
+
+// from_polar with VW adjacent pixels of a row per work-item, RB rows after rows (the polar taps of the
+// next row lie about a pixel from this row's: in the L1 cache).  Whole vectors only: the launcher runs
+// the last columns of a box that VW does not divide with the scalar kernel (from_polar).  angles has
+// rows of `astride` (>= w) values.
+__kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *base, __global REAL *out,
+                             const long out_off, const int h, const int w, const int n_r, const int n_phi,
+                             const int planes, const GRID cy, const GRID cx, const int r0, const GRID r_lo,
+                             const GRID r_hi, const int x0, const int y0, const int bw, const int bh,
+                             const long base_off, __global const REAL *wcoef, const int weighted,
+                             __global const GRID *angles, const int astride)
+{
+    const int gx = get_global_id(0) * VW, gy0 = get_global_id(1) * RB;
+    if (gx + VW > bw || gy0 >= bh)
+        return;
+    const int x = x0 + gx;
+    const GRIDV dx = TO_GRIDV((INTV)(0, 1, 2, 3, 4, 5, 6, 7) + x) - cx;
+    const GRID scale = (GRID)n_phi / (GRID)6.283185307179586;
+    for (int y = y0 + gy0; y < y0 + IMIN(gy0 + RB, bh); ++y) {
+        const GRID dy = cy - (GRID)y;
+        const GRIDV r = SQRT8(dx * dx + dy * dy);
+        const MASKV inside = r >= r_lo && r < r_hi;
+        if (!any(inside)) {
+            for (int b = 0; b < planes; ++b) {
+                const long pix = ((long)b * h + y) * w + x;
+                vstore8(vload8(0, base + base_off + pix), 0, out + out_off + pix);    // a no-op in place
+            }
+            continue;
+        }
+        GRIDV jf = vload8(0, angles + (long)y * astride + x) * scale;
+        jf = select(jf, jf - (GRID)n_phi, jf >= (GRID)n_phi);
+        // pixels beyond the band's radii read a clamped ring (in range) and keep base
+        GRIDV ring = r - (GRID)r0;
+        ring = select(select(ring, (GRIDV)0, ring < (GRID)0), (GRIDV)(n_r - 1), ring > (GRID)(n_r - 1));
+        REALV weight = (REALV)1;
+        if (weighted) {
+            const INTV ir = ifloor_v(ring);
+            REALV w0, w1, w2, w3;
+            bweights4_v(TO_REALV(ring - TO_GRIDV(ir)), &w0, &w1, &w2, &w3);
+            const INTV i1 = ir + 1, i2 = ir + 2, i3 = ir + 3;
+            weight = w0 * GATHER8(wcoef, ir) + w1 * GATHER8(wcoef, i1) + w2 * GATHER8(wcoef, i2)
+                     + w3 * GATHER8(wcoef, i3);
+        }
+        for (int b = 0; b < planes; ++b) {
+            const long pix = ((long)b * h + y) * w + x;
+            const REALV value = vload8(0, base + base_off + pix);
+            const REALV change = spline2_near_v(pcoef + (long)b * n_r * n_phi, n_r, n_phi, ring, jf);
+            vstore8(select(value, weight * value + change, inside), 0,
+                    out + out_off + pix);
+        }
+    }
+}
+#endif
+
+// add_rows with 64 adjacent elements of one row per work-item (on a CPU: the scale read and the row's
+// index computed once per work-item, not per element as add_rows does; explicit vectors of 8)
+__kernel void add_rows_vec(__global const REAL *src, __global REAL *dst, const long dst_off,
+                           __global const REAL *scale, const int n, const int m, const int rows, const long src_off)
+{
+    const int j0 = get_global_id(0) * 64, row = get_global_id(1);
+    if (j0 >= m || row >= rows)
+        return;
+    const REAL f = scale[row % n];
+    const long t = (long)row * m + j0;
+    __global const REAL *a = src + src_off + t;
+    __global REAL *d = dst + dst_off + t;
+    if (j0 + 64 <= m) {
+        for (int k = 0; k < 64; k += 8)
+            vstore8(vload8(0, d + k) + f * vload8(0, a + k), 0, d + k);
+        return;
+    }
+    for (int k = 0; k < m - j0; ++k)
+        d[k] += f * a[k];
+}
