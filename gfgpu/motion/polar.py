@@ -174,21 +174,35 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
     cval = job.scaled(cval)     # in job.data's units; after the refusals, which read no pixel
     planes = (math.prod(shape[:-2]), height, width)
     data = be.reshape(job.data, planes)
-    coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval)
+    bands = polar_bands(height, width, cy, cx, reach, split)
+    # every band's polar arrays are the first samples of one workspace (the largest band's size), and so
+    # is the image prefilter's scratch: a call takes each new page once (a first call on a new shape
+    # pays for every new page it touches: ~5 ms per MB on a shared 2-core VM, as much as the blur)
+    most = planes[0] * max(n_r * n_phi for _, n_r, n_phi, _, _ in bands)
+    work = [be.empty((most,), dtype), be.empty((most,), dtype)]
+
+    def carve(k, part_shape):
+        while k >= len(work):
+            work.append(be.empty((most,), dtype))
+        return be.reshape(work[k][:math.prod(part_shape)], part_shape)
+
+    tmp = carve(0, planes) if math.prod(planes) <= most else None
+    coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval, tmp=tmp)
+    del tmp
     result = job.result_buffer()
     out, base = be.reshape(result, planes), data
     keep = min(abs(rate) / _KEEP_LENGTH, _KEEP_SLOPE)
-    for r0, n_r, n_phi, r_lo, r_hi in polar_bands(height, width, cy, cx, reach, split):
+    for r0, n_r, n_phi, r_lo, r_hi in bands:
         pshape = (planes[0], n_r, n_phi)        # radius on axis 1, angle on axis 2 (contiguous)
-        polar = be.empty(pshape, dtype)
+        polar = carve(0, pshape)
         to_polar(be, coef, polar, cy, cx, r0, mode, cval)
-        scratch = be.empty(pshape, dtype)
+        scratch = carve(1, pshape)
         weights = 1.0 / (1.0 + (keep * (r0 + np.arange(n_r))) ** 2)
         # the pixels' own weight: the ring weights' radial spline (mirrored as the polar spline is),
         # what the resampling back gives the subtracted w P, so that w I + R(B P - w P) is I
         # wherever B leaves P alone (a constant image exactly, not to the spline's error in w)
         wcoef = ndimage.spline_filter1d(weights, order=3, mode="mirror") if keep else None
-        change = blur(be, polar, pshape, scratch, lambda shape=pshape: be.empty(shape, dtype), weights)
+        change = blur(be, polar, pshape, scratch, lambda shape=pshape: carve(2, shape), weights)
         spare = scratch if change is not scratch else polar
         pcoef = spline_coefficients(be, change, dtype, pshape, ("mirror", "wrap"), tmp=spare, out=change)
         del polar, scratch, spare

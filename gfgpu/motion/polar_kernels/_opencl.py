@@ -10,8 +10,13 @@ import numpy as np
 from ..._core import boundary
 from ...backends.opencl import launch as ocl
 
-#: work-group size of the polar resampling kernels (None: the driver's choice)
+#: work-group size of the polar resampling kernels on a GPU (None: the driver's choice)
 _LOCAL = None
+
+#: work-group size of every polar kernel on a CPU device, fixed: PoCL builds a kernel once per
+#: work-group size, and its own choice follows the global size, so with the driver's choice each new
+#: image shape rebuilt the kernels (0.2-1 s each: a first spin on a new 2048^2 shape took 3.5-6 s)
+_CPU_GROUP = (8, 1)
 
 #: angles per work-item of the scalar to_polar on a CPU
 _CHUNK = 16
@@ -82,6 +87,14 @@ def _grid(dtype, pos):
     return np.float32 if dtype == np.float32 else pos
 
 
+def _range(be, size):
+    """``(global, local)`` of a launch over ``size`` work-items: whole groups of :data:`_CPU_GROUP` on a
+    CPU device, of :data:`_LOCAL` elsewhere (the kernels check bounds)."""
+    if be.kind == "cpu" and _CPU_GROUP is not None:
+        return tuple(-(-n // g) * g for n, g in zip(size, _CPU_GROUP)), _CPU_GROUP
+    return _global(size), _LOCAL
+
+
 def _global(size):
     """The global size rounded up to whole work-groups of ``_LOCAL`` (the kernels check bounds)."""
     if _LOCAL is None:
@@ -105,7 +118,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
         # the extension materialised _PAD coefficients beyond every border, then read clamped
         h, w, cy, cx = h + 2 * _PAD, w + 2 * _PAD, cy + _PAD, cx + _PAD
         padded = be.empty((bsz, h, w), dtype)
-        ocl.launch(be, _kernel(be, "pad_coef", dtype, pos), _global((w, h)), _LOCAL, [coef], [padded],
+        ocl.launch(be, _kernel(be, "pad_coef", dtype, pos), *_range(be, (w, h)), [coef], [padded],
                    (coef.data, padded.data, np.int32(h - 2 * _PAD), np.int32(w - 2 * _PAD), np.int32(bsz),
                     np.int32(_code(mode)), dtype.type(cval)))
         coef, mode, fast = padded, "nearest", {"MODE_Y": _code("nearest"), "MODE_X": _code("nearest")}
@@ -118,14 +131,14 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     if fast and _vector(be) and n_phi % _VW == 0 and n_r % _RB == 0:
         # a CPU: _VW adjacent angles in explicit vectors (PoCL does not vectorise across work-items here),
         # _RB rings in turn (each ring's taps about a pixel from the last ring's: cached)
-        ocl.launch(be, _kernel(be, "to_polar_vec", dtype, pos, grid, RB=_RB, **fast), (n_phi // _VW, n_r // _RB),
-                   None, [coef, trig], [out],
+        ocl.launch(be, _kernel(be, "to_polar_vec", dtype, pos, grid, RB=_RB, **fast),
+                   *_range(be, (n_phi // _VW, n_r // _RB)), [coef, trig], [out],
                    (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
                     np.int32(bsz), grid(cy), grid(cx), np.int32(r0)))
         return out
     chunk = _CHUNK if be.kind == "cpu" else 1
-    ocl.launch(be, _kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast), _global((-(-n_phi // chunk), n_r)),
-               _LOCAL, [coef, trig], [out],
+    ocl.launch(be, _kernel(be, "to_polar", dtype, pos, grid, CHUNK=chunk, **fast),
+               *_range(be, (-(-n_phi // chunk), n_r)), [coef, trig], [out],
                (coef.data, obuf, ooff, trig.data, np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi),
                 np.int32(bsz), grid(cy), grid(cx), np.int32(r0), np.int32(_code(mode)), dtype.type(cval)))
     return out
@@ -159,7 +172,7 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
 
     def make_angles():
         angles = be.empty((h, w), grid)
-        ocl.launch(be, _kernel(be, "angle_map", dtype, pos, grid), _global((w, h)), _LOCAL, [], [angles],
+        ocl.launch(be, _kernel(be, "angle_map", dtype, pos, grid), *_range(be, (w, h)), [], [angles],
                    (angles.data, np.int32(h), np.int32(w), grid(cy), grid(cx)))
         return angles
     angles = _kept(be, ("angles", h, w, float(cy), float(cx), np.dtype(grid).str), make_angles)
@@ -170,13 +183,13 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
         # a CPU: _VW adjacent pixels of a row in explicit vectors, _RB rows in turn (whose polar taps lie
         # about a pixel apart: cached); pixels beyond the band keep base (in place: rewritten unchanged)
         ocl.launch(be, _kernel(be, "from_polar_vec", dtype, pos, grid, RB=_RB, **fast),
-                   (vec // _VW, -(-(y1 - y0) // _RB)), None, [pcoef, base, weights, angles], [out],
+                   *_range(be, (vec // _VW, -(-(y1 - y0) // _RB))), [pcoef, base, weights, angles], [out],
                    (pcoef.data, bbuf, obuf, ooff, *common, np.int32(x0), np.int32(y0), np.int32(vec),
                     np.int32(y1 - y0), boff, weights.data, np.int32(wcoef is not None), angles.data, np.int32(w)))
         x0 += vec
         if x0 == x1:
             return out
-    ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), _global((x1 - x0, y1 - y0)), _LOCAL,
+    ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), *_range(be, (x1 - x0, y1 - y0)),
                [pcoef, base, weights, angles], [out],
                (pcoef.data, bbuf, obuf, ooff, *common,
                 np.int32(x0), np.int32(y0), np.int32(x1 - x0), np.int32(y1 - y0), boff, weights.data,
@@ -191,9 +204,10 @@ def launch_add_rows(be, src, dst, scale):
     bsz, n, m = (int(s) for s in dst.shape)
     weights = be.asarray(np.ascontiguousarray(scale, dtype))
     if _vector(be):        # 64 elements of a row per work-item, in explicit vectors
-        ocl.launch(be, _kernel(be, "add_rows_vec", dtype, pos), (-(-m // 64), bsz * n), None, [src, weights], [dst],
+        ocl.launch(be, _kernel(be, "add_rows_vec", dtype, pos), *_range(be, (-(-m // 64), bsz * n)), [src, weights],
+                   [dst],
                    (sbuf, dbuf, doff, weights.data, np.int32(n), np.int32(m), np.int32(bsz * n), soff))
         return dst
-    ocl.launch(be, _kernel(be, "add_rows", dtype, pos), _global((m, bsz * n)), _LOCAL, [src, weights], [dst],
+    ocl.launch(be, _kernel(be, "add_rows", dtype, pos), *_range(be, (m, bsz * n)), [src, weights], [dst],
                (sbuf, dbuf, doff, weights.data, np.int32(n), np.int32(m), np.int32(bsz * n), soff))
     return dst
