@@ -79,7 +79,11 @@ def _host_cpu_defines(be):
     """Build options of the CPU band matcher's kernels for instructions of the host CPU that an
     OpenCL CPU device (which runs on it) may not target by default: ``VPOPCNTQ`` where the CPU
     has AVX512-VPOPCNTDQ (PoCL 3.1 targets such a Zen 5 as skylake-avx512, without it)."""
-    if be.kind == "cpu" and "avx512_vpopcntdq" in _host_cpu_flags():
+    import platform
+    # the kernel names x86 clang builtins: only PoCL (clang) on an x86-64 host compiles them
+    pocl = "portable computing language" in be.cl_device.platform.name.lower()
+    if (be.kind == "cpu" and pocl and platform.machine() in ("x86_64", "AMD64")
+            and "avx512_vpopcntdq" in _host_cpu_flags()):
         return {"VPOPCNTQ": 1}
     return {}
 
