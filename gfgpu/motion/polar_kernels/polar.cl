@@ -277,6 +277,19 @@ INLINE void bweights4_v(const REALV t, REALV *w0, REALV *w1, REALV *w2, REALV *w
 #define GATHER8(p, i) ((REALV)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3], (p)[(i).s4], (p)[(i).s5], \
                                (p)[(i).s6], (p)[(i).s7]))
 
+// the 4 x VW values of 4 adjacent columns from column c[k] of row a[k] - c[k] of each lane k, as 4 lanes of
+// columns (one 4-wide load per lane, transposed: PoCL makes 8 loads of 16 bytes instead of 32 of 4)
+#define ROW4(p, a, k) vload4(0, (p) + (a).k)
+INLINE void rows4(__global const REAL *src, const INTV a, REALV *q0, REALV *q1, REALV *q2, REALV *q3)
+{
+    const CAT(REAL, 4) v0 = ROW4(src, a, s0), v1 = ROW4(src, a, s1), v2 = ROW4(src, a, s2), v3 = ROW4(src, a, s3);
+    const CAT(REAL, 4) v4 = ROW4(src, a, s4), v5 = ROW4(src, a, s5), v6 = ROW4(src, a, s6), v7 = ROW4(src, a, s7);
+    *q0 = (REALV)(v0.s0, v1.s0, v2.s0, v3.s0, v4.s0, v5.s0, v6.s0, v7.s0);
+    *q1 = (REALV)(v0.s1, v1.s1, v2.s1, v3.s1, v4.s1, v5.s1, v6.s1, v7.s1);
+    *q2 = (REALV)(v0.s2, v1.s2, v2.s2, v3.s2, v4.s2, v5.s2, v6.s2, v7.s2);
+    *q3 = (REALV)(v0.s3, v1.s3, v2.s3, v3.s3, v4.s3, v5.s3, v6.s3, v7.s3);
+}
+
 // spline2_near on VW points at once (positions (py, px) in lanes): the same taps in the same order
 INLINE REALV spline2_near_v(__global const REAL *src, const int h, const int w, const GRIDV py, const GRIDV px)
 {
@@ -284,9 +297,23 @@ INLINE REALV spline2_near_v(__global const REAL *src, const int h, const int w, 
     REALV wx0, wx1, wx2, wx3, wy0, wy1, wy2, wy3;
     bweights4_v(TO_REALV(px - TO_GRIDV(ix)), &wx0, &wx1, &wx2, &wx3);
     bweights4_v(TO_REALV(py - TO_GRIDV(iy)), &wy0, &wy1, &wy2, &wy3);
+    REALV acc = (REALV)0;
+    if (all(ix >= 1 && ix + 2 < w)) {    // every lane's 4 columns inside: 4 adjacent values per lane and row
+#define SPLINE_ROW4(p, wy)                                                                                  \
+        {                                                                                                   \
+            REALV q0, q1, q2, q3;                                                                           \
+            rows4(src, near_index_v(iy + (p - 1), h, MODE_Y) * w + ix - 1, &q0, &q1, &q2, &q3);             \
+            acc += wy * (wx0 * q0 + wx1 * q1 + wx2 * q2 + wx3 * q3);                                        \
+        }
+        SPLINE_ROW4(0, wy0)
+        SPLINE_ROW4(1, wy1)
+        SPLINE_ROW4(2, wy2)
+        SPLINE_ROW4(3, wy3)
+#undef SPLINE_ROW4
+        return acc;
+    }
     const INTV c0 = near_index_v(ix - 1, w, MODE_X), c1 = near_index_v(ix, w, MODE_X);
     const INTV c2 = near_index_v(ix + 1, w, MODE_X), c3 = near_index_v(ix + 2, w, MODE_X);
-    REALV acc = (REALV)0;
 #define SPLINE_ROW(p, wy)                                                                                   \
     {                                                                                                       \
         const INTV row = near_index_v(iy + (p - 1), h, MODE_Y) * w;                                         \
