@@ -67,27 +67,6 @@ def _joins(d, max_diff):
         return (np.abs(d[:, 1:] - d[:, :-1]) <= max_diff), (np.abs(d[1:, :] - d[:-1, :]) <= max_diff)
 
 
-def _small_regions_whole(valid, right, down, max_size):
-    """:func:`small_regions` on the whole grid graph at once (when most pixels lie in short runs
-    of equal bins: noisy maps): a CSR matrix of each pixel's joins to its right and lower
-    neighbours, built directly, and its components."""
-    from scipy.sparse import csr_matrix
-    from scipy.sparse.csgraph import connected_components
-    h, w = valid.shape
-    join = np.zeros((h, w, 2), bool)
-    join[:, :-1, 0] = right
-    join[:-1, :, 1] = down
-    idx = np.arange(h * w, dtype=np.int64).reshape(h, w)
-    indices = np.stack([idx + 1, idx + w], axis=-1)[join]
-    indptr = np.zeros(h * w + 1, np.int64)
-    np.cumsum(join.reshape(h * w, 2).sum(axis=1), out=indptr[1:])
-    graph = csr_matrix((np.ones(indices.size, np.int8), indices, indptr), shape=(h * w, h * w))
-    _, comp = connected_components(graph, directed=False)
-    comp = comp.reshape(h, w)
-    size = np.bincount(comp[valid], minlength=comp.max() + 1)
-    return valid & (size[comp] <= max_size)
-
-
 def small_regions(disp, max_size, max_diff):
     """Mask of the valid pixels whose region of similar disparity has at most ``max_size`` pixels.
 
@@ -95,55 +74,47 @@ def small_regions(disp, max_size, max_diff):
     their disparities differ by at most ``max_diff`` (a similarity rule that
     :func:`scipy.ndimage.label`, which joins equal binary values, cannot express).
 
-    Two steps, both exact.  (1) Pixels of one bin ``floor(d / max_diff)`` differ by less than
-    ``max_diff``, so a 4-connected run of equal bins (:func:`skimage.measure.label`) lies inside
-    one region; a run of more than ``max_size`` pixels makes its region large, and so does a
-    join to such a run.  (2) The regions of the remaining pixels (few, in speckled areas) are
-    found by :func:`scipy.sparse.csgraph.connected_components` on their joins, the large runs
-    merged into one extra node: a region without that node is counted in full.  Where most
-    pixels remain (noisy maps), the components of the whole grid graph are taken instead.
+    Exact, on runs: the joins to the right neighbour cut each row into runs (raster order;
+    an invalid pixel is a run of its own), each inside one region.  A run of more than
+    ``max_size`` pixels makes its region large.  The regions of the remaining short valid runs
+    (few, in speckled areas) are the components of the graph of their vertical joins
+    (:func:`scipy.sparse.csgraph.connected_components`), every long run merged into one extra
+    node: a component without that node is a whole region, its size the sum of its runs'
+    lengths.  O(H W) numpy passes and a graph of the short runs only (the default map of
+    1000 x 1500: 14 ms, where a labelling of equal disparity bins and a graph of the remaining
+    pixels took 71 ms).
     """
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import connected_components
     d = np.asarray(disp, np.float64)     # float32 differences round; float64 ones of float32 values do not
     h, w = d.shape
+    small = np.zeros((h, w), bool)
+    if d.size == 0:
+        return small
     valid = np.isfinite(d)
     right, down = _joins(d, max_diff)
-    anchored = np.zeros((h, w), bool)
-    if max_diff > 0:
-        from skimage.measure import label
-        # |d| <= ~2e4 px: floor(d / m) is exact enough that one bin never holds values more
-        # than m apart (float64 quotient error ~1e-12 against float32 steps ~1e-7)
-        # (bins counted from the smallest, int32: |d| / m stays far below 2**31 for m >= 1e-5)
-        low = np.floor(np.min(d[valid]) / max_diff) - 1 if valid.any() else 0.0
-        bins = np.floor(d / max_diff) - low
-        if np.all(bins[valid] < 2**31 - 1):
-            bins = np.where(valid, bins, 0).astype(np.int32)
-            runs = label(bins, background=0, connectivity=1)
-            run_size = np.bincount(runs.ravel())
-            run_size[0] = 0
-            anchored = np.take(run_size > max_size, runs)
-    rest = valid & ~anchored
-    n = int(rest.sum())
-    small = np.zeros((h, w), bool)
-    if n == 0:
+    start = np.ones((h, w), bool)
+    start[:, 1:] = ~right                   # a run starts where the pixel is not joined to its left
+    starts = np.flatnonzero(start)
+    length = np.diff(starts, append=h * w)
+    # short runs of valid pixels are the graph's nodes 0 .. m - 1, every long run node m
+    short = valid.ravel()[starts] & (length <= max_size)
+    m = int(np.count_nonzero(short))
+    if m == 0:
         return small
-    if 2 * n > h * w:
-        return _small_regions_whole(valid, right, down, max_size)
-    node = np.full((h, w), n, np.int64)        # node n: every large run at once
-    node[rest] = np.arange(n)
-    src, dst = [], []
-    for join, a, b in ((right, (slice(None), slice(None, -1)), (slice(None), slice(1, None))),
-                       (down, (slice(None, -1), slice(None)), (slice(1, None), slice(None)))):
-        keep = join & (rest[a] | rest[b])      # joins between two anchored pixels change nothing
-        src.append(node[a][keep])
-        dst.append(node[b][keep])
-    src, dst = np.concatenate(src), np.concatenate(dst)
-    graph = coo_matrix((np.ones(src.size, np.int8), (src, dst)), shape=(n + 1, n + 1))
+    node = np.full(starts.size, m, np.int64)
+    node[short] = np.arange(m)
+    rest = np.repeat(short, length).reshape(h, w)
+    # vertical joins with a short run at either end (joins between two long runs change nothing)
+    at = np.flatnonzero(down & (rest[:-1] | rest[1:]))
+    src = node[np.searchsorted(starts, at, side="right") - 1]
+    dst = node[np.searchsorted(starts, at + w, side="right") - 1]
+    graph = coo_matrix((np.ones(src.size, np.int8), (src, dst)), shape=(m + 1, m + 1))
     _, comp = connected_components(graph, directed=False)
-    size = np.bincount(comp[:n], minlength=comp.max() + 1)
-    small[rest] = (comp[:n] != comp[n]) & (size[comp[:n]] <= max_size)
-    return small
+    size = np.bincount(comp[:m], weights=length[short], minlength=comp.max() + 1)
+    small_run = np.zeros(starts.size, bool)
+    small_run[short] = (comp[:m] != comp[m]) & (size[comp[:m]] <= max_size)
+    return np.repeat(small_run, length).reshape(h, w)
 
 
 def filter_speckles(disp, max_size, max_diff=1.0):
