@@ -39,9 +39,20 @@ def _group(be, count):
     return -(-count // g) * g, g
 
 
-#: bytes of one vector step of the column kernels (AVX2: 8 floats, 4 doubles; PoCL mis-compiles
-#: 512-bit vloadn, see recurse.cl)
-_VECTOR_BYTES = 32
+#: bytes of one step of a CPU work-item's lines: one cache line (16 floats, 8 doubles), each access
+#: a plain unaligned vector access (never a 512-bit vloadn, which PoCL mis-compiles: recurse.cl)
+_CACHE_LINE = 64
+#: bytes of box_vec's vectors along rows, each gathered element by element across its rows
+#: (16 gathered lanes cost more than twice 8: 2.4x slower at 4096^2)
+_GATHER_BYTES = 32
+#: vectors of adjacent columns per box_shift work-item (a band of 2 cache lines per row: 1.2-1.8x
+#: over one at 4096^2, more gained nothing)
+_COLUMN_VECS = 2
+
+
+def _shifts(a1, b1, a0, b0):
+    """Whether box_shift runs the windows ``[a0 + a1 k, b0 + b1 k]``: fixed width, not narrow."""
+    return a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW
 
 
 def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
@@ -56,14 +67,15 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
     planes, done = bsz, 0
     if be.kind == "cpu":
-        lanes = _VECTOR_BYTES // dtype.itemsize
+        tiled = axis == 1 or _shifts(a1, b1, a0, b0)
+        lanes = (_CACHE_LINE if tiled else _GATHER_BYTES) // dtype.itemsize
         if axis == 2:
             # rows: the B N rows are one run of lines; whole groups of LANES in vector lanes
             planes, lines, done = 1, bsz * rows, (bsz * rows) // lanes * lanes
         else:
             done = cols // lanes * lanes
         if done:
-            _box_vectors(be, (src, dbuf, doff, lbuf, loff, inputs, dst), axis, done // lanes,
+            _box_vectors(be, (src, dbuf, doff, lbuf, loff, inputs, dst), axis, lanes, done // lanes,
                          a0, a1, b0, b1, mode, cval)
     if done < lines:
         # one line per work-item: every line (GPU shapes), or the lines of a partial lane group
@@ -78,28 +90,32 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     return dst
 
 
-def _box_vectors(be, bufs, axis, groups, a0, a1, b0, b1, mode, cval):
-    """box_vec / box_shift on ``groups`` whole groups of LANES lines: adjacent columns (axis 1,
-    contiguous loads, ``groups`` per plane) or consecutive rows (axis 2, loads gathered across
-    them, ``groups`` in all)."""
+def _box_vectors(be, bufs, axis, lanes, vecs, a0, a1, b0, b1, mode, cval):
+    """box_vec / box_shift on ``vecs`` whole groups of ``lanes`` lines: adjacent columns (axis 1,
+    contiguous loads, ``vecs`` per plane; box_shift takes them in bands of ``_COLUMN_VECS``) or
+    consecutive rows (axis 2, ``vecs`` in all: box_shift loads tiles of ``lanes`` steps, box_vec
+    gathers across the rows)."""
     src, dbuf, doff, lbuf, loff, inputs, dst = bufs
     dtype, pos = _setup(be, src)
     bsz, rows, cols = (int(s) for s in src.shape)
     by_rows = axis == 2
-    total = groups if by_rows else bsz * groups
     n = cols if by_rows else rows
-    defines = dict(LANES=_VECTOR_BYTES // dtype.itemsize, ROWS=int(by_rows), LESS=int(len(inputs) > 1))
-    if a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW:
+    defines = dict(LANES=lanes, ROWS=int(by_rows), LESS=int(len(inputs) > 1))
+    if _shifts(a1, b1, a0, b0):
+        per = 1 if by_rows else _COLUMN_VECS
+        groups = -(-vecs // per)
+        total = groups if by_rows else bsz * groups
         a, b = int(np.floor(a0)), int(np.floor(b0))
         # the taps at each end of the window: the partial cell's integral plus the telescoped
         # whole cells (box_shift in motion.cl)
         wa, wb = (bspline.prefix_weights(x - np.floor(x)) for x in (a0, b0))
-        ocl.launch(be, _kernel(be, "box_shift", dtype, pos, **defines), (total,), (1,), inputs, [dst],
+        ocl.launch(be, _kernel(be, "box_shift", dtype, pos, VECS=per, **defines), (total,), (1,), inputs, [dst],
                    (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
                     np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
                     dtype.type(1.0 / (b0 - a0)), np.int32(_code(mode)), dtype.type(cval),
-                    np.int32(total), lbuf, loff))
+                    np.int32(total), lbuf, loff, np.int32(vecs)))
         return
+    total = vecs if by_rows else bsz * vecs
     ocl.launch(be, _kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],
-               (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), pos(a0), pos(a1),
+               (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(vecs), pos(a0), pos(a1),
                 pos(b0), pos(b1), np.int32(_code(mode)), dtype.type(cval), np.int32(total), lbuf, loff))

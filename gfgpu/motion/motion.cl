@@ -208,45 +208,128 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
 }
 
 #ifdef LANES
+#ifndef VECS
+#define VECS 1      // vectors of adjacent columns per box_shift work-item (the launcher's band)
+#endif
 // box_lines with LANES lines per work-item and vector arithmetic.  The window [a0 + a1 k, b0 + b1 k]
 // is the same on every line, so the cell indices and partial-cell weights are scalars.  ROWS = 0:
 // adjacent columns (axis 1, M a multiple of LANES), each load one contiguous vector; ROWS = 1:
-// LANES consecutive rows (axis 2, B N a multiple of LANES), each load gathered across the rows.
+// LANES consecutive rows (axis 2, B N a multiple of LANES): box_shift reads LANES steps of every
+// row at a time as a LANES x LANES tile, one vector load per row, and transposes it in registers
+// (a vector per step, a lane per row; its outputs likewise back); box_vec and the tiles that
+// reach beyond a line's ends gather each vector across the rows (VGET).
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 typedef CAT(REAL, LANES) VT;
-#if ROWS
-#if LANES == 8
-#define VGET(p, ls) ((VT)((p)[0], (p)[ls], (p)[2 * (ls)], (p)[3 * (ls)], (p)[4 * (ls)], (p)[5 * (ls)], \
-                          (p)[6 * (ls)], (p)[7 * (ls)]))
-#define VPUT(v, p, ls) do { const VT v_ = (v); (p)[0] = v_.s0; (p)[ls] = v_.s1; (p)[2 * (ls)] = v_.s2; \
-    (p)[3 * (ls)] = v_.s3; (p)[4 * (ls)] = v_.s4; (p)[5 * (ls)] = v_.s5; (p)[6 * (ls)] = v_.s6; \
-    (p)[7 * (ls)] = v_.s7; } while (0)
-#else
-#define VGET(p, ls) ((VT)((p)[0], (p)[ls], (p)[2 * (ls)], (p)[3 * (ls)]))
-#define VPUT(v, p, ls) do { const VT v_ = (v); (p)[0] = v_.s0; (p)[ls] = v_.s1; (p)[2 * (ls)] = v_.s2; \
-    (p)[3 * (ls)] = v_.s3; } while (0)
-#endif
-#elif defined(__clang__)
+#if defined(__clang__)
 // a vector of the element's alignment: one unaligned load or store, not a vloadn call
 typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
-#define VGET(p, ls) ((VT)(*(__global const VTU *)(p)))
-#define VPUT(v, p, ls) (*(__global VTU *)(p) = (VTU)(v))
+#define VLOADU(p) ((VT)(*(__global const VTU *)(p)))
+#define VSTOREU(v, p) (*(__global VTU *)(p) = (VTU)(v))
 #else
-#define VGET(p, ls) CAT(vload, LANES)(0, (p))
-#define VPUT(v, p, ls) CAT(vstore, LANES)((v), 0, (p))
+#define VLOADU(p) CAT(vload, LANES)(0, (p))
+#define VSTOREU(v, p) CAT(vstore, LANES)((v), 0, (p))
+#endif
+#if ROWS
+// lane l of the vector at p is p[l ls]: the same element of LANES rows ls apart
+INLINE VT vgather(__global const REAL *p, const long ls)
+{
+    VT v;
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        v[l] = p[l * ls];
+    return v;
+}
+
+INLINE void vscatter(const VT v, __global REAL *p, const long ls)
+{
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        p[l * ls] = v[l];
+}
+#define VGET(p, ls) vgather((p), (ls))
+#define VPUT(v, p, ls) vscatter((v), (p), (ls))
+
+// Interleave the low (ZIPLO) or high (ZIPHI) halves of two vectors: a0 b0 a1 b1 ...
+#if LANES == 4
+#define LOG2_LANES 2
+#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1))
+#define ZIPHI(a, b) ((VT)((a).s2, (b).s2, (a).s3, (b).s3))
+#elif LANES == 8
+#define LOG2_LANES 3
+#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3))
+#define ZIPHI(a, b) ((VT)((a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
+#elif LANES == 16
+#define LOG2_LANES 4
+#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3, \
+                          (a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
+#define ZIPHI(a, b) ((VT)((a).s8, (b).s8, (a).s9, (b).s9, (a).sa, (b).sa, (a).sb, (b).sb, \
+                          (a).sc, (b).sc, (a).sd, (b).sd, (a).se, (b).se, (a).sf, (b).sf))
+#else
+#error "the row tiles need LANES 4, 8 or 16"
 #endif
 
-// Work-item t's LANES lines: their first element `start`, the step along a line and between lanes
-#if ROWS
-#define LANE_GROUP(t, n, m, groups) const long start = (long)(t) * LANES * (m), step = 1, ls = (m)
+// In-place transpose of the LANES x LANES tile whose rows are t[0 .. LANES-1] (as recurse.cl):
+// each round moves element (r, c) to the index whose bits [r | c] are rotated left by one, so
+// LOG2_LANES rounds give [c | r].  Unrolled: the tile stays in registers.
+INLINE void transpose(VT *t)
+{
+#pragma unroll
+    for (int r = 0; r < LOG2_LANES; ++r) {
+        VT u[LANES];
+#pragma unroll
+        for (int i = 0; i < LANES / 2; ++i) {
+            u[2 * i] = ZIPLO(t[i], t[i + LANES / 2]);
+            u[2 * i + 1] = ZIPHI(t[i], t[i + LANES / 2]);
+        }
+#pragma unroll
+        for (int i = 0; i < LANES; ++i)
+            t[i] = u[i];
+    }
+}
+
+// w[i] = LANES rows' samples p + i, i < LANES, of the array at `base` (rows ls apart): where all
+// lie on the line (0 <= p, p + LANES <= n) one tile, LANES vector loads transposed
+INLINE int load_tile(VT *w, __global const REAL *base, const long ls, const int n, const int p)
+{
+    if (p < 0 || p > n - LANES)
+        return 0;
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        w[l] = VLOADU(base + l * ls + p);
+    transpose(w);
+    return 1;
+}
 #else
-#define LANE_GROUP(t, n, m, groups)                                                                      \
-    const int plane_ = (t) / (groups);                                                                   \
-    const long start = (long)plane_ * (n) * (m) + (long)((t) - plane_ * (groups)) * LANES, step = (m), ls = 1
+#define VGET(p, ls) VLOADU(p)
+#define VPUT(v, p, ls) VSTOREU((v), (p))
+#endif
+
+// Work-item t's lines: the first one's first element `start`, the step along a line and between
+// lanes; columns in bands of `width` adjacent columns per work-item, `groups` bands per plane
+#if ROWS
+#define LANE_GROUP(t, n, m, groups, width) const long start = (long)(t) * LANES * (m), step = 1, ls = (m)
+#else
+#define LANE_GROUP(t, n, m, groups, width)                                                               \
+    const int plane_ = (t) / (groups), band_ = (t) - plane_ * (groups);                                  \
+    const long start = (long)plane_ * (n) * (m) + (long)band_ * (width), step = (m), ls = 1
 #endif
 
 EXTENSION(VT, vcoef_, VGET)
+
+#if ROWS
+// c[p + i] of the lane group's rows for i < LANES in w[i]: a tile inside the line, the
+// extension's coefficients (one gathered vector each) where it reaches beyond an end
+INLINE void coef_steps(VT *w, __global const REAL *src, const long start, const long ls, const int n,
+                              const int p, const int mode, const REAL cval)
+{
+    if (load_tile(w, src + start, ls, n, p))
+        return;
+#pragma unroll
+    for (int i = 0; i < LANES; ++i)
+        w[i] = vcoef_at(src, start, 1, ls, n, p + i, mode, cval);
+}
+#endif
 
 INLINE VT vcell(__global const REAL *src, const long start, const long step, const long ls, const int n,
                        const int j, const int mode, const REAL cval)
@@ -277,7 +360,7 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
     const int t = get_global_id(0);
     if (t >= total)
         return;
-    LANE_GROUP(t, n, m, groups);
+    LANE_GROUP(t, n, m, groups, LANES);
     int ia = (int)FLOOR_POS(a0), ib = (int)FLOOR_POS(b0);
     VT sum = vcells(src, start, step, ls, n, ia, ib, mode, cval), comp = 0;
     for (int k = 0; k < n; ++k) {
@@ -321,32 +404,118 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
 // plus four taps at each end, whose weights (the partial cells' integrals, precomputed on the host:
 // wa, wb) do not change along the line:
 //     width * out[k] = T + sum_q wb[q] c[B - 1 + q] - sum_q wa[q] c[A - 1 + q]
+// The four coefficients at each end slide along in registers: two new ones per step.
+
+// one line group's state: T (compensated: sum, comp) and the coefficients c[A-1 .. A+2], c[B-1 .. B+2]
+typedef struct {
+    VT sum, comp, am, a0, ap, aq, bm, b0, bp, bq;
+} shift_t;
+
+INLINE void shift_start(shift_t *w, __global const REAL *src, const long start, const long step, const long ls,
+                        const int n, const int a, const int b, const int mode, const REAL cval)
+{
+    w->sum = vcoef_sum(src, start, step, ls, n, a, b, mode, cval);
+    w->comp = 0;
+    w->am = vcoef_at(src, start, step, ls, n, a - 1, mode, cval);
+    w->a0 = vcoef_at(src, start, step, ls, n, a, mode, cval);
+    w->ap = vcoef_at(src, start, step, ls, n, a + 1, mode, cval);
+    w->aq = vcoef_at(src, start, step, ls, n, a + 2, mode, cval);
+    w->bm = vcoef_at(src, start, step, ls, n, b - 1, mode, cval);
+    w->b0 = vcoef_at(src, start, step, ls, n, b, mode, cval);
+    w->bp = vcoef_at(src, start, step, ls, n, b + 1, mode, cval);
+    w->bq = vcoef_at(src, start, step, ls, n, b + 2, mode, cval);
+}
+
+// The output of the current step, then the window one step on: c[B] enters the sum, c[A] leaves
+// it, and na = c[A + 3], nb = c[B + 3] join the taps
+#define SHIFT_WEIGHTS const REAL wa0, const REAL wa1, const REAL wa2, const REAL wa3, const REAL wb0, \
+                      const REAL wb1, const REAL wb2, const REAL wb3, const REAL inv_width
+INLINE VT shift_step(shift_t *w, const VT na, const VT nb, const VT less_k, SHIFT_WEIGHTS)
+{
+    const VT ends = (wb0 * w->bm + wb1 * w->b0 + wb2 * w->bp + wb3 * w->bq)
+                    - (wa0 * w->am + wa1 * w->a0 + wa2 * w->ap + wa3 * w->aq);
+    const VT out = ((w->sum - w->comp) + ends) * inv_width - less_k;
+    const VT y = (w->b0 - w->a0) - w->comp;
+    const VT s = w->sum + y;
+    w->comp = (s - w->sum) - y;
+    w->sum = s;
+    w->am = w->a0; w->a0 = w->ap; w->ap = w->aq; w->aq = na;
+    w->bm = w->b0; w->b0 = w->bp; w->bp = w->bq; w->bq = nb;
+    return out;
+}
+
+// ROWS: LANES rows per work-item (groups, vecs unused); columns: VECS vectors of LANES adjacent
+// columns side by side per work-item (a band: one step touches one stretch of a row, not VECS
+// far apart; fewer pages and cache lines), the last band of a plane `vecs - band * VECS` of them
 __kernel void box_shift(__global const REAL *src, __global REAL *dst, const long dst_off, const int n, const int m,
                         const int groups, const int a, const int b, const REAL wa0, const REAL wa1, const REAL wa2,
                         const REAL wa3, const REAL wb0, const REAL wb1, const REAL wb2, const REAL wb3,
                         const REAL inv_width, const int mode, const REAL cval, const int total,
-                        __global const REAL *less, const long less_off)
+                        __global const REAL *less, const long less_off, const int vecs)
 {
     const int t = get_global_id(0);
     if (t >= total)
         return;
-    LANE_GROUP(t, n, m, groups);
-    VT sum = vcoef_sum(src, start, step, ls, n, a, b, mode, cval), comp = 0;
-    // the four coefficients at each end, slid along in registers: two loads per step
-    VT am = vcoef_at(src, start, step, ls, n, a - 1, mode, cval), a0 = vcoef_at(src, start, step, ls, n, a, mode, cval);
-    VT ap = vcoef_at(src, start, step, ls, n, a + 1, mode, cval), aq = vcoef_at(src, start, step, ls, n, a + 2, mode, cval);
-    VT bm = vcoef_at(src, start, step, ls, n, b - 1, mode, cval), b0 = vcoef_at(src, start, step, ls, n, b, mode, cval);
-    VT bp = vcoef_at(src, start, step, ls, n, b + 1, mode, cval), bq = vcoef_at(src, start, step, ls, n, b + 2, mode, cval);
-    for (int k = 0; k < n; ++k) {
-        const VT ends = (wb0 * bm + wb1 * b0 + wb2 * bp + wb3 * bq) - (wa0 * am + wa1 * a0 + wa2 * ap + wa3 * aq);
-        VPUT(((sum - comp) + ends) * inv_width - VLESS_AT(less + less_off + start + (long)k * step, ls),
-             dst + dst_off + start + (long)k * step, ls);
-        const VT y = (b0 - a0) - comp;      // slide: c[B] enters, c[A] leaves
-        const VT s = sum + y;
-        comp = (s - sum) - y;
-        sum = s;
-        am = a0; a0 = ap; ap = aq; aq = vcoef_at(src, start, step, ls, n, a + k + 3, mode, cval);
-        bm = b0; b0 = bp; bp = bq; bq = vcoef_at(src, start, step, ls, n, b + k + 3, mode, cval);
+#if ROWS
+    LANE_GROUP(t, n, m, groups, LANES);
+    shift_t w;
+    shift_start(&w, src, start, step, ls, n, a, b, mode, cval);
+    // LANES steps at a time: the coefficients entering at both ends (c[a + k + 3], c[b + k + 3])
+    // and the subtracted samples as tiles, the outputs transposed back into one; lane by lane the
+    // same operations in the same order as one step at a time
+    for (int k0 = 0; k0 < n; k0 += LANES) {
+        VT na[LANES], nb[LANES], y[LANES];
+        coef_steps(na, src, start, ls, n, a + k0 + 3, mode, cval);
+        coef_steps(nb, src, start, ls, n, b + k0 + 3, mode, cval);
+        const int cnt = IMIN(LANES, n - k0);
+#if LESS
+        VT lv[LANES];
+        if (!load_tile(lv, less + less_off + start, ls, n, k0)) {
+#pragma unroll
+            for (int i = 0; i < LANES; ++i)
+                lv[i] = i < cnt ? vgather(less + less_off + start + k0 + i, ls) : (VT)0;
+        }
+#define LESS_STEP(i) lv[i]
+#else
+#define LESS_STEP(i) (VT)0
+#endif
+#pragma unroll
+        for (int i = 0; i < LANES; ++i)
+            y[i] = shift_step(&w, na[i], nb[i], LESS_STEP(i), wa0, wa1, wa2, wa3, wb0, wb1, wb2, wb3, inv_width);
+#undef LESS_STEP
+        __global REAL *o = dst + dst_off + start + k0;
+        if (cnt == LANES) {
+            transpose(y);       // back to one vector per row
+#pragma unroll
+            for (int l = 0; l < LANES; ++l)
+                VSTOREU(y[l], o + l * ls);
+        } else {
+#pragma unroll
+            for (int i = 0; i < LANES; ++i)
+                if (i < cnt)
+                    vscatter(y[i], o + i, ls);
+        }
     }
+#else
+    LANE_GROUP(t, n, m, groups, LANES * VECS);
+    const int nv = IMIN(VECS, vecs - band_ * VECS);
+    shift_t w[VECS];
+#pragma unroll
+    for (int v = 0; v < VECS; ++v)
+        if (v < nv)
+            shift_start(&w[v], src, start + v * LANES, step, ls, n, a, b, mode, cval);
+    for (int k = 0; k < n; ++k) {
+        const long at = start + (long)k * step;
+#pragma unroll
+        for (int v = 0; v < VECS; ++v) {
+            if (v < nv) {
+                const VT na = vcoef_at(src, start + v * LANES, step, ls, n, a + k + 3, mode, cval);
+                const VT nb = vcoef_at(src, start + v * LANES, step, ls, n, b + k + 3, mode, cval);
+                VSTOREU(shift_step(&w[v], na, nb, VLESS_AT(less + less_off + at + v * LANES, ls), wa0, wa1, wa2,
+                                   wa3, wb0, wb1, wb2, wb3, inv_width), dst + dst_off + at + v * LANES);
+            }
+        }
+    }
+#endif
 }
 #endif
