@@ -178,17 +178,15 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
     angles = _kept(be, ("angles", h, w, float(cy), float(cx), np.dtype(grid).str), make_angles)
     common = (np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi), np.int32(bsz), grid(cy), grid(cx),
               np.int32(r0), grid(r_lo), grid(reach))
-    vec = (x1 - x0) // _VW * _VW if fast and _vector(be) else 0
-    if vec:
-        # a CPU: _VW adjacent pixels of a row in explicit vectors, _RB rows in turn (whose polar taps lie
-        # about a pixel apart: cached); pixels beyond the band keep base (in place: rewritten unchanged)
+    if fast and _vector(be):
+        # a CPU: _VW adjacent pixels of a row in explicit vectors (a box's last columns one by one), _RB rows
+        # in turn (whose polar taps lie about a pixel apart: cached); pixels beyond the band keep base (in
+        # place: rewritten unchanged)
         ocl.launch(be, _kernel(be, "from_polar_vec", dtype, pos, grid, RB=_RB, **fast),
-                   *_range(be, (vec // _VW, -(-(y1 - y0) // _RB))), [pcoef, base, weights, angles], [out],
-                   (pcoef.data, bbuf, obuf, ooff, *common, np.int32(x0), np.int32(y0), np.int32(vec),
+                   *_range(be, (-(-(x1 - x0) // _VW), -(-(y1 - y0) // _RB))), [pcoef, base, weights, angles], [out],
+                   (pcoef.data, bbuf, obuf, ooff, *common, np.int32(x0), np.int32(y0), np.int32(x1 - x0),
                     np.int32(y1 - y0), boff, weights.data, np.int32(wcoef is not None), angles.data, np.int32(w)))
-        x0 += vec
-        if x0 == x1:
-            return out
+        return out
     ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), *_range(be, (x1 - x0, y1 - y0)),
                [pcoef, base, weights, angles], [out],
                (pcoef.data, bbuf, obuf, ooff, *common,

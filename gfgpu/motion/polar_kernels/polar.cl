@@ -166,16 +166,14 @@ __kernel void angle_map(__global GRID *angles, const int h, const int w, const G
 // box to the band's radii), and each pixel's angle is read from angles (angle_map: an arctangent costs about
 // as much as the 16 taps, and every band of every call about one centre reads the same).  wcoef holds the weights' coefficients with their mirror extension, one
 // before ring 0 and two beyond ring n_r - 1 (the launcher pads them: no index arithmetic here).
-__kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, __global REAL *out, const long out_off,
-                         const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
-                         const GRID cx, const int r0, const GRID r_lo, const GRID r_hi, const int x0, const int y0,
-                         const int bw, const int bh, const long base_off, __global const REAL *wcoef,
-                         const int weighted, const int copy, __global const GRID *angles)
+// from_polar's work at pixel (x, y) (its angle in angles[y * w + x])
+INLINE void from_polar_pixel(__global const REAL *pcoef, __global const REAL *base, __global REAL *out,
+                             const long out_off, const int h, const int w, const int n_r, const int n_phi,
+                             const int planes, const GRID cy, const GRID cx, const int r0, const GRID r_lo,
+                             const GRID r_hi, const int x, const int y, const long base_off,
+                             __global const REAL *wcoef, const int weighted, const int copy,
+                             __global const GRID *angles)
 {
-    const int gx = get_global_id(0), gy = get_global_id(1);
-    if (gx >= bw || gy >= bh)
-        return;
-    const int x = x0 + gx, y = y0 + gy;
     const GRID dy = cy - (GRID)y, dx = (GRID)x - cx;
     const GRID r = SQRT_GRID(dx * dx + dy * dy);
     if (!(r >= r_lo && r < r_hi)) {
@@ -202,6 +200,19 @@ __kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, 
                                          (REAL)0);
         out[out_off + pix] = weight * base[base_off + pix] + change;
     }
+}
+
+__kernel void from_polar(__global const REAL *pcoef, __global const REAL *base, __global REAL *out, const long out_off,
+                         const int h, const int w, const int n_r, const int n_phi, const int planes, const GRID cy,
+                         const GRID cx, const int r0, const GRID r_lo, const GRID r_hi, const int x0, const int y0,
+                         const int bw, const int bh, const long base_off, __global const REAL *wcoef,
+                         const int weighted, const int copy, __global const GRID *angles)
+{
+    const int gx = get_global_id(0), gy = get_global_id(1);
+    if (gx >= bw || gy >= bh)
+        return;
+    from_polar_pixel(pcoef, base, out, out_off, h, w, n_r, n_phi, planes, cy, cx, r0, r_lo, r_hi, x0 + gx, y0 + gy,
+                     base_off, wcoef, weighted, copy, angles);
 }
 
 // dst += scale[i] src on (B, N, M) arrays, one work-item per element (dst may be src): columns on
@@ -357,8 +368,8 @@ __kernel void to_polar_vec(__global const REAL *coef, __global REAL *out, const 
                           SQRT_GRID((v).s4), SQRT_GRID((v).s5), SQRT_GRID((v).s6), SQRT_GRID((v).s7)))
 
 // from_polar with VW adjacent pixels of a row per work-item, RB rows after rows (the polar taps of the
-// next row lie about a pixel from this row's: in the L1 cache).  Whole vectors only: the launcher runs
-// the last columns of a box that VW does not divide with the scalar kernel (from_polar).  angles has
+// next row lie about a pixel from this row's: in the L1 cache); the last columns of a box that VW does
+// not divide pixel by pixel, in the same build (no second kernel to build on a new shape).  angles has
 // rows of `astride` (>= w) values.
 __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *base, __global REAL *out,
                              const long out_off, const int h, const int w, const int n_r, const int n_phi,
@@ -368,9 +379,16 @@ __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *ba
                              __global const GRID *angles, const int astride)
 {
     const int gx = get_global_id(0) * VW, gy0 = get_global_id(1) * RB;
-    if (gx + VW > bw || gy0 >= bh)
+    if (gx >= bw || gy0 >= bh)
         return;
     const int x = x0 + gx;
+    if (gx + VW > bw) {     // the box's last columns, fewer than VW: pixel by pixel (copy: a no-op in place)
+        for (int y = y0 + gy0; y < y0 + IMIN(gy0 + RB, bh); ++y)
+            for (int xl = x; xl < x0 + bw; ++xl)
+                from_polar_pixel(pcoef, base, out, out_off, h, w, n_r, n_phi, planes, cy, cx, r0, r_lo, r_hi, xl, y,
+                                 base_off, wcoef, weighted, 1, angles);
+        return;
+    }
     const GRIDV dx = TO_GRIDV((INTV)(0, 1, 2, 3, 4, 5, 6, 7) + x) - cx;
     const GRID scale = (GRID)n_phi / (GRID)6.283185307179586;
     for (int y = y0 + gy0; y < y0 + IMIN(gy0 + RB, bh); ++y) {
