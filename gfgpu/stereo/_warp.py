@@ -156,6 +156,34 @@ def sgm_path(cost: wp.array3d(dtype=wp.int16), total: wp.array3d(dtype=wp.int16)
         y = y + dy
 
 
+@wp.func
+def _write_pick(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.float32),
+                margin: wp.array2d(dtype=wp.float32), y: int, x: int, kb: int, best: int, second: int,
+                unique: bool, nd: int, steps: int, d_min: int):
+    """Pixel (y, x)'s disparity and margin from its winner ``kb`` (spec.select_reference): the
+    parabola through the winner's neighbours, or with half-pixel samples one baseline per phase."""
+    sm = int(agg[y, x, wp.max(kb - 1, 0)])
+    sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
+    cut = (kb > 0 and sm < 0) or (kb < nd - 1 and sp < 0)
+    den = float(sm - 2 * best + sp)
+    delta = float(0.0)
+    if kb > 0 and kb < nd - 1 and den > 0.0:
+        delta = float(sm - sp) / (2.0 * den)
+    if steps == 2 and kb >= 2 and kb <= nd - 3:
+        # half-pixel samples: one baseline per phase (spec._half_pixel_fit)
+        sm2 = int(agg[y, x, kb - 2])
+        sp2 = int(agg[y, x, kb + 2])
+        den2 = sm2 + sp2 - 2 * best
+        if sm >= 0 and sp >= 0 and sm2 >= 0 and sp2 >= 0 and den2 > 0:
+            delta = wp.min(wp.max(float(2 * (sm - sp) + sm2 - sp2) / (2.0 * float(den2)), -1.0), 1.0)
+    if unique and not cut:
+        disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
+        margin[y, x] = float(second - best) / float(second)
+    else:
+        disp[y, x] = wp.nan
+        margin[y, x] = 0.0
+
+
 @wp.kernel
 def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.float32),
                      right: wp.array2d(dtype=wp.int32), margin: wp.array2d(dtype=wp.float32),
@@ -179,26 +207,7 @@ def select_disparity(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.
             second = v
     unique = best < _NO_CANDIDATE and second < _NO_CANDIDATE and \
         wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
-    sm = int(agg[y, x, wp.max(kb - 1, 0)])
-    sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
-    cut = (kb > 0 and sm < 0) or (kb < nd - 1 and sp < 0)
-    den = float(sm - 2 * best + sp)
-    delta = float(0.0)
-    if kb > 0 and kb < nd - 1 and den > 0.0:
-        delta = float(sm - sp) / (2.0 * den)
-    if steps == 2 and kb >= 2 and kb <= nd - 3:
-        # half-pixel samples: one baseline per phase (spec._half_pixel_fit)
-        sm2 = int(agg[y, x, kb - 2])
-        sp2 = int(agg[y, x, kb + 2])
-        den2 = sm2 + sp2 - 2 * best
-        if sm >= 0 and sp >= 0 and sm2 >= 0 and sp2 >= 0 and den2 > 0:
-            delta = wp.min(wp.max(float(2 * (sm - sp) + sm2 - sp2) / (2.0 * float(den2)), -1.0), 1.0)
-    if unique and not cut:
-        disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
-        margin[y, x] = float(second - best) / float(second)
-    else:
-        disp[y, x] = wp.nan
-        margin[y, x] = 0.0
+    _write_pick(agg, disp, margin, y, x, kb, best, second, unique, nd, steps, d_min)
     best_r = int(_NO_CANDIDATE)
     kr = int(_NO_MATCH)
     for k in range(nd):
@@ -429,26 +438,7 @@ def group_select(agg: wp.array3d(dtype=wp.int16), disp: wp.array2d(dtype=wp.floa
             second = int(second_key >> wp.uint32(16))
             unique = best_key != _NO_KEY and second_key != _NO_KEY and \
                 wp.int64(second) * wp.int64(100) > wp.int64(best) * wp.int64(100 + uniqueness)
-            sm = int(agg[y, x, wp.max(kb - 1, 0)])
-            sp = int(agg[y, x, wp.min(kb + 1, nd - 1)])
-            cut = (kb > 0 and sm < 0) or (kb < nd - 1 and sp < 0)
-            den = float(sm - 2 * best + sp)
-            delta = float(0.0)
-            if kb > 0 and kb < nd - 1 and den > 0.0:
-                delta = float(sm - sp) / (2.0 * den)
-            if steps == 2 and kb >= 2 and kb <= nd - 3:
-                # half-pixel samples: one baseline per phase (spec._half_pixel_fit)
-                sm2 = int(agg[y, x, kb - 2])
-                sp2 = int(agg[y, x, kb + 2])
-                den2 = sm2 + sp2 - 2 * best
-                if sm >= 0 and sp >= 0 and sm2 >= 0 and sp2 >= 0 and den2 > 0:
-                    delta = wp.min(wp.max(float(2 * (sm - sp) + sm2 - sp2) / (2.0 * float(den2)), -1.0), 1.0)
-            if unique and not cut:
-                disp[y, x] = (float(d_min * steps) + float(kb) + delta) / float(steps)
-                margin[y, x] = float(second - best) / float(second)
-            else:
-                disp[y, x] = wp.nan
-                margin[y, x] = 0.0
+            _write_pick(agg, disp, margin, y, x, kb, best, second, unique, nd, steps, d_min)
 
 
 @wp.kernel
