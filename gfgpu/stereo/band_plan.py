@@ -11,8 +11,9 @@ import math
 import os
 from typing import NamedTuple
 
-__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "KEEP_BYTES", "FINE_ROWS", "BUCKET_VECTORS",
-           "MatchPlan", "padded_samples", "sample_bucket", "band_rows", "coarse_rows", "match_plan", "match_memory"]
+__all__ = ["TILE_BYTES", "MIN_BAND_ROWS", "BAND_BYTES", "WHOLE_BYTES", "KEEP_BYTES", "FINE_ROWS", "MIN_FINE_ROWS",
+           "BUCKET_VECTORS", "MatchPlan", "padded_samples", "sample_bucket", "band_rows", "coarse_rows", "fine_rows",
+           "match_plan", "match_memory"]
 
 #: the band sweeps' column tiles (4 paths): as many columns as hold this many bytes of vertical
 #: path states, so that they stay in a core's L2 cache while the tile's rows are swept
@@ -91,8 +92,20 @@ KEEP_BYTES = 128 * 2**20
 
 
 #: rows of the fine bands where the costs are recomputed (at most): their sums are the largest
-#: buffers left (1000 x 1500 x 383: 27.6 MB at 12 rows, 39 MB at band_rows' 17; the same time)
+#: buffers left (1000 x 1500 x 383: 27.6 MB at 12 rows, 39 MB at band_rows' 17)
 FINE_ROWS = 12
+
+#: ... and at least this many, else two per core (the selection runs one row per work-item):
+#: the band's two sums must still be in the last-level cache when the selection reads them
+#: right after the sweeps (1000 x 1500 x 383 on 2 cores: 9.2 MB at 4 rows; at 12 rows, 27.6 MB,
+#: the selection took 2.1x as long, 300 against 120 us of CPU per row with the sums in cache)
+MIN_FINE_ROWS = 4
+
+
+def fine_rows():
+    """Rows of the fine bands where the costs are recomputed: two per core of the host (an
+    OpenCL CPU device runs on it), :data:`MIN_FINE_ROWS` .. :data:`FINE_ROWS`."""
+    return min(FINE_ROWS, max(MIN_FINE_ROWS, 2 * (os.cpu_count() or 1)))
 
 
 class MatchPlan(NamedTuple):
@@ -133,7 +146,7 @@ def match_plan(h, w, n, paths, block=3, budget=None):
         nbytes = match_memory(h, w, n, paths, True, block, rows=k)
         if budget is None or nbytes <= budget:
             return MatchPlan(k, True, nbytes, h)
-    k = min(k, FINE_ROWS)
+    k = min(k, fine_rows())
     return MatchPlan(k, False, match_memory(h, w, n, paths, False, block, rows=k), coarse_rows(h, paths, k, w, n))
 
 
@@ -142,9 +155,9 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
     it, the cost kernel's Hamming ring (``block`` rows and their column sums), the band's sums,
     the path states and their checkpoints (coarse and fine where the costs are recomputed), the
     horizontal paths' states at the column tiles' edges; bands of ``rows`` rows (default
-    :func:`band_rows`, at most :data:`FINE_ROWS` where the costs are recomputed)."""
+    :func:`band_rows`, at most :func:`fine_rows` where the costs are recomputed)."""
     if rows is None:
-        k = band_rows(h, paths, w, n) if keep_cost else min(band_rows(h, paths, w, n), FINE_ROWS)
+        k = band_rows(h, paths, w, n) if keep_cost else min(band_rows(h, paths, w, n), fine_rows())
     else:
         k = int(rows)
     nb = sample_bucket(n)[0]                               # the build's padded samples
