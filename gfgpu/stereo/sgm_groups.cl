@@ -19,9 +19,7 @@
 #endif
 #pragma OPENCL FP_CONTRACT OFF      // the selection's float32 arithmetic as the specification's
 
-#define CLAMPI(v, lo, hi) ((v) < (lo) ? (lo) : (v) > (hi) ? (hi) : (v))
-#define IMIN(a, b) ((a) < (b) ? (a) : (b))
-#define IMAX(a, b) ((a) > (b) ? (a) : (b))
+#include "lines.cl"     // CLAMPI, IMIN, IMAX, floor_div, path_line
 #define COST_OUT ((OUT_OF_VIEW) & 0xff)     // a byte cost out of view (255, above COST_MAX)
 #if COST_OUT <= COST_MAX
 #error "the out-of-view byte must lie above COST_MAX"
@@ -31,11 +29,6 @@
 #else
 #define POPCOUNT(v) popcount(v)
 #endif
-
-static inline int floor_div(const int a, const int b)
-{
-    return a >= 0 ? a / b : -((-a + b - 1) / b);
-}
 
 // The group's reductions read every lane's value from local memory, 16 bytes per load (vload8 /
 // vload4; a GPU broadcasts a load that all its lanes make to one address): the arrays hold whole
@@ -228,22 +221,7 @@ __kernel void group_paths(__global const uchar *cost, __global short *sum, const
         for (int b = 0; b < 2; ++b)
             minima[b][e] = PAD_COST;
     int x, y;
-    if (dx == 0) {                      // vertical: one line per column
-        x = i;
-        y = dy > 0 ? 0 : h - 1;
-    } else if (dy == 0) {               // horizontal: one line per row
-        x = dx > 0 ? 0 : w - 1;
-        y = i;
-    } else if (i < h) {                 // diagonal, entering through the first column
-        x = dx > 0 ? 0 : w - 1;
-        y = i;
-    } else {                            // diagonal, entering through the first row
-        x = dx > 0 ? i - h + 1 : w - 2 - (i - h);
-        y = dy > 0 ? 0 : h - 1;
-    }
-    const int len_x = dx > 0 ? w - x : dx < 0 ? x + 1 : INT_MAX;
-    const int len_y = dy > 0 ? h - y : dy < 0 ? y + 1 : INT_MAX;
-    const int len = IMIN(len_x, len_y);
+    const int len = path_line(i, h, w, dy, dx, &y, &x);      // i < the direction's lines: len > 0
     const long stride = ((long)dy * w + dx) * n;
     const long first = ((long)y * w + x) * n + k0;
     const int cnt = CLAMPI(n - k0, 0, CH);         // this lane's samples

@@ -9,14 +9,7 @@
 #error "stereo.cl is built by gfgpu.stereo._opencl, which defines the constants of the specification"
 #endif
 
-static inline int floor_div(const int a, const int b)
-{
-    return a >= 0 ? a / b : -((-a + b - 1) / b);
-}
-
-#define CLAMPI(v, lo, hi) ((v) < (lo) ? (lo) : (v) > (hi) ? (hi) : (v))   // not clamp(): see VMIN
-#define IMIN(a, b) ((a) < (b) ? (a) : (b))        // scalar min / max: PoCL calls min() and max()
-#define IMAX(a, b) ((a) > (b) ? (a) : (b))
+#include "lines.cl"     // CLAMPI, IMIN, IMAX, floor_div, path_line
 
 // Census transform: bit b of out[plane][y][x] is set where neighbour b of the (2r+1)^2 window
 // (row-major, centre skipped, edge pixels repeated) is darker than the centre.  One work-item per
@@ -608,27 +601,9 @@ __kernel void sgm_line_pair(__global const short *cost, __global short *total, c
                             const int dy, const int dx, const short p1, const short p2,
                             const int accumulate)
 {
-    const int i = get_global_id(0);
     int x, y;
-    if (dx == 0) {                      // vertical: one line per column
-        if (i >= w) return;
-        x = i;
-        y = dy > 0 ? 0 : h - 1;
-    } else if (dy == 0) {               // horizontal: one line per row
-        if (i >= h) return;
-        x = dx > 0 ? 0 : w - 1;
-        y = i;
-    } else if (i < h) {                 // diagonal, entering through the first column
-        x = dx > 0 ? 0 : w - 1;
-        y = i;
-    } else {                            // diagonal, entering through the first row
-        if (i >= h + w - 1) return;
-        x = dx > 0 ? i - h + 1 : w - 2 - (i - h);
-        y = dy > 0 ? 0 : h - 1;
-    }
-    const int len_x = dx > 0 ? w - x : dx < 0 ? x + 1 : INT_MAX;
-    const int len_y = dy > 0 ? h - y : dy < 0 ? y + 1 : INT_MAX;
-    const int len = IMIN(len_x, len_y);
+    const int len = path_line(get_global_id(0), h, w, dy, dx, &y, &x);
+    if (len == 0) return;
     const long stride = ((long)dy * w + dx) * N_DISP;
     const long first = ((long)y * w + x) * N_DISP;
     sgm_sweep(cost, total, first, stride, len, p1, p2, accumulate);
