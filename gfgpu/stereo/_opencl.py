@@ -247,9 +247,15 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, step
     else:
         knl = _bucket_kernel(be, "select_disparity", bucket)
     ocl.launch(be, knl, (-(-rows // group) * group,), (group,), [agg, second], [disp, disp_right, margin],
-               (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
-                np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(agg2 is not None),
-                np.int32(y0), np.int32(n)))
+               _select_args(agg, second, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness,
+                            agg2 is not None))
+
+
+def _select_args(agg, second, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness, two):
+    """The arguments of select_disparity (:func:`_select`); the band's (``rows``, ``y0``) at
+    indices 5 and 11."""
+    return (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
+            np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(two), np.int32(y0), np.int32(n))
 
 
 def _sgm_state(be, w, n, workspace=None):
@@ -258,11 +264,38 @@ def _sgm_state(be, w, n, workspace=None):
             _empty(be, workspace, "state_min", (2, 4, w + 2), np.int16))
 
 
-def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
-                 init, active, view, write_up=True, bucket=None):
-    """One launch of sgm_band on volumes of :func:`_padded` with n samples per pixel; ``view`` =
-    (block, first_step, steps): which samples are in view; ``bound``: the horizontal paths'
-    states at the column tiles' edges; ``bucket`` as for :func:`_band_cost`."""
+class _PresetLaunch:
+    """Repeated launches of one kernel of the band loop with its arguments set once: a private
+    kernel object (the cached one may be launched by other threads), whose changing arguments
+    alone are set before each launch.  pyopencl's call of a kernel sets all of them again
+    (sgm_band: ~110 us of the host's CPU per launch against ~30; the band loop of 1000 x 1500
+    x 383 launches it ~750 times).  Ordered as :func:`gfgpu.backends.opencl.launch.launch`: after
+    the pending events of its arrays, the outputs get its event."""
+
+    def __init__(self, be, knl, arrays_in, arrays_out, args):
+        import pyopencl as cl
+        self._cl, self.be = cl, be
+        self.knl = cl.Kernel(knl.program, knl.function_name)
+        self.function_name = knl.function_name
+        self.knl.set_args(*args)
+        self.arrays_in, self.arrays_out = list(arrays_in), list(arrays_out)
+
+    def __call__(self, gsize, lsize, changes):
+        """Launch with the arguments ``changes`` ({index: value}) set first; returns the event."""
+        for i, v in changes.items():
+            self.knl.set_arg(i, v)
+        wait = [e for a in self.arrays_in + self.arrays_out for e in a.events]
+        evt = self._cl.enqueue_nd_range_kernel(self.be.queue, self.knl, gsize, lsize, wait_for=wait or None)
+        for a in self.arrays_out:
+            a.add_event(evt)
+        return evt
+
+
+def _band_sweep_args(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
+                     init, active, view, write_up=True, bucket=None):
+    """The kernel and arguments of one launch of sgm_band (:func:`_band_sweeps`); the band's
+    arguments (``y0``, ``rows``, ``init``, ``active``, ``write_up``, ``cost_row0``, ``split``) at
+    :data:`_SWEEP_BAND_ARGS`."""
     nb = n if bucket is None else bucket[0]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
@@ -270,13 +303,25 @@ def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row
     split = not write_up and paths == 4 and w >= 2 and not init
     knl = (_stereo_kernel(be, "sgm_band", n, cost_bytes=True, padded=True) if bucket is None
            else _bucket_kernel(be, "sgm_band", bucket))
-    ocl.launch(be, knl, (2,), (1,), [cost],
-               [down, up, state, state_min, bound],
-               (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
-                np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
-                np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
-                np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
-                np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(nb) + 16)))), bound.data, np.int32(n)))
+    return knl, (cost.data, down.data, up.data, state.data, state_min.data, np.int32(h), np.int32(w),
+                 np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
+                 np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
+                 np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
+                 np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(nb) + 16)))), bound.data, np.int32(n))
+
+
+#: positions of sgm_band's per-band arguments in :func:`_band_sweep_args`
+_SWEEP_BAND_ARGS = (7, 8, 12, 13, 14, 15, 16)
+
+
+def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
+                 init, active, view, write_up=True, bucket=None):
+    """One launch of sgm_band on volumes of :func:`_padded` with n samples per pixel; ``view`` =
+    (block, first_step, steps): which samples are in view; ``bound``: the horizontal paths'
+    states at the column tiles' edges; ``bucket`` as for :func:`_band_cost`."""
+    knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1,
+                                 p2, paths, init, active, view, write_up, bucket)
+    ocl.launch(be, knl, (2,), (1,), [cost], [down, up, state, state_min, bound], args)
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -354,9 +399,22 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket,
                    ri_row0=ya)
 
+    # the band loop's launches with their arguments set once (_PresetLaunch)
+    knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, 0, 1, 0, h, w, n, p1, p2, paths,
+                                 0, 0, view, True, bucket)
+    sweep_launch = _PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound], args)
+    select_launch = _PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
+                                  [disp, disp_right, margin],
+                                  _select_args(down, up, disp, disp_right, margin, 0, 1, w, n, first_step // steps,
+                                               steps, uniqueness, True))
+
     def sweep(y0, rows, row0, init, active, write_up=True):
-        _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
-                     init=init, active=active, view=view, write_up=write_up, bucket=bucket)
+        split = not write_up and paths == 4 and w >= 2 and not init      # as _band_sweep_args
+        values = (y0, rows, init, active, int(write_up), row0, int(split))
+        sweep_launch((2,), (1,), {i: np.int32(v) for i, v in zip(_SWEEP_BAND_ARGS, values)})
+
+    def select(y0, rows):
+        select_launch((rows,), (1,), {5: np.int32(rows), 11: np.int32(y0)})
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
         costs(0, h)
@@ -397,8 +455,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             elif not last_coarse:
                 restore(top, cb)
             sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3)
-            _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps, uniqueness,
-                    bucket)
+            select(y0, rows)
     return disp, disp_right, margin
 
 
