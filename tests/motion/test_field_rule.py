@@ -187,20 +187,22 @@ def _kernel_against_spec(be, shape, scale, seed):
         coef = rng.standard_normal(shape).astype(dtype)
         field = (rng.standard_normal((2,) + shape[1:]) * scale).astype(dtype)
         field[:, shape[1] // 2, 3:9] = 0.0
-        for psf in range(4):
-            for mode in ("wrap", "nearest", "constant", "reflect", "mirror"):
-                for most in (None, 5):
-                    out = be.empty(shape, dtype)
-                    kernels.field_rule(be, be.asarray(coef), be.asarray(field), out, psf, mode, 0.3, most)
-                    ref = spec.field_rule_reference(coef, field, psf, mode, 0.3, most)
-                    got = be.to_host(out).reshape(ref.shape)
-                    tol = 1e-11 if dtype == np.float64 else 2e-5
-                    assert np.abs(got - ref).max() <= tol * max(1.0, np.abs(ref).max()), (dtype, psf, mode, most)
+        # every PSF code and every mode, each code with and without a budget below its own
+        for psf, mode, most in ((0, "wrap", None), (1, "nearest", None), (2, "constant", 5), (3, "reflect", None),
+                                (0, "mirror", 5), (1, "constant", 9), (2, "nearest", None), (3, "wrap", 17)):
+            out = be.empty(shape, dtype)
+            kernels.field_rule(be, be.asarray(coef), be.asarray(field), out, psf, mode, 0.3, most)
+            ref = spec.field_rule_reference(coef, field, psf, mode, 0.3, most)
+            got = be.to_host(out).reshape(ref.shape)
+            tol = 1e-11 if dtype == np.float64 else 2e-5
+            assert np.abs(got - ref).max() <= tol * max(1.0, np.abs(ref).max()), (dtype, psf, mode, most)
 
 
 def test_kernel_matches_specification(backend):
     """Paths inside the image (the kernels' branch without the extension), across the border and
     beyond it, still pixels, budgets below the rule's own."""
+    if backend.name == "numpy":
+        pytest.skip("the numpy launcher is the specification")
     _kernel_against_spec(backend, (2, 37, 45), 2.0, 21)
     _kernel_against_spec(backend, (1, 14, 17), 25.0, 22)
 
