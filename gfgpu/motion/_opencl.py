@@ -7,6 +7,7 @@ import numpy as np
 
 from .._core import boundary, bspline
 from ..backends.opencl import launch as ocl
+from .kernels import fixed_width
 from .spec import NARROW
 
 
@@ -50,11 +51,6 @@ _GATHER_BYTES = 32
 _COLUMN_VECS = 2
 
 
-def _shifts(a1, b1, a0, b0):
-    """Whether box_shift runs the windows ``[a0 + a1 k, b0 + b1 k]``: fixed width, not narrow."""
-    return a1 == 1.0 and b1 == 1.0 and b0 - a0 >= NARROW
-
-
 def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     src = ocl.plain(be, src, "src")
     dbuf, doff = ocl.written(be, dst, "dst")
@@ -67,7 +63,7 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     line_stride, step = (cols, 1) if axis == 2 else (1, cols)
     planes, done = bsz, 0
     if be.kind == "cpu":
-        tiled = axis == 1 or _shifts(a1, b1, a0, b0)
+        tiled = axis == 1 or fixed_width(a0, a1, b0, b1)
         lanes = (_CACHE_LINE if tiled else _GATHER_BYTES) // dtype.itemsize
         if axis == 2:
             # rows: the B N rows are one run of lines; whole groups of LANES in vector lanes
@@ -101,7 +97,7 @@ def _box_vectors(be, bufs, axis, lanes, vecs, a0, a1, b0, b1, mode, cval):
     by_rows = axis == 2
     n = cols if by_rows else rows
     defines = dict(LANES=lanes, ROWS=int(by_rows), LESS=int(len(inputs) > 1))
-    if _shifts(a1, b1, a0, b0):
+    if fixed_width(a0, a1, b0, b1):
         per = 1 if by_rows else _COLUMN_VECS
         groups = -(-vecs // per)
         total = groups if by_rows else bsz * groups

@@ -12,11 +12,18 @@ from __future__ import annotations
 from ..backends.fused import register
 from . import spec as specs
 
-__all__ = ["box_lines", "field_blur", "field_rule", "to_polar", "from_polar", "add_rows"]
+__all__ = ["fixed_width", "box_lines", "field_blur", "field_rule", "to_polar", "from_polar", "add_rows"]
 
 
 def _launchers(name, package=__package__):
     return {backend: f"{package}._{backend}:launch_{name}" for backend in ("numpy", "warp", "opencl")}
+
+
+def fixed_width(a0, a1, b0, b1):
+    """Whether the box windows ``[a0 + a1 k, b0 + b1 k]`` keep one width, not narrower than
+    :data:`~gfgpu.motion.spec.NARROW`: the launchers then run the device kernel ``box_shift`` (the
+    cells' running sum telescoped to one of the coefficients, four fixed taps at each end)."""
+    return a1 == 1.0 and b1 == 1.0 and b0 - a0 >= specs.NARROW
 
 
 #: ``box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None)``: ``dst = box_lines_reference(src,
