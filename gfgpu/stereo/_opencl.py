@@ -437,21 +437,25 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         last_coarse = cb == len(coarse_bands) - 1
         if not keep:
             costs(c0, crows)
-            # the up state at the top of this coarse band's fine bands 1 .. last
-            if len(bands) > 1 and not last_coarse:
+            # the up state at the top of this coarse band's fine bands 1 .. last (the state is
+            # still checkpoint 0, the first pass's last save, at the first coarse band; the loop
+            # ends in fine checkpoint 0, which band 0 then sweeps from: neither copied)
+            if len(bands) > 1 and not last_coarse and cb > 0:
                 restore(top, cb)
             for f in range(len(bands) - 1, 0, -1):
                 y0, rows = bands[f]
                 sweep(y0, rows, y0 - c0, init=2 if last_coarse and f == len(bands) - 1 else 0, active=2,
                       write_up=False)
-                save(fine, f - 1)
+                if f > 1:
+                    save(fine, f - 1)
         for f, (y0, rows) in enumerate(bands):
             last = y0 + rows == h
             if keep:
-                if not last:
+                if not last and y0 > 0:       # band 0: the state the first pass ended in
                     restore(top, y0 // k)
             elif f < len(bands) - 1:
-                restore(fine, f)
+                if f > 0:
+                    restore(fine, f)
             elif not last_coarse:
                 restore(top, cb)
             sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3)
