@@ -51,6 +51,16 @@ _GATHER_BYTES = 32
 _COLUMN_VECS = 2
 
 
+def _shift_args(dtype, a0, b0):
+    """The window's arguments of box_shift and box_shift_lines: its first whole cells ``a``, ``b``,
+    the four taps' weights at each end (the partial cell's integral plus the telescoped whole
+    cells) and ``1 / width``."""
+    a, b = int(np.floor(a0)), int(np.floor(b0))
+    wa, wb = (bspline.prefix_weights(x - np.floor(x)) for x in (a0, b0))
+    return ((np.int32(a), np.int32(b)) + tuple(dtype.type(w) for w in wa) + tuple(dtype.type(w) for w in wb)
+            + (dtype.type(1.0 / (b0 - a0)),))
+
+
 def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
     src = ocl.plain(be, src, "src")
     dbuf, doff = ocl.written(be, dst, "dst")
@@ -75,14 +85,19 @@ def launch_box_lines(be, src, dst, axis, a0, a1, b0, b1, mode, cval, less=None):
                          a0, a1, b0, b1, mode, cval)
     if done < lines:
         # one line per work-item: every line (GPU shapes), or the lines of a partial lane group
-        # (a 5-7x cliff when the whole array fell back to this kernel)
+        # (a 5-7x cliff when the whole array fell back to box_lines)
         run = lines - done
         total = planes * run
         gsize, lsize = _group(be, total)
-        ocl.launch(be, _kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,), inputs,
-                   [dst], (src.data, dbuf, np.int32(n), np.int64(rows * cols), np.int64(line_stride),
-                           np.int64(step), pos(a0), pos(a1), pos(b0), pos(b1), np.int32(_code(mode)),
-                           dtype.type(cval), np.int32(total), doff, lbuf, loff, np.int32(done), np.int32(run)))
+        head = (src.data, dbuf, np.int32(n), np.int64(rows * cols), np.int64(line_stride), np.int64(step))
+        tail = (np.int32(_code(mode)), dtype.type(cval), np.int32(total), doff, lbuf, loff, np.int32(done),
+                np.int32(run))
+        if fixed_width(a0, a1, b0, b1):
+            ocl.launch(be, _kernel(be, "box_shift_lines", dtype, pos, LESS=int(less is not None)), (gsize,),
+                       (lsize,), inputs, [dst], head + _shift_args(dtype, a0, b0) + tail)
+        else:
+            ocl.launch(be, _kernel(be, "box_lines", dtype, pos, LESS=int(less is not None)), (gsize,), (lsize,),
+                       inputs, [dst], head + (pos(a0), pos(a1), pos(b0), pos(b1)) + tail)
     return dst
 
 
@@ -101,15 +116,10 @@ def _box_vectors(be, bufs, axis, lanes, vecs, a0, a1, b0, b1, mode, cval):
         per = 1 if by_rows else _COLUMN_VECS
         groups = -(-vecs // per)
         total = groups if by_rows else bsz * groups
-        a, b = int(np.floor(a0)), int(np.floor(b0))
-        # the taps at each end of the window: the partial cell's integral plus the telescoped
-        # whole cells (box_shift in motion.cl)
-        wa, wb = (bspline.prefix_weights(x - np.floor(x)) for x in (a0, b0))
         ocl.launch(be, _kernel(be, "box_shift", dtype, pos, VECS=per, **defines), (total,), (1,), inputs, [dst],
-                   (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups), np.int32(a),
-                    np.int32(b), *(dtype.type(w) for w in wa), *(dtype.type(w) for w in wb),
-                    dtype.type(1.0 / (b0 - a0)), np.int32(_code(mode)), dtype.type(cval),
-                    np.int32(total), lbuf, loff, np.int32(vecs)))
+                   (src.data, dbuf, doff, np.int32(n), np.int32(cols), np.int32(groups))
+                   + _shift_args(dtype, a0, b0)
+                   + (np.int32(_code(mode)), dtype.type(cval), np.int32(total), lbuf, loff, np.int32(vecs)))
         return
     total = vecs if by_rows else bsz * vecs
     ocl.launch(be, _kernel(be, "box_vec", dtype, pos, **defines), (total,), (1,), inputs, [dst],

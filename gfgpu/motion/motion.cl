@@ -207,6 +207,42 @@ __kernel void box_lines(__global const REAL *src, __global REAL *dst, const int 
     }
 }
 
+// box_lines for windows of fixed width (a1 = b1 = 1, width >= NARROW; the host's
+// gfgpu.motion.kernels.fixed_width), one line per work-item as box_lines (the GPU launch shapes,
+// and on a CPU the lines that no vector group holds): the whole cells' running sum telescopes to
+// one of the coefficients over [a + k, b + k) plus four taps at each end with fixed weights (the
+// partial cells' integrals: wa, wb from the host), slid along in registers, so two coefficients
+// are read per step instead of sixteen (box_shift below, in scalars)
+__kernel void box_shift_lines(__global const REAL *src, __global REAL *dst, const int n, const long batch_stride,
+                              const long line_stride, const long step, const int a, const int b, const REAL wa0,
+                              const REAL wa1, const REAL wa2, const REAL wa3, const REAL wb0, const REAL wb1,
+                              const REAL wb2, const REAL wb3, const REAL inv_width, const int mode, const REAL cval,
+                              const int total, const long dst_off, __global const REAL *less, const long less_off,
+                              const int line0, const int run)
+{
+    const int t = get_global_id(0);
+    if (t >= total)
+        return;
+    const int p = t / run;
+    const long start = p * batch_stride + (long)(line0 + t - p * run) * line_stride;
+    REAL sum = coef_sum(src, start, step, 0, n, a, b, mode, cval), comp = 0;
+    REAL am = coef_at(src, start, step, 0, n, a - 1, mode, cval), ac = coef_at(src, start, step, 0, n, a, mode, cval);
+    REAL ap = coef_at(src, start, step, 0, n, a + 1, mode, cval), aq = coef_at(src, start, step, 0, n, a + 2, mode, cval);
+    REAL bm = coef_at(src, start, step, 0, n, b - 1, mode, cval), bc = coef_at(src, start, step, 0, n, b, mode, cval);
+    REAL bp = coef_at(src, start, step, 0, n, b + 1, mode, cval), bq = coef_at(src, start, step, 0, n, b + 2, mode, cval);
+    for (int k = 0; k < n; ++k) {
+        const long at = start + (long)k * step;
+        const REAL ends = (wb0 * bm + wb1 * bc + wb2 * bp + wb3 * bq) - (wa0 * am + wa1 * ac + wa2 * ap + wa3 * aq);
+        dst[dst_off + at] = ((sum - comp) + ends) * inv_width - LESS_AT(less_off + at);
+        const REAL y = (bc - ac) - comp;        // slide: c[b + k] enters, c[a + k] leaves
+        const REAL s = sum + y;
+        comp = (s - sum) - y;
+        sum = s;
+        am = ac; ac = ap; ap = aq; aq = coef_at(src, start, step, 0, n, a + k + 3, mode, cval);
+        bm = bc; bc = bp; bp = bq; bq = coef_at(src, start, step, 0, n, b + k + 3, mode, cval);
+    }
+}
+
 #ifdef LANES
 #ifndef VECS
 #define VECS 1      // vectors of adjacent columns per box_shift work-item (the launcher's band)
