@@ -62,6 +62,7 @@ from .backends import Backend, backend_request, check_backend_name, resolve_back
 from .edges import canny as canny_2d
 from .edges import check_arguments as check_canny_arguments
 from .motion import motion_blur as motion_blur_2d
+from .motion.field import check_quadrature
 from .motion.kinds import motion_kind, psf_name
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "motion_blur", "canny",
@@ -554,7 +555,7 @@ def gradient(x, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=
 
 @_docfiller
 def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displace=True, mode="reflect", cval=0.0,
-                channel_axis=None, backend=None, device=None):
+                channel_axis=None, backend=None, device=None, quadrature="gauss"):
     """:func:`gfgpu.motion_blur` on a dask array of images ``(..., H, W)``: every kind, every PSF.
 
     Each kind says what a chunk must hold (:mod:`gfgpu.motion.kinds`): uniform motion along an
@@ -573,9 +574,10 @@ def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displa
         **velocity field** is a numpy array ``(2, H, W)`` (rows, cols components) of the image
         plane's shape, the same for every image of the stack: it needs the whole plane (each
         chunk holds it, and every task gets the field).
-    kind, psf, center, displace
+    kind, psf, center, displace, quadrature
         As in :func:`gfgpu.motion_blur` (``kind`` one of ``'uniform'``, ``'zoom'``,
-        ``'rotation'``; ``psf`` ``'green'`` or ``'box'``; ``center`` is ``(row, col)``).
+        ``'rotation'``; ``psf`` ``'green'`` or ``'box'``; ``center`` is ``(row, col)``;
+        ``quadrature`` ``'gauss'`` or ``'exact'``, a velocity field's rule, sent to every task).
     %(mode_cval)s
     channel_axis : int, optional
         Axis of colour channels, blurred each on its own (moved first lazily, and back).
@@ -608,6 +610,7 @@ def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displa
     motion = motion_kind(kind, velocity)
     psf = psf_name(psf)
     displace = flag("displace", displace)
+    quadrature = check_quadrature(quadrature)
     mode = filter_mode(mode)       # the engine's name for scipy's grid-* aliases
     cval = finite_cval(cval)
     spec = _backend_spec(backend, device)
@@ -617,7 +620,7 @@ def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displa
                              f"shape {x.shape}")
         ch = normalize_axis(channel_axis, x.ndim, "channel_axis")
         out = motion_blur(da.moveaxis(x, ch, 0), velocity, kind=kind, psf=psf, center=center, displace=displace,
-                          mode=mode, cval=cval, backend=backend, device=device)
+                          mode=mode, cval=cval, backend=backend, device=device, quadrature=quadrature)
         return da.moveaxis(out, 0, ch)
     if x.ndim < 2:
         raise ValueError(f"motion blur needs an image (at least 2 dimensions), got shape {x.shape}")
@@ -629,7 +632,8 @@ def motion_blur(x, velocity, *, kind="uniform", psf="green", center=None, displa
         return run_program(x, motion.program(x.ndim, params, displace), mode=mode, cval=cval, backend=backend,
                            device=device)
     x = x.rechunk({x.ndim + axis: -1 for axis in whole})
-    kw = dict(velocity=params, kind=kind, psf=psf, center=fixed, displace=displace, mode=mode, cval=cval)
+    kw = dict(velocity=params, kind=kind, psf=psf, center=fixed, displace=displace, mode=mode, cval=cval,
+              quadrature=quadrature)
     return x.map_blocks(_plane_task, motion_blur_2d, spec, dtype, kw, dtype=dtype)
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from .._core.boundary import filter_mode
 from .._core.validation import finite_cval, flag
 from ..filters import make_job
+from .field import check_quadrature
 from .kinds import motion_kind, psf_name
 from .params import move_channels
 
@@ -16,7 +17,7 @@ __all__ = ["motion_blur"]
 
 
 def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, displace=True, mode="reflect",
-                cval=0.0, channel_axis=None, output=None, backend=None, device=None):
+                cval=0.0, channel_axis=None, output=None, backend=None, device=None, quadrature="gauss"):
     """Motion blur along the true path of uniform motion, a per-pixel velocity field, a zoom or a spin.
 
     Parameters
@@ -68,6 +69,11 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     backend, device : str, optional
         ``"numpy"``, ``"warp"`` or ``"opencl"`` and its device (default: the resolution rule
         of :mod:`gfgpu.backends`).
+    quadrature : {'gauss', 'exact'}, optional
+        How a velocity field's paths (and the box zoom with two rates, an affine field) are
+        integrated: ``'gauss'`` (default) a Gauss rule of a few nodes per path, its cost bounded
+        per pixel; ``'exact'`` cells of at most one pixel, 5-20 times the samples, for content
+        with detail near the Nyquist rate (see *Velocity fields* below).  Other kinds ignore it.
 
     Returns
     -------
@@ -108,8 +114,8 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     coefficients; within 0.15 % (box) and 1 % (G_u) of a supersampled rendering on Gaussian-filtered
     noise (sigma 2 px) for ``|v| <= 30``, 2-4 % where the image has detail near 0.25 cycles/px (a
     photograph's edges), up to 11 % for G_u on noise band-limited there.  A field with a path
-    beyond the rule's tables (126 px box, 128 px G_u), and every field inside
-    ``with gfgpu.motion.field.field_rule("exact")`` (this thread's calls), runs the exact cells:
+    beyond the rule's tables (126 px box, 128 px G_u), and every field with ``quadrature="exact"``,
+    runs the exact cells:
     cells of at most one pixel with three Gauss-Legendre nodes each (2e-4 on white noise), at most
     96 (box) or 432 (G_u) samples per pixel (:data:`gfgpu.motion.field.FIELD_CELLS`), a field whose
     paths need more running them while its total stays within that budget on average or within
@@ -170,14 +176,15 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     mode = filter_mode(mode)    # scipy's names; a blur takes the filter meaning (grid-* as their twins)
     cval = finite_cval(cval)
     displace = flag("displace", displace)
+    quadrature = check_quadrature(quadrature)
     if channel_axis is not None:
         if output is not None:
             raise ValueError("output cannot be combined with channel_axis; use the return value")
         moved, undo = move_channels(image, channel_axis)
         return undo(motion_blur(moved, velocity, kind=kind, psf=psf, center=center, displace=displace,
-                                mode=mode, cval=cval, backend=backend, device=device))
+                                mode=mode, cval=cval, backend=backend, device=device, quadrature=quadrature))
     params = motion.parse(velocity)               # checked before the image is read or uploaded
     job = make_job(image, output, backend, device, min_ndim=2)
     params = motion.fit(params, job.shape)
     fixed = motion.center(center, job.shape[-2], job.shape[-1])
-    return motion.run(job, params, psf, fixed, displace, mode, cval)
+    return motion.run(job, params, psf, fixed, displace, mode, cval, quadrature)

@@ -5,7 +5,8 @@ shutter, weighted by the point-spread function in ``t`` (:data:`gfgpu.motion.spe
 the box (uniform exposure, ``t`` in ``[0, 1]``, or ``[-1/2, 1/2]`` centred) or the chapter's
 G_u along the path (``u = |v|``: mean exactly one velocity; centred: the autocorrelation of
 G_{|v|/2}).  The image is the cubic B-spline through its samples (:mod:`gfgpu.motion.spline`).
-Two rules integrate the path (:func:`field_rule` selects; ``docs/motion.md`` has the measurements):
+Two rules integrate the path (``motion_blur(..., quadrature=...)`` selects; ``docs/motion.md`` has the
+measurements):
 
 ``"gauss"`` (the default; :func:`gfgpu.motion.spec.field_rule_reference`): a Gauss rule whose size
 depends only on the pixel's dominant component ``L``, read from tables computed once in float64
@@ -37,8 +38,6 @@ runs the exact cells (one rule per call).  The prefilter is two recursions per a
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import math
 
 import numpy as np
@@ -48,14 +47,13 @@ from .kernels import field_rule as rule_kernel
 from .spline import spline_coefficients
 
 __all__ = ["FIELD_MAX", "FIELD_DENSITY", "FIELD_CELLS", "FIELD_TOTAL", "FIELD_RULES", "is_field", "check_field",
-           "field_cells", "field_rule", "current_rule", "rule_fits", "apply_field"]
+           "field_cells", "check_quadrature", "rule_fits", "apply_field"]
 
 #: the rules a field is blurred with: ``"gauss"`` (the default: a Gauss rule of a few nodes per path,
 #: :func:`gfgpu.motion.spec.field_rule_reference`) and ``"exact"`` (cells of at most one pixel,
 #: :func:`gfgpu.motion.spec.field_blur_reference`)
 FIELD_RULES = ("gauss", "exact")
 
-_RULE = contextvars.ContextVar("gfgpu_field_rule", default="gauss")
 
 #: largest velocity component of a field, in pixels (the cost per pixel grows with it)
 FIELD_MAX = 4096.0
@@ -124,56 +122,11 @@ def field_cells(field, code, planes=1):
                      f"with the length")
 
 
-@contextlib.contextmanager
-def field_rule(rule):
-    """Blur velocity fields with ``rule`` within the ``with`` block.
-
-    The rule holds for the calls made in this thread (a context variable): Dask's worker threads
-    and processes, which do not inherit it, run the default rule.
-
-    Parameters
-    ----------
-    rule : {'gauss', 'exact'}
-        ``'gauss'`` (the default outside any block): each path takes a Gauss rule of a few nodes,
-        ``ceil(L / 2) + 1`` Gauss-Legendre nodes for the box, 3 per cell of 6 px of G_u's support
-        (cut at 6 velocities; at least 8 cells, 16 centred), ``L`` the pixel's dominant component:
-        within 0.15 % (box) and 0.8 % (G_u) of a supersampled rendering on Gaussian-filtered noise
-        (sigma 2 px) for ``|v| <= 30``, up to 4-6 % on sharp or rough content; a field with a path
-        longer than its tables (126 px box, 128 px G_u) takes the exact cells.
-        ``'exact'``: cells of at most one pixel, 3 nodes each (2e-4 of the path integral on white
-        noise), 5-20 times the samples.  ``docs/motion.md`` has the measured errors.
-
-    Raises
-    ------
-    ValueError
-        ``rule`` is not one of :data:`FIELD_RULES`.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from gfgpu.motion import motion_blur
-    >>> from gfgpu.motion.field import field_rule
-    >>> yy, xx = np.mgrid[:32, :32]
-    >>> img = np.sin(np.pi * xx / 4) * np.cos(np.pi * yy / 8)       # smooth, periodic content
-    >>> v = np.stack([np.full((32, 32), 6.0), np.full((32, 32), 11.0)])
-    >>> with field_rule("exact"):                               # cells of <= 1 px: 33 per path
-    ...     exact = motion_blur(img, v, psf="box", mode="wrap", backend="numpy")
-    >>> gauss = motion_blur(img, v, psf="box", mode="wrap", backend="numpy")   # 7 nodes per path
-    >>> bool(np.abs(gauss - exact).max() < 1e-4)                # of a blur whose peak is 0.064
-    True
-    """
-    if not isinstance(rule, str) or rule not in FIELD_RULES:
-        raise ValueError(f"field rule must be one of {', '.join(map(repr, FIELD_RULES))}, got {rule!r}")
-    token = _RULE.set(rule)
-    try:
-        yield rule
-    finally:
-        _RULE.reset(token)
-
-
-def current_rule():
-    """The rule velocity fields are blurred with here (:func:`field_rule`; ``'gauss'`` by default)."""
-    return _RULE.get()
+def check_quadrature(quadrature):
+    """``quadrature`` checked against :data:`FIELD_RULES` (``ValueError`` naming them)."""
+    if not isinstance(quadrature, str) or quadrature not in FIELD_RULES:
+        raise ValueError(f"quadrature must be one of {', '.join(map(repr, FIELD_RULES))}, got {quadrature!r}")
+    return quadrature
 
 
 def rule_fits(field, code):
@@ -185,12 +138,13 @@ def rule_fits(field, code):
     return max(first, math.ceil(length * per_px - 1e-9) + extra) <= most
 
 
-def apply_field(job, field, code, mode, cval):
+def apply_field(job, field, code, mode, cval, quadrature="gauss"):
     """Blur ``job``'s image planes along the per-pixel velocities ``field`` (checked) with the
-    current rule (:func:`field_rule`)."""
+    rule ``quadrature`` (:data:`FIELD_RULES`; the exact cells where a path outgrows the Gauss
+    rule's tables)."""
     be, dtype, shape = job.backend, job.dtype, job.shape
     planes = (math.prod(shape[:-2]),) + tuple(shape[-2:])
-    gauss = current_rule() == "gauss" and rule_fits(field, code)
+    gauss = quadrature == "gauss" and rule_fits(field, code)
     most = None if gauss else field_cells(field, code, planes[0])     # refusals before any work
     coef = spline_coefficients(be, be.reshape(job.data, planes), dtype, planes, (mode, mode), cval)
     dev_field = be.asarray(np.ascontiguousarray(field, dtype=dtype))

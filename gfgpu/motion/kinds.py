@@ -111,8 +111,9 @@ class MotionKind:
     at : callable ``(params, t) -> velocity``
         The velocity of the fraction ``t`` in [0, 1] of the motion: what frame ``k`` of ``n``
         (``t = k / (n - 1)``) shows in :func:`~gfgpu.motion.synthesize_motion`.
-    run : callable ``(job, params, psf, center, displace, mode, cval) -> result``
-        Applies it to a :class:`~gfgpu._core.job.Job` (``center`` as checked by ``center``).
+    run : callable ``(job, params, psf, center, displace, mode, cval, quadrature) -> result``
+        Applies it to a :class:`~gfgpu._core.job.Job` (``center`` as checked by ``center``;
+        ``quadrature`` the velocity fields' rule, :data:`gfgpu.motion.field.FIELD_RULES`).
     whole_axes : callable ``(params, psf) -> tuple of int``
         The image-plane axes (``-2`` rows, ``-1`` cols) that one Dask chunk must hold whole, or
         ``()``: the motion runs as ``program``'s recursive passes, exact across chunks along an
@@ -155,7 +156,7 @@ def _uniform_parse(velocity):
     return vy, vx
 
 
-def _uniform_run(job, params, psf, center, displace, mode, cval):
+def _uniform_run(job, params, psf, center, displace, mode, cval, quadrature):
     vy, vx = params
     if psf == "box" and (vy, vx) != (0.0, 0.0):
         return apply_uniform_box(job, vy, vx, displace, mode, job.scaled(cval))   # cval in job.data's units
@@ -174,8 +175,8 @@ def _uniform_whole_axes(params, psf):
 
 
 # velocity field ------------------------------------------------------------------------
-def _field_run(job, field, psf, center, displace, mode, cval):
-    return apply_field(job, field, PSFS[psf].code(displace), mode, job.scaled(cval))
+def _field_run(job, field, psf, center, displace, mode, cval, quadrature):
+    return apply_field(job, field, PSFS[psf].code(displace), mode, job.scaled(cval), quadrature)
 
 
 # zoom ----------------------------------------------------------------------------------
@@ -187,7 +188,7 @@ def _zoom_center(center, height, width):
     return cy, cx
 
 
-def _zoom_run(job, params, psf, center, displace, mode, cval):
+def _zoom_run(job, params, psf, center, displace, mode, cval, quadrature):
     """G_U^(1) separably for two rates; else along the rays of the polar grid (G_U^(1) or box),
     or the box's affine field for two rates."""
     u1y, u1x = params
@@ -205,7 +206,8 @@ def _zoom_run(job, params, psf, center, displace, mode, cval):
     height, width = job.shape[-2], job.shape[-1]
     yy, xx = np.mgrid[:height, :width].astype(np.float64)
     field = np.stack([(u1y / (1.0 + u1y)) * (yy - cy), (u1x / (1.0 + u1x)) * (xx - cx)])
-    return apply_field(job, check_field(field, job.shape), PSFS["box"].code(displace), mode, job.scaled(cval))
+    return apply_field(job, check_field(field, job.shape), PSFS["box"].code(displace), mode, job.scaled(cval),
+                       quadrature)
 
 
 # rotation ------------------------------------------------------------------------------
@@ -215,7 +217,7 @@ def _rotation_center(center, height, width):
     return cy, cx
 
 
-def _rotation_run(job, degrees, psf, center, displace, mode, cval):
+def _rotation_run(job, degrees, psf, center, displace, mode, cval, quadrature):
     return apply_spin(job, degrees, center[0], center[1], psf, displace, mode, cval)
 
 

@@ -1,6 +1,6 @@
 """The box exposure and the per-pixel velocity field against the cubic spline along the path.
 
-The field tests here check the exact cells (``field_rule("exact")``, cells of at most one pixel);
+The field tests here check the exact cells (``quadrature="exact"``, cells of at most one pixel);
 the default Gauss rule has its own tests in ``test_field_rule.py``.
 
 References are independent of the library: scipy.ndimage.map_coordinates (order 3) on an image
@@ -14,7 +14,6 @@ from scipy import ndimage as ndi
 
 from gfgpu.greens import g_uniform
 from gfgpu.motion import motion_blur
-from gfgpu.motion.field import field_rule
 
 NP_PAD = {"reflect": "symmetric", "mirror": "reflect", "nearest": "edge", "wrap": "wrap", "constant": "constant"}
 
@@ -121,10 +120,12 @@ def test_box_lengths_up_to_1e9_px_average_the_extension():
 # the velocity field (the exact cells)
 # --------------------------------------------------------------------------------------
 @pytest.fixture
-def exact_cells():
-    """The field tests of this module run the exact cells (the default is the Gauss rule)."""
-    with field_rule("exact"):
-        yield
+def exact_cells(monkeypatch):
+    """The field tests of this module run the exact cells (``quadrature="exact"``; the default is
+    the Gauss rule): this module's ``motion_blur`` takes it."""
+    import functools
+    import sys
+    monkeypatch.setattr(sys.modules[__name__], "motion_blur", functools.partial(motion_blur, quadrature="exact"))
 
 
 def test_field_nearest_border_matches_spline_of_edge_extended_image(backend, exact_cells):

@@ -2,7 +2,7 @@
 
 Oracles independent of the rule: the PSFs' Fourier transforms in closed form (the rules in ``t``),
 supersampled renderings (scipy's cubic spline at many exactly warped copies, the PSF masses from the
-closed-form cumulatives) and the exact cells of ``field_rule("exact")`` (cells of at most one pixel).
+closed-form cumulatives) and the exact cells of ``quadrature="exact"`` (cells of at most one pixel).
 """
 
 import numpy as np
@@ -11,7 +11,7 @@ from scipy import ndimage as ndi
 
 from conftest import gpu_shaped_backend
 from gfgpu.motion import kernels, motion_blur, spec
-from gfgpu.motion.field import FIELD_RULES, current_rule, field_rule, rule_fits
+from gfgpu.motion.field import FIELD_RULES, rule_fits
 
 # the documented bounds (docs/motion.md, velocity fields): Gaussian-filtered noise (sigma 2 px), |v| <= 30
 RENDER_BOUND = {"box": 0.005, "green": 0.012}
@@ -120,7 +120,6 @@ def test_rule_matches_the_supersampled_rendering(backend, psf, copies, kind):
     img = texture(48, seed=2)
     field = smooth_field(48, 30.0) if kind == "smooth" else split_field(48, 30.0)
     ref = rendering(img, field, psf, copies)
-    assert current_rule() == "gauss"
     for dtype in (np.float32, np.float64) if backend.supports_float64 else (np.float32,):
         out = motion_blur(img.astype(dtype), field, psf=psf, mode="wrap", backend=backend.name)
         assert rel_l2(out, ref) < RENDER_BOUND[psf], (dtype, rel_l2(out, ref))
@@ -156,15 +155,14 @@ def test_still_pixels_and_a_uniform_field(backend):
 
 def test_paths_longer_than_the_tables_take_the_exact_cells(backend):
     """A field with a path beyond the Gauss rule's tables (126 px box) runs the exact cells, as
-    under field_rule('exact'); the rule says which."""
+    with quadrature='exact'; the rule says which."""
     img = texture(24, seed=4)
     field = np.zeros((2, 24, 24))
     field[1] = 140.0
     field[0] = np.linspace(-20, 20, 24)[None, :]
     assert not rule_fits(field, 0) and rule_fits(field * 0.5, 0)
     out = motion_blur(img, field, psf="box", mode="wrap", backend=backend.name)
-    with field_rule("exact"):
-        exact = motion_blur(img, field, psf="box", mode="wrap", backend=backend.name)
+    exact = motion_blur(img, field, psf="box", mode="wrap", backend=backend.name, quadrature="exact")
     np.testing.assert_array_equal(out, exact)
 
 
@@ -219,20 +217,38 @@ def test_kernel_in_gpu_launch_shapes(name):
 # the rule's switch and bad input
 # --------------------------------------------------------------------------------------
 @pytest.mark.parametrize("bad", ["fast", "Exact", 3, None])
-def test_unknown_rule_is_refused(bad):
-    with pytest.raises(ValueError, match="field rule must be one of 'gauss', 'exact'"):
-        with field_rule(bad):
-            pass
-    assert current_rule() == "gauss"
+def test_unknown_rule_is_refused_before_work(bad):
+    """Every entry point names the rules (checked before the image is read: a NaN image is not
+    the error); the channel and Dask paths pass the rule on."""
+    import dask.array as da
 
-
-def test_rule_is_restored_after_the_block():
+    import gfgpu.dask
+    img = np.full((8, 8), np.nan)
+    field = np.ones((2, 8, 8))
     assert FIELD_RULES == ("gauss", "exact")
-    with pytest.raises(RuntimeError):
-        with field_rule("exact"):
-            assert current_rule() == "exact"
-            raise RuntimeError
-    assert current_rule() == "gauss"
+    with pytest.raises(ValueError, match="quadrature must be one of 'gauss', 'exact'"):
+        motion_blur(img, field, quadrature=bad, backend="numpy")
+    with pytest.raises(ValueError, match="quadrature must be one of 'gauss', 'exact'"):
+        gfgpu.dask.motion_blur(da.from_array(img), field, quadrature=bad, backend="numpy")
+
+
+def test_the_rule_reaches_every_entry_point():
+    """quadrature='exact' gives the exact cells through motion_blur, its channel_axis path and
+    gfgpu.dask (whose tasks get it as an argument, not from the caller's context)."""
+    import dask.array as da
+
+    import gfgpu.dask
+    img = texture(24, seed=5)
+    field = smooth_field(24, 12.0)
+    exact = motion_blur(img, field, psf="box", mode="wrap", backend="numpy", quadrature="exact")
+    gauss = motion_blur(img, field, psf="box", mode="wrap", backend="numpy")
+    assert np.abs(exact - gauss).max() > 1e-9                  # the two rules differ on this field
+    rgb = np.stack([img, img], axis=-1)
+    np.testing.assert_array_equal(motion_blur(rgb, field, psf="box", mode="wrap", backend="numpy",
+                                              quadrature="exact", channel_axis=-1)[..., 1], exact)
+    lazy = gfgpu.dask.motion_blur(da.from_array(img, chunks=12), field, psf="box", mode="wrap", backend="numpy",
+                                  quadrature="exact")
+    np.testing.assert_array_equal(lazy.compute(scheduler="processes", num_workers=1), exact)
 
 
 @pytest.mark.parametrize("bad, match", [(np.nan, "finite"), (5000.0, "within ±4096")])
