@@ -46,9 +46,10 @@ _CACHE_LINE = 64
 #: bytes of box_vec's vectors along rows, each gathered element by element across its rows
 #: (16 gathered lanes cost more than twice 8: 2.4x slower at 4096^2)
 _GATHER_BYTES = 32
-#: vectors of adjacent columns per box_shift work-item (a band of 2 cache lines per row: 1.2-1.8x
-#: over one at 4096^2, more gained nothing)
-_COLUMN_VECS = 2
+#: most vectors of adjacent columns per box_shift work-item (a band of cache lines per row: 4 gave
+#: 1.9-2.2x over one at 4096^2, 2 1.6-1.8x; 8 spilled its state and was slower), fewer where
+#: every compute unit would not get two bands
+_COLUMN_VECS = 4
 
 
 def _shift_args(dtype, a0, b0):
@@ -113,7 +114,8 @@ def _box_vectors(be, bufs, axis, lanes, vecs, a0, a1, b0, b1, mode, cval):
     n = cols if by_rows else rows
     defines = dict(LANES=lanes, ROWS=int(by_rows), LESS=int(len(inputs) > 1))
     if fixed_width(a0, a1, b0, b1):
-        per = 1 if by_rows else _COLUMN_VECS
+        units = int(be.cl_device.max_compute_units)
+        per = 1 if by_rows else max(1, min(_COLUMN_VECS, (bsz * vecs) // (2 * units)))
         groups = -(-vecs // per)
         total = groups if by_rows else bsz * groups
         ocl.launch(be, _kernel(be, "box_shift", dtype, pos, VECS=per, **defines), (total,), (1,), inputs, [dst],

@@ -3,8 +3,9 @@ box_lines, box_vec and box_shift) against its float64 specification (gfgpu.motio
 shapes that pick each device branch.  On a CPU device: rows in groups of one cache line of lanes
 (16 float32, 8 float64), box_shift loading tiles of that many steps (whole tiles, a partial one at a
 line's end, tiles reaching beyond either end, lines shorter than a tile) and box_vec gathering;
-columns in bands of two vectors with a partial band; the lines no group holds in the one-line
-kernel.  The same calls in the GPU launch shapes (one line per work-item), forced on the CPU devices."""
+columns in bands of vectors with a partial band; the lines no group holds in the one-line kernels
+(box_shift_lines for a window of fixed width, box_lines otherwise).  The same calls in the GPU
+launch shapes (one line per work-item), forced on the CPU devices."""
 import numpy as np
 import pytest
 
@@ -70,11 +71,16 @@ def test_box_lines_along_rows_on_every_launch_shape(backend, rng, mode, shape):
 
 
 @pytest.mark.parametrize("mode", ["constant", "nearest", "reflect", "mirror", "wrap"])
-@pytest.mark.parametrize("shape", [(2, 45, 53), (1, 20, 128), (2, 9, 16), (1, 3, 40)])
+@pytest.mark.parametrize("shape", [(2, 45, 53), (1, 20, 128), (2, 9, 16), (1, 3, 40), "bands"])
 def test_box_lines_along_columns_on_every_launch_shape(backend, rng, mode, shape):
-    # float32 (float64): (2, 45, 53): 3 (6) vectors, a band of two and a partial band (three whole
-    # bands), 5 columns left to the one-line kernel; (1, 20, 128): whole bands only; (2, 9, 16): one
-    # vector, a partial band; (1, 3, 40): lines shorter than the window's taps
+    # float32 (float64): (2, 45, 53): 3 (6) vectors and 5 columns left to the one-line kernel;
+    # (1, 20, 128): 8 (16) vectors; (2, 9, 16): one vector; (1, 3, 40): lines shorter than the
+    # window's taps.  On a CPU device box_shift takes vectors in bands of up to 4 where every
+    # compute unit still gets two bands: "bands" is wide enough for bands of 4 on this device,
+    # with a partial band of 2 vectors (float32) and 5 scalar columns
+    if shape == "bands":
+        units = int(backend.cl_device.max_compute_units) if backend.name == "opencl" else 2
+        shape = (1, 5, 16 * (8 * units + 2) + 5)
     for be in _backends(backend):
         for dtype in _dtypes(be):
             _check_all(be, rng.standard_normal(shape).astype(dtype), 1, mode, rng)
