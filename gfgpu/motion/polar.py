@@ -85,12 +85,12 @@ def polar_bands(height, width, cy, cx, reach=1.0, split=False):
 
     One band (``split`` false): rings ``0 .. n_r - 1`` out to ``reach`` times the farthest pixel
     (windows that read outward) plus :data:`_EXTRA_RINGS`, ``n_r`` a multiple of 8 (the passes
-    along the angle run 8 rings per vector), angles at most one pixel apart on the farthest
-    pixel's ring.  ``split``: the radii are cut at half the farthest pixel's radius, a quarter, ...
-    (down to :data:`_MIN_BAND`), and each band takes the angles its outer radius needs, with
-    :data:`_SEAM` rings beyond its radii ``[r_lo, r_hi)`` on either side: ``2 pi R^2`` samples
-    become about ``4/3 pi R^2``, arcs still at most one pixel apart.  Bands are listed outermost
-    first.
+    along the angle run 8 rings per vector; 16 in a split band that starts beyond ring 8), angles
+    at most one pixel apart on the farthest pixel's ring.  ``split``: the radii are cut at half the
+    farthest pixel's radius, a quarter, ... (down to :data:`_MIN_BAND`), and each band takes the
+    angles its outer radius needs, with :data:`_SEAM` rings beyond its radii ``[r_lo, r_hi)`` on
+    either side: ``2 pi R^2`` samples become about ``4/3 pi R^2``, arcs still at most one pixel
+    apart.  Bands are listed outermost first.
     """
     radius = max(math.hypot(y - cy, x - cx) for y in (0, height - 1) for x in (0, width - 1))
     cuts = []
@@ -101,7 +101,16 @@ def polar_bands(height, width, cy, cx, reach=1.0, split=False):
     for hi, lo in zip(edges[:-1], edges[1:]):
         r0 = max(0, math.floor(lo) - _SEAM)
         end = math.ceil(radius * reach) + _EXTRA_RINGS if hi == math.inf else math.ceil(hi) + _SEAM
-        bands.append((r0, 8 * math.ceil((end - r0) / 8), _angles(min(hi, radius)), lo, hi))
+        n_r = 8 * math.ceil((end - r0) / 8)
+        if split and n_r % 16 and r0 >= 8:
+            # a split band takes whole groups of 16 rings (the row passes along the angle run 16 float32
+            # rows per vector on a CPU; a partial group runs, and on a first call builds, another
+            # kernel), the 8 more inward, where the band has _SEAM rings of margin: its outer rings,
+            # and what its pixels read, are the 8-multiple's
+            r0, n_r = r0 - 8, n_r + 8
+        elif split and n_r % 16 and hi != math.inf:
+            n_r += 8        # an inner band from ring 0: the 8 more beyond its outer seam
+        bands.append((r0, n_r, _angles(min(hi, radius)), lo, hi))
     return bands
 
 
