@@ -399,21 +399,31 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket,
                    ri_row0=ya)
 
-    # the band loop's launches with their arguments set once (_PresetLaunch)
-    knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, 0, 1, 0, h, w, n, p1, p2, paths,
-                                 0, 0, view, True, bucket)
-    sweep_launch = _PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound], args)
-    select_launch = _PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
-                                  [disp, disp_right, margin],
-                                  _select_args(down, up, disp, disp_right, margin, 0, 1, w, n, first_step // steps,
-                                               steps, uniqueness, True))
+    # the band loop's launches with their arguments set once (_PresetLaunch), where there is a
+    # loop: one band (small images) launches each kernel once, cheaper than making its own kernel
+    if h > k:
+        knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, 0, 1, 0, h, w, n, p1, p2,
+                                     paths, 0, 0, view, True, bucket)
+        sweep_launch = _PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound], args)
+        select_launch = _PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
+                                      [disp, disp_right, margin],
+                                      _select_args(down, up, disp, disp_right, margin, 0, 1, w, n,
+                                                   first_step // steps, steps, uniqueness, True))
 
     def sweep(y0, rows, row0, init, active, write_up=True):
+        if h <= k:
+            _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
+                         init=init, active=active, view=view, write_up=write_up, bucket=bucket)
+            return
         split = not write_up and paths == 4 and w >= 2 and not init      # as _band_sweep_args
         values = (y0, rows, init, active, int(write_up), row0, int(split))
         sweep_launch((2,), (1,), {i: np.int32(v) for i, v in zip(_SWEEP_BAND_ARGS, values)})
 
     def select(y0, rows):
+        if h <= k:
+            _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps,
+                    uniqueness, bucket)
+            return
         select_launch((rows,), (1,), {5: np.int32(rows), 11: np.int32(y0)})
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
