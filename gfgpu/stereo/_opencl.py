@@ -264,33 +264,6 @@ def _sgm_state(be, w, n, workspace=None):
             _empty(be, workspace, "state_min", (2, 4, w + 2), np.int16))
 
 
-class _PresetLaunch:
-    """Repeated launches of one kernel of the band loop with its arguments set once: a private
-    kernel object (the cached one may be launched by other threads), whose changing arguments
-    alone are set before each launch.  pyopencl's call of a kernel sets all of them again
-    (sgm_band: ~110 us of the host's CPU per launch against ~30; the band loop of 1000 x 1500
-    x 383 launches it ~750 times).  Ordered as :func:`gfgpu.backends.opencl.launch.launch`: after
-    the pending events of its arrays, the outputs get its event."""
-
-    def __init__(self, be, knl, arrays_in, arrays_out, args):
-        import pyopencl as cl
-        self._cl, self.be = cl, be
-        self.knl = cl.Kernel(knl.program, knl.function_name)
-        self.function_name = knl.function_name
-        self.knl.set_args(*args)
-        self.arrays_in, self.arrays_out = list(arrays_in), list(arrays_out)
-
-    def __call__(self, gsize, lsize, changes):
-        """Launch with the arguments ``changes`` ({index: value}) set first; returns the event."""
-        for i, v in changes.items():
-            self.knl.set_arg(i, v)
-        wait = [e for a in self.arrays_in + self.arrays_out for e in a.events]
-        evt = self._cl.enqueue_nd_range_kernel(self.be.queue, self.knl, gsize, lsize, wait_for=wait or None)
-        for a in self.arrays_out:
-            a.add_event(evt)
-        return evt
-
-
 def _band_sweep_args(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
                      init, active, view, write_up=True, bucket=None):
     """The kernel and arguments of one launch of sgm_band (:func:`_band_sweeps`); the band's
@@ -399,13 +372,13 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         _band_cost(be, cl_, ri, cost, None, y0, rows, 0, h, w, n, first_step, steps, block, workspace, bucket,
                    ri_row0=ya)
 
-    # the band loop's launches with their arguments set once (_PresetLaunch), where there is a
+    # the band loop's launches with their arguments set once (ocl.PresetLaunch), where there is a
     # loop: one band (small images) launches each kernel once, cheaper than making its own kernel
     if h > k:
         knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, 0, 1, 0, h, w, n, p1, p2,
                                      paths, 0, 0, view, True, bucket)
-        sweep_launch = _PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound], args)
-        select_launch = _PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
+        sweep_launch = ocl.PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound], args)
+        select_launch = ocl.PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
                                       [disp, disp_right, margin],
                                       _select_args(down, up, disp, disp_right, margin, 0, 1, w, n,
                                                    first_step // steps, steps, uniqueness, True))
