@@ -469,3 +469,14 @@ def test_batch_canny_on_a_float_tiff_has_no_ghost_edges(tmp_path):
                     "--quiet", *extra]) == 0
         edges = np.load(out / "step.npy")
         assert np.unique(np.nonzero(edges)[1]).tolist() == [32], extra
+
+
+@pytest.mark.parametrize("argv", [["blur", "--dx", "3"], ["shift", "--dx", "1"], ["canny"], ["gradient"]])
+def test_a_missing_input_is_a_usage_error_before_the_backend_starts(tmp_path, capsys, argv):
+    """No IMAGE and no --example: exit 2, one line, and no "backend ... on ..." line first (it read
+    as if work had started)."""
+    assert main([*argv, "-o", str(tmp_path / "out.png")]) == 2
+    captured = capsys.readouterr()
+    assert "backend" not in captured.out, captured.out
+    assert captured.err.strip() == f"gfgpu {argv[0]}: give an IMAGE path or --example camera"
+    assert not any(tmp_path.iterdir())

@@ -194,6 +194,9 @@ def announce_backend(args):
     """Resolve the backend the command will run on and say so (one line, unless ``--quiet``).
 
     A bad ``--backend``/``--device`` is a CommandError naming the option."""
+    if hasattr(args, "image") and args.image is None and not getattr(args, "example", None):
+        # a usage error before the backend starts (and says it runs): no input at all
+        raise CommandError(f"give an IMAGE path or --example {io.EXAMPLES[0]}")
     backend, device = getattr(args, "backend", None), getattr(args, "device", None)
     if device is not None and backend is None:
         raise CommandError(f"--device {device}: needs --backend as well (e.g. --backend warp --device cuda:0)")
