@@ -112,7 +112,9 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     ``ceil(L / 2) + 1`` Gauss-Legendre nodes (box), or G_u's support cut at 6 velocities in
     ``max(8, ceil(L))`` cells of 3 nodes (16 cells at least centred), each node a sample of 16
     coefficients; within 0.15 % (box) and 1 % (G_u) of a supersampled rendering on Gaussian-filtered
-    noise (sigma 2 px) for ``|v| <= 30``, 2-4 % where the image has detail near 0.25 cycles/px (a
+    noise (sigma 2 px) for ``|v| <= 30`` along or near an axis, up to 0.4 % (box) and 1.5 % (G_u) at
+    45 degrees (the count follows ``L``, so a diagonal path's nodes lie up to sqrt(2) times further
+    apart), 2-4 % where the image has detail near 0.25 cycles/px (a
     photograph's edges), up to 11 % for G_u on noise band-limited there.  A field with a path
     beyond the rule's tables (126 px box, 128 px G_u), and every field with ``quadrature="exact"``,
     runs the exact cells:

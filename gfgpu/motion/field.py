@@ -18,7 +18,9 @@ cells' PSF masses restored: 2 px of path per node, and cells of at most 3/4 velo
 shape.  Cost per pixel: ``ceil(L / 2) + 1`` samples (box) or ``3 max(8, ceil(L))`` (G_u) of 16
 coefficients, 1 for a still pixel, at most 64 and 384 (the tables: paths up to 126 px box,
 128 px G_u).  Against a rendering of 512-2048 exactly warped copies, |v| <= 30 px: 0.07-0.14 %
-(box) and 0.7-0.8 % (G_u) on Gaussian-filtered noise (sigma 2 px), up to 3.8 % on a photograph's
+(box) and 0.7-0.8 % (G_u) on Gaussian-filtered noise (sigma 2 px) along or near an axis, up to
+0.4 % (box) and 1.5 % (G_u) at 45 degrees (the count follows the dominant component, so a diagonal
+path's nodes lie up to sqrt(2) times further apart), up to 3.8 % on a photograph's
 sharp edges and 6.4 % on noise band-limited at 0.25 cycles/px (G_u), where the 2 px spacing
 aliases; those inputs want ``"exact"``.
 
