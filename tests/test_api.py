@@ -143,6 +143,17 @@ def test_an_opencl_device_that_cannot_compile_is_never_chosen_and_says_why(monke
         opencl.OpenCLBackend(broken_index)                  # chosen by index: the reason, not a crash later
     with pytest.raises(BackendUnavailable, match="unknown target CPU"):
         opencl.OpenCLBackend(broken)
+    # a context, a queue, an array of the caller's on that device
+    import pyopencl as cl
+    import pyopencl.array as cla
+    ctx = cl.Context([broken])
+    for spec in (ctx, cl.CommandQueue(ctx)):
+        with pytest.raises(BackendUnavailable, match="unknown target CPU"):
+            opencl.OpenCLBackend(spec)
+    with pytest.raises(BackendUnavailable, match="unknown target CPU"):
+        gfgpu.shift(cla.to_device(cl.CommandQueue(ctx), np.ones((4, 5), np.float32)), 0.5)
+    with pytest.raises(TypeError, match="device must be"):
+        opencl.OpenCLBackend(True)                          # not index 1
     listing = {d.device.split(":")[0]: d for d in gfgpu.devices() if d.backend == "opencl"}
     entry = listing[str(broken_index) if len(working) > 1 else "-"]      # "-": the backend as a whole
     assert not entry.usable and "unknown target CPU" in entry.note

@@ -410,6 +410,9 @@ class OpenCLBackend(Backend):
                 self._device = self._find_device(device)
                 self.context = cl.Context([self._device])
             self.queue = cl.CommandQueue(self.context, self._device)
+        broken = build_failure(self._device)
+        if broken:       # a context or queue of the caller's (or an array's) on a device that cannot compile
+            raise BackendUnavailable(broken)
         dev = self._device
         self.device = f"{dev.name.strip()} ({dev.platform.name.strip()})"
         self.kind = _kind(dev)
@@ -437,6 +440,9 @@ class OpenCLBackend(Backend):
             chosen = [d for _, d, k in devs if k == "gpu"] + [d for _, d, k in devs if k != "gpu"]
         elif isinstance(device, self._cl.Device):
             chosen = [device]
+        elif isinstance(device, (bool, np.bool_)):
+            raise TypeError(f"device must be an index, a name, a pyopencl Device, Context or CommandQueue; "
+                            f"got {device!r}")
         elif isinstance(device, (int, np.integer)):
             if not 0 <= device < len(devs):
                 raise BackendUnavailable(f"OpenCL device index {device} out of range (devices: {listing})")
