@@ -286,43 +286,13 @@ INLINE void vscatter(const VT v, __global REAL *p, const long ls)
 #define VGET(p, ls) vgather((p), (ls))
 #define VPUT(v, p, ls) vscatter((v), (p), (ls))
 
-// Interleave the low (ZIPLO) or high (ZIPHI) halves of two vectors: a0 b0 a1 b1 ...
-#if LANES == 4
-#define LOG2_LANES 2
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1))
-#define ZIPHI(a, b) ((VT)((a).s2, (b).s2, (a).s3, (b).s3))
-#elif LANES == 8
-#define LOG2_LANES 3
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3))
-#define ZIPHI(a, b) ((VT)((a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
-#elif LANES == 16
-#define LOG2_LANES 4
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3, \
-                          (a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
-#define ZIPHI(a, b) ((VT)((a).s8, (b).s8, (a).s9, (b).s9, (a).sa, (b).sa, (a).sb, (b).sb, \
-                          (a).sc, (b).sc, (a).sd, (b).sd, (a).se, (b).se, (a).sf, (b).sf))
-#else
+// the in-place register transpose of a LANES x LANES tile (transpose_tile), as recurse.cl's
+#if LANES != 4 && LANES != 8 && LANES != 16
 #error "the row tiles need LANES 4, 8 or 16"
 #endif
-
-// In-place transpose of the LANES x LANES tile whose rows are t[0 .. LANES-1] (as recurse.cl):
-// each round moves element (r, c) to the index whose bits [r | c] are rotated left by one, so
-// LOG2_LANES rounds give [c | r].  Unrolled: the tile stays in registers.
-INLINE void transpose(VT *t)
-{
-#pragma unroll
-    for (int r = 0; r < LOG2_LANES; ++r) {
-        VT u[LANES];
-#pragma unroll
-        for (int i = 0; i < LANES / 2; ++i) {
-            u[2 * i] = ZIPLO(t[i], t[i + LANES / 2]);
-            u[2 * i + 1] = ZIPHI(t[i], t[i + LANES / 2]);
-        }
-#pragma unroll
-        for (int i = 0; i < LANES; ++i)
-            t[i] = u[i];
-    }
-}
+#define TILE_LANES LANES
+#define TILE_VT VT
+#include "backends/opencl/tile.cl"
 
 // w[i] = LANES rows' samples p + i, i < LANES, of the array at `base` (rows ls apart): where all
 // lie on the line (0 <= p, p + LANES <= n) one tile, LANES vector loads transposed
@@ -333,7 +303,7 @@ INLINE int load_tile(VT *w, __global const REAL *base, const long ls, const int 
 #pragma unroll
     for (int l = 0; l < LANES; ++l)
         w[l] = VLOADU(base + l * ls + p);
-    transpose(w);
+    transpose_tile(w);
     return 1;
 }
 #else
@@ -521,7 +491,7 @@ __kernel void box_shift(__global const REAL *src, __global REAL *dst, const long
 #undef LESS_STEP
         __global REAL *o = dst + dst_off + start + k0;
         if (cnt == LANES) {
-            transpose(y);       // back to one vector per row
+            transpose_tile(y);       // back to one vector per row
 #pragma unroll
             for (int l = 0; l < LANES; ++l)
                 VSTOREU(y[l], o + l * ls);

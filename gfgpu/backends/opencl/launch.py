@@ -45,13 +45,14 @@ def forget_programs():
     _kernels.clear()
 
 
-_INCLUDE = re.compile(r'^#include "([\w.]+)".*$', re.MULTILINE)
+_INCLUDE = re.compile(r'^#include "([\w./]+)".*$', re.MULTILINE)
 
 
 @cache
 def _source(anchor, name):
     """The text of ``name`` in package ``anchor``, each ``#include "file.cl"`` line replaced by that
-    file's text, found in ``anchor`` or the nearest package above it that has it.  Expanded here,
+    file's text, found in ``anchor`` or the nearest package above it that has it (a path such as
+    ``"backends/opencl/tile.cl"`` names a file below a package above).  Expanded here,
     not by the OpenCL compiler, so that the program text (PoCL's cache key) holds every line it
     builds: an edited included file can never be served from a stale cache."""
     from importlib.resources import files

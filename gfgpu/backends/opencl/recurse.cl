@@ -91,47 +91,10 @@ typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
 #define LANE(v, l) ((v)[l])
 #endif
 
-/* Interleave the low (ZIPLO) or high (ZIPHI) halves of two vectors: a0 b0 a1 b1 ... */
-#if LANES == 2
-#define LOG2_LANES 1
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0))
-#define ZIPHI(a, b) ((VT)((a).s1, (b).s1))
-#elif LANES == 4
-#define LOG2_LANES 2
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1))
-#define ZIPHI(a, b) ((VT)((a).s2, (b).s2, (a).s3, (b).s3))
-#elif LANES == 8
-#define LOG2_LANES 3
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3))
-#define ZIPHI(a, b) ((VT)((a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
-#elif LANES == 16
-#define LOG2_LANES 4
-#define ZIPLO(a, b) ((VT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3, \
-                          (a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
-#define ZIPHI(a, b) ((VT)((a).s8, (b).s8, (a).s9, (b).s9, (a).sa, (b).sa, (a).sb, (b).sb, \
-                          (a).sc, (b).sc, (a).sd, (b).sd, (a).se, (b).se, (a).sf, (b).sf))
-#endif
-
-/* In-place transpose of the LANES x LANES matrix whose rows are t[0..LANES-1].
- * Each round maps element (r, c) to the position whose index bits [r | c] are rotated left
- * by one; LOG2_LANES rounds give [c | r], the transpose.  Fully unrolled: registers only. */
-INLINE void transpose(VT *t)
-{
-#if LANES > 1
-#pragma unroll
-    for (int r = 0; r < LOG2_LANES; ++r) {
-        VT u[LANES];
-#pragma unroll
-        for (int i = 0; i < LANES / 2; ++i) {
-            u[2 * i] = ZIPLO(t[i], t[i + LANES / 2]);
-            u[2 * i + 1] = ZIPHI(t[i], t[i + LANES / 2]);
-        }
-#pragma unroll
-        for (int i = 0; i < LANES; ++i)
-            t[i] = u[i];
-    }
-#endif
-}
+/* the in-place register transpose of a LANES x LANES tile (transpose_tile) */
+#define TILE_LANES LANES
+#define TILE_VT VT
+#include "tile.cl"
 
 /* ---- the recursion ------------------------------------------------------------------ */
 typedef struct {
@@ -462,7 +425,7 @@ INLINE void load_chunk(VT *w, __global const REAL *src, const int n, const int v
 #pragma unroll
             for (int l = 0; l < LANES; ++l)
                 t[l] = VLOAD(src + (long)IMIN(l, valid - 1) * M + q0);
-            transpose(t);
+            transpose_tile(t);
             /* t[j] is natural position p0 + j; traversal runs backwards when reversed */
 #pragma unroll
             for (int i = 0; i < LANES; ++i)
@@ -507,7 +470,7 @@ INLINE void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
 #pragma unroll
             for (int i = 0; i < LANES; ++i)
                 t[i] = reverse ? y[LANES - 1 - i] : y[i];
-            transpose(t);   /* back to one vector per row */
+            transpose_tile(t);   /* back to one vector per row */
 #pragma unroll
             for (int l = 0; l < LANES; ++l) {
                 if (l < valid) {

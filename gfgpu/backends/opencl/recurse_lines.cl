@@ -504,41 +504,13 @@ __kernel void shear_out(SHEAR_OUT_ARGS)
 
 #elif SHEAR_TILE == 1
 /* ---- steep directions: tiles transposed in registers ----------------------------------------- */
-#if SHEAR_LANES == 4
-#define LOG2_SL 2
-#define ZIPLO(a, b) ((SVT)((a).s0, (b).s0, (a).s1, (b).s1))
-#define ZIPHI(a, b) ((SVT)((a).s2, (b).s2, (a).s3, (b).s3))
-#elif SHEAR_LANES == 8
-#define LOG2_SL 3
-#define ZIPLO(a, b) ((SVT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3))
-#define ZIPHI(a, b) ((SVT)((a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
-#elif SHEAR_LANES == 16
-#define LOG2_SL 4
-#define ZIPLO(a, b) ((SVT)((a).s0, (b).s0, (a).s1, (b).s1, (a).s2, (b).s2, (a).s3, (b).s3, \
-                           (a).s4, (b).s4, (a).s5, (b).s5, (a).s6, (b).s6, (a).s7, (b).s7))
-#define ZIPHI(a, b) ((SVT)((a).s8, (b).s8, (a).s9, (b).s9, (a).sa, (b).sa, (a).sb, (b).sb, \
-                           (a).sc, (b).sc, (a).sd, (b).sd, (a).se, (b).se, (a).sf, (b).sf))
-#else
+#if SHEAR_LANES != 4 && SHEAR_LANES != 8 && SHEAR_LANES != 16
 #error "SHEAR_TILE needs SHEAR_LANES 4, 8 or 16"
 #endif
-
-/* in-place transpose of the square tile whose rows are w[0..SHEAR_LANES-1]: each round rotates
- * the bits [row | column] of every element's index left by one; LOG2_SL rounds swap them */
-INLINE void transpose_tile(SVT *w)
-{
-#pragma unroll
-    for (int r = 0; r < LOG2_SL; ++r) {
-        SVT u[SHEAR_LANES];
-#pragma unroll
-        for (int i = 0; i < SHEAR_LANES / 2; ++i) {
-            u[2 * i] = ZIPLO(w[i], w[i + SHEAR_LANES / 2]);
-            u[2 * i + 1] = ZIPHI(w[i], w[i + SHEAR_LANES / 2]);
-        }
-#pragma unroll
-        for (int i = 0; i < SHEAR_LANES; ++i)
-            w[i] = u[i];
-    }
-}
+/* the in-place register transpose of a SHEAR_LANES x SHEAR_LANES tile (transpose_tile) */
+#define TILE_LANES SHEAR_LANES
+#define TILE_VT SVT
+#include "tile.cl"
 
 /* SHEAR_LANES samples of minor coordinates base[k .. k + SHEAR_LANES - 1] of the row at p: one
  * vector where they are consecutive pixels (the image's interior), else one by one */
