@@ -210,11 +210,11 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4):
     their functions.  Returns ({name: seconds}, whole call seconds)."""
     from gfgpu import stereo
     from gfgpu.backends.opencl import launch as ocl
-    from gfgpu.stereo import _opencl, matching
+    from gfgpu.stereo import matching
     be_name = "opencl"
     acc = {}
     real_launch, real_views, real_grey = ocl.launch, matching.matching_views, matching.grey_image
-    real_preset = _opencl._PresetLaunch.__call__
+    real_preset = ocl.PresetLaunch.__call__
 
     def add(name, t0):
         acc[name] = acc.get(name, 0.0) + time.perf_counter() - t0
@@ -246,7 +246,7 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4):
         return out
 
     ocl.launch, matching.matching_views, matching.grey_image = launch, views, grey
-    _opencl._PresetLaunch.__call__ = preset
+    ocl.PresetLaunch.__call__ = preset
     try:
         best, best_total = None, np.inf
         for _ in range(repeat + 1):
@@ -258,7 +258,7 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4):
                 best, best_total = dict(acc), total
     finally:
         ocl.launch, matching.matching_views, matching.grey_image = real_launch, real_views, real_grey
-        _opencl._PresetLaunch.__call__ = real_preset
+        ocl.PresetLaunch.__call__ = real_preset
     return best, best_total
 
 

@@ -11,6 +11,7 @@ from ..backends.opencl import launch as ocl
 from . import band_plan
 from . import spec as specs
 from .band_plan import padded_samples
+from .workspace import empty as _empty
 
 #: largest penalty P1, P2 of the int16 path costs of stereo.cl (with :data:`_PATH_PAD`)
 _PENALTY_MAX = 8191
@@ -86,18 +87,6 @@ def _host_cpu_defines(be):
             and "avx512_vpopcntdq" in _host_cpu_flags()):
         return {"VPOPCNTQ": 1}
     return {}
-
-
-def _empty(be, workspace, name, shape, dtype):
-    """``be.empty(shape, dtype)``, or the buffer of that name, shape and dtype that ``workspace``
-    (a dict kept by the caller across calls, :class:`gfgpu.stereo.StereoMatcher`) already holds."""
-    if workspace is None:
-        return be.empty(shape, dtype)
-    key = (name, tuple(shape), np.dtype(dtype).str)
-    buf = workspace.get(key)
-    if buf is None:
-        buf = workspace[key] = be.empty(shape, dtype)
-    return buf
 
 
 def _padded(be, rows, w, n, dtype, workspace=None, name="padded"):
@@ -444,7 +433,6 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3)
             select(y0, rows)
     return disp, disp_right, margin
-
 
 
 def launch_left_right(be, disp, disp_right, margin, steps, tol):

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..backends.opencl import launch as ocl
 from . import spec as specs
+from .workspace import empty as _empty
 
 #: int16 path value of the samples out of view and of the padding samples in sgm_groups.cl
 #: (``PAD_COST``; the specification's int32 ``PATH_UNDEFINED`` does not fit): above every path value
@@ -83,16 +84,6 @@ def cost_tile(be, lanes, ch, block):
     return tile if tile >= 8 else 0
 
 
-def _volume(be, workspace, name, shape, dtype):
-    # be.empty, or the buffer of that name, shape and dtype the caller's workspace keeps
-    if workspace is None:
-        return be.empty(shape, dtype)
-    key = (name, tuple(shape), np.dtype(dtype).str)
-    if key not in workspace:
-        workspace[key] = be.empty(shape, dtype)
-    return workspace[key]
-
-
 def launch_match(be, cl_, cr, disp, disp_right, margin, first_step, n, steps, block, p1, p2, paths, uniqueness,
                  workspace=None, shape=None):
     """Cost, aggregation and selection of :func:`gfgpu.stereo.spec.semi_global_match_reference`
@@ -134,8 +125,8 @@ def launch_match(be, cl_, cr, disp, disp_right, margin, first_step, n, steps, bl
     lanes, ch = group_shape(n) if shape is None else shape
     if lanes * ch < n:
         raise ValueError(f"shape {shape} holds {lanes * ch} samples per pixel, fewer than n_disp = {n}")
-    cost = _volume(be, workspace, "cost", (h, w, n), np.uint8)
-    total = _volume(be, workspace, "sum", (h, w, n), np.int16)
+    cost = _empty(be, workspace, "cost", (h, w, n), np.uint8)
+    total = _empty(be, workspace, "sum", (h, w, n), np.int16)
     shift = specs.cost_shift(int(block))
     tile = cost_tile(be, lanes, ch, block)
     if tile:         # column sums in local memory: each Hamming distance about twice

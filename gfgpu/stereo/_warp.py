@@ -12,6 +12,7 @@ import warp as wp
 
 from ..backends.warp import launch as wpl
 from .spec import COST_MAX, NO_CANDIDATE, NO_MATCH, OUT_OF_VIEW, PATH_UNDEFINED, SGM_PATHS, cost_shift
+from .workspace import empty as _empty
 
 wp.set_module_options({"enable_backward": False})
 
@@ -519,15 +520,6 @@ def launch_cost(be, census_left, census_right, out, first_step, steps, block):
                inputs=[census_left, census_right, out, int(first_step), int(steps), int(block),
                        cost_shift(int(block))])
     return out
-
-def _empty(be, workspace, name, shape, dtype):
-    # be.empty, or the buffer of that name the caller's workspace (StereoMatcher) keeps across calls
-    if workspace is None:
-        return be.empty(shape, dtype)
-    key = (name, tuple(shape), np.dtype(dtype).str)
-    if key not in workspace:
-        workspace[key] = be.empty(shape, dtype)
-    return workspace[key]
 
 
 def launch_sgm(be, cost, out, p1, p2, paths, workspace=None):

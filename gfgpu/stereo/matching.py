@@ -45,6 +45,7 @@ from ..filters import green_filter, shift
 from . import kernels, postfilter
 from . import spec as specs
 from .spec import COST_MAX, SWEEP_PLANES
+from .workspace import empty as _empty
 
 __all__ = ["disparity", "default_penalties", "matching_views", "disparity_work", "disparity_memory",
            "estimate_max_disparity", "METHODS", "fill_holes", "random_dot_stereogram", "sweep_finish"]
@@ -519,15 +520,6 @@ def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniquenes
     return window, steps, radius, p1, p2, paths, uniq
 
 
-def _buffer(be, buffers, name, shape, dtype):
-    # be.empty, or the caller's buffer of that name kept across calls (StereoMatcher)
-    if buffers is None:
-        return be.empty(shape, dtype)
-    if name not in buffers:
-        buffers[name] = be.empty(shape, dtype)
-    return buffers[name]
-
-
 def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, paths, uniqueness,
          lr_check, progress, buffers=None, workspace=None):
     h, w = left.shape
@@ -539,18 +531,18 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         cen_l = be.asarray(specs.census_transform_reference(lft, census_radius)[None])
         cen_r = be.asarray(np.stack([specs.census_transform_reference(p, census_radius) for p in planes]))
     else:
-        cen_l = _buffer(be, buffers, "census_left", (1, h, w), np.uint64)
+        cen_l = _empty(be, buffers, "census_left", (1, h, w), np.uint64)
         kernels.census(be, be.asarray(lft), cen_l, 0, census_radius)
-        cen_r = _buffer(be, buffers, "census_right", (steps, h, w), np.uint64)
+        cen_r = _empty(be, buffers, "census_right", (steps, h, w), np.uint64)
         for f in range(steps):
             kernels.census(be, be.asarray(planes[f]), cen_r, f, census_radius)
     # the views are not read again: released before the matcher's buffers are allocated (the
     # process's peak memory)
     del lft, planes
     progress(1)
-    disp = _buffer(be, buffers, "disp", (h, w), np.float32)
-    right_steps = _buffer(be, buffers, "disp_right", (h, w), np.int32)
-    margin = _buffer(be, buffers, "margin", (h, w), np.float32)
+    disp = _empty(be, buffers, "disp", (h, w), np.float32)
+    right_steps = _empty(be, buffers, "disp_right", (h, w), np.int32)
+    margin = _empty(be, buffers, "margin", (h, w), np.float32)
     # cost, aggregation and selection in one fused kernel: on CPUs it streams bands of rows
     # (memory O(band x W x D)), on GPUs it holds (H, W, D) volumes
     budget = _budget(be)
