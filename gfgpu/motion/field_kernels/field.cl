@@ -101,28 +101,41 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
     }
 }
 
-// 36 times the 2-D cubic B-spline of one plane at (y + oy, x + ox), all 16 coefficients inside (no
-// extension; the caller divides the sum of its samples by 36): spline2's first branch, the offsets from
-// the pixel in OFF (float for float32 images: an offset of a
-// few hundred pixels keeps 1e-5 px, where a float position at 2000 px would keep 1e-4)
-INLINE REAL spline_inside(__global const REAL *src, const int w, const int y, const int x, const OFF oy,
-                          const OFF ox)
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+#define REAL4 CAT(REAL, 4)
+#define REAL8 CAT(REAL, 8)
+
+// 6 times the four cubic B-spline weights of the fraction tx (lanes 0-3) and of ty (lanes 4-7), by Horner on
+// the weights' polynomials (6 w0 = (1 - t)^3, 6 w1 = 3t^3 - 6t^2 + 4, 6 w2 = -3t^3 + 3t^2 + 3t + 1, 6 w3 = t^3)
+INLINE REAL8 weights6(const REAL tx, const REAL ty)
+{
+    const REAL8 t = (REAL8)(tx, tx, tx, tx, ty, ty, ty, ty);
+    const REAL8 a = (REAL8)(-1, 3, -3, 1, -1, 3, -3, 1), b = (REAL8)(3, -6, 3, 0, 3, -6, 3, 0);
+    const REAL8 c = (REAL8)(-3, 0, 3, 0, -3, 0, 3, 0), d = (REAL8)(1, 4, 1, 0, 1, 4, 1, 0);
+    return ((a * t + b) * t + c) * t + d;
+}
+
+// 6 times the x weights of the 2-D cubic B-spline of one plane at (y + oy, x + ox), times 6 times the
+// sums of its four coefficient rows weighted along y, all 16 coefficients inside (no extension): the
+// sample is 1/36 of the lanes' sum, which the caller takes once for a whole path (its nodes' weights
+// times these, summed lane by lane).  The offsets from the pixel in OFF (float for float32 images: an
+// offset of a few hundred pixels keeps 1e-5 px, where a float position at 2000 px would keep 1e-4).
+// Four rows of four adjacent coefficients: four vector loads and four vector multiply-adds.
+INLINE REAL4 spline_inside(__global const REAL *src, const int w, const int y, const int x, const OFF oy,
+                           const OFF ox)
 {
     const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
-    const REAL ty = (REAL)(oy - (OFF)jy), tx = (REAL)(ox - (OFF)jx);
+    const REAL8 wt = weights6((REAL)(ox - (OFF)jx), (REAL)(oy - (OFF)jy));
     __global const REAL *line = src + (long)(y + jy - 1) * w + (x + jx - 1);
-    // the four weights of each axis times 6 (one division per axis instead of eight), as bweight's
-    const REAL sx = tx * tx, cx = sx * tx, gx = (REAL)1 - tx, sy = ty * ty, cy = sy * ty, gy = (REAL)1 - ty;
-    const REAL x0 = gx * gx * gx, x1 = (REAL)3 * cx - (REAL)6 * sx + (REAL)4, x3 = cx, x2 = (REAL)6 - x0 - x1 - x3;
-    const REAL y0 = gy * gy * gy, y1 = (REAL)3 * cy - (REAL)6 * sy + (REAL)4, y3 = cy, y2 = (REAL)6 - y0 - y1 - y3;
-    const REAL r0 = x0 * line[0] + x1 * line[1] + x2 * line[2] + x3 * line[3];
+    REAL4 r = wt.s4 * (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
-    const REAL r1 = x0 * line[0] + x1 * line[1] + x2 * line[2] + x3 * line[3];
+    r += wt.s5 * (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
-    const REAL r2 = x0 * line[0] + x1 * line[1] + x2 * line[2] + x3 * line[3];
+    r += wt.s6 * (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
-    const REAL r3 = x0 * line[0] + x1 * line[1] + x2 * line[2] + x3 * line[3];
-    return y0 * r0 + y1 * r1 + y2 * r2 + y3 * r3;
+    r += wt.s7 * (REAL4)(line[0], line[1], line[2], line[3]);
+    return wt.lo * r;
 }
 
 // The fields' default rule (spec: gfgpu.motion.spec.field_rule_reference): one work-item per pixel, whose
@@ -159,11 +172,12 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
             acc = spline2(coef, b * hw, h, w, (POS)y, (POS)x, mode, mode, cval);
         else if (inside) {
             const OFF fy = (OFF)vy, fx = (OFF)vx;
+            REAL4 lanes = 0;
             for (int k = k0; k < k1; ++k) {
                 const OFF t = (OFF)nodes[k];
-                acc += weights[k] * spline_inside(coef + b * hw, w, y, x, -t * fy, -t * fx);
+                lanes += weights[k] * spline_inside(coef + b * hw, w, y, x, -t * fy, -t * fx);
             }
-            acc *= (REAL)(1.0 / 36.0);
+            acc = (lanes.s0 + lanes.s1 + lanes.s2 + lanes.s3) * (REAL)(1.0 / 36.0);
         }
         else
             for (int k = k0; k < k1; ++k) {
