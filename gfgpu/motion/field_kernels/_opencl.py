@@ -50,7 +50,8 @@ def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
     knl = ocl.kernel(be, __package__, "field.cl", "field_rule", dtype, POS=real, GRID=real, **_constants())
     first, top, per_px, extra = rule_limits(psf)
     _, offsets, nodes, weights = rule_table(psf)
-    tables = [be.asarray(offsets), be.asarray(nodes.astype(pos)), be.asarray(weights.astype(dtype))]
+    tables = [be.asarray(offsets), be.asarray(nodes.astype(pos)), be.asarray(weights.astype(dtype)),
+              be.asarray(nodes.astype(dtype))]
     bsz, h, w = (int(s) for s in coef.shape)
     if be.kind == "cpu":
         gsize, lsize = (w, h), None         # PoCL: the driver's groups (rows of work-items in vector lanes)
@@ -60,5 +61,5 @@ def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
     ocl.launch(be, knl, gsize, lsize, [coef, field] + tables, [out],
                (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), pos(per_px), np.int32(extra),
                 np.int32(first), np.int32(top if most is None else min(max(int(most), first), top)), tables[0].data,
-                tables[1].data, tables[2].data, np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
+                tables[1].data, tables[2].data, tables[3].data, np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
     return out

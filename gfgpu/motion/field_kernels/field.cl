@@ -148,7 +148,8 @@ INLINE REAL4 spline_inside(__global const REAL *src, const int w, const int y, c
 __kernel void field_rule(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
                          const int w, const int planes, const POS per_px, const int extra, const int first,
                          const int most, __global const int *offsets, __global const POS *nodes,
-                         __global const REAL *weights, const int mode, const REAL cval, const long out_off)
+                         __global const REAL *weights, __global const OFF *tnear, const int mode, const REAL cval,
+                         const long out_off)
 {
     const int x = get_global_id(0), y = get_global_id(1);
     if (x >= w || y >= h)
@@ -166,24 +167,31 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
     const POS ya = (POS)y - ta * vy, yb = (POS)y - tb * vy, xa = (POS)x - ta * vx, xb = (POS)x - tb * vx;
     const int inside = fmin(ya, yb) >= (POS)1 && fmax(ya, yb) < (POS)(h - 3) && fmin(xa, xb) >= (POS)1
                        && fmax(xa, xb) < (POS)(w - 3);
+    const int roomy = h >= 4 && w >= 4;
+    const OFF fy = (OFF)vy, fx = (OFF)vx;
     for (int b = 0; b < planes; ++b) {
         REAL acc = 0;
         if (length == 0)
             acc = spline2(coef, b * hw, h, w, (POS)y, (POS)x, mode, mode, cval);
         else if (inside) {
-            const OFF fy = (OFF)vy, fx = (OFF)vx;
             REAL4 lanes = 0;
-            for (int k = k0; k < k1; ++k) {
-                const OFF t = (OFF)nodes[k];
-                lanes += weights[k] * spline_inside(coef + b * hw, w, y, x, -t * fy, -t * fx);
-            }
+            for (int k = k0; k < k1; ++k)
+                lanes += weights[k] * spline_inside(coef + b * hw, w, y, x, -tnear[k] * fy, -tnear[k] * fx);
             acc = (lanes.s0 + lanes.s1 + lanes.s2 + lanes.s3) * (REAL)(1.0 / 36.0);
         }
-        else
+        else {      // a path that leaves the image: its samples with 16 coefficients inside still sample so
+            REAL4 lanes = 0;
             for (int k = k0; k < k1; ++k) {
-                const POS t = nodes[k];
-                acc += weights[k] * spline2(coef, b * hw, h, w, (POS)y - t * vy, (POS)x - t * vx, mode, mode, cval);
+                const OFF oy = -tnear[k] * fy, ox = -tnear[k] * fx;
+                const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
+                if (roomy && (unsigned)(y + jy - 1) <= (unsigned)(h - 4) && (unsigned)(x + jx - 1) <= (unsigned)(w - 4))
+                    lanes += weights[k] * spline_inside(coef + b * hw, w, y, x, oy, ox);
+                else
+                    acc += weights[k] * spline2(coef, b * hw, h, w, (POS)y - nodes[k] * vy, (POS)x - nodes[k] * vx,
+                                                mode, mode, cval);
             }
+            acc += (lanes.s0 + lanes.s1 + lanes.s2 + lanes.s3) * (REAL)(1.0 / 36.0);
+        }
         out[out_off + b * hw + pix] = acc;
     }
 }
