@@ -23,6 +23,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..._core.hostpool import new_pool
 from ..._core.magnitude import host_in_range
 from ..._core.recursion import packed_block_powers
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
@@ -422,10 +423,14 @@ class OpenCLBackend(Backend):
         except cl.Error:  # devices without fp64 may reject the query
             fp64 = False
         self.supports_float64 = fp64 or "cl_khr_fp64" in dev.extensions
-        # temporaries (ping-pong buffers, outputs) come from a pool: a fresh buffer of a large
-        # image costs a first-touch page fault per page on CPU devices, as much as a pass
+        # temporaries (ping-pong buffers, outputs) come from pools: a fresh buffer of a large
+        # image costs a first-touch page fault per page on CPU devices, more than a pass.  A CPU
+        # device's arrays and numpy results live on reused host memory in half-octave classes
+        # (gfgpu._core.hostpool: a new shape near an earlier one reuses its pages); a GPU's
+        # temporaries come from PyOpenCL's pool
         import pyopencl.tools as cl_tools
         self._pool = cl_tools.MemoryPool(cl_tools.ImmediateAllocator(self.queue))
+        self._host_pool = new_pool()
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
         self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
         self._in_flight = []           # host arrays wrapped for the device, kept until the queue drains
@@ -507,6 +512,7 @@ class OpenCLBackend(Backend):
             addr, delta = host.ctypes.data, 0
         memory = (ctypes.c_char * (host.nbytes + delta)).from_address(addr - delta) if delta else host
         buf = self._cl.Buffer(self.context, flags | self._cl.mem_flags.USE_HOST_PTR, hostbuf=memory)
+        buf.gfgpu_memory = host     # ... as long as any view of the array (they share the buffer)
         arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf, offset=delta)
         arr.gfgpu_host = host       # keeps the memory alive as long as the device array
         # ... and until queued kernels have read it, even if the caller drops the array first
@@ -528,8 +534,10 @@ class OpenCLBackend(Backend):
         dtype = self._check_dtype(dtype)
         if self.kind != "cpu" or int(np.prod(shape)) * dtype.itemsize < _ZERO_COPY_BYTES:
             return self.empty(shape, dtype)
-        # new results start aligned; a caller's output is wrapped from the aligned address below it
-        host = _aligned_empty(shape, dtype, self._host_align) if into is None else into
+        # new results start on a page of the host pool (reused memory: no page faults once a
+        # shape of the class has been seen); a caller's output is wrapped from the aligned
+        # address below it
+        host = self._host_pool.take(shape, dtype) if into is None else into
         return self._wrap_host(host, self._cl.mem_flags.READ_WRITE)
 
     writes_views = False      # enqueue_copy moves bytes: strides of a view are not honoured
@@ -578,8 +586,20 @@ class OpenCLBackend(Backend):
         return a.offset < b.offset + b.nbytes and b.offset < a.offset + a.nbytes
 
     def empty(self, shape, dtype):
-        shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(shape)
-        return self._array.empty(self.queue, shape, self._check_dtype(dtype), allocator=self._pool)
+        shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
+        dtype = self._check_dtype(dtype)
+        if self.kind == "cpu" and int(np.prod(shape, dtype=np.int64)) * dtype.itemsize >= _ZERO_COPY_BYTES:
+            # host memory of the pool, used in place by the CPU device.  No _in_flight entry: the
+            # block returns to this backend's pool only, whose later users are commands of the same
+            # in-order queue or a result read after a blocking map (to_host), both after every
+            # command that may still use it
+            host = self._host_pool.take(shape, dtype)
+            buf = self._cl.Buffer(self.context, self._cl.mem_flags.READ_WRITE | self._cl.mem_flags.USE_HOST_PTR,
+                                  hostbuf=host)
+            # the memory lives as long as the buffer object, which every view of the array shares
+            buf.gfgpu_memory = host
+            return self._array.Array(self.queue, shape, dtype, data=buf)
+        return self._array.empty(self.queue, shape, dtype, allocator=self._pool)
 
     def reshape(self, array, shape):
         return array.reshape(tuple(shape))
@@ -950,7 +970,14 @@ class OpenCLBackend(Backend):
                                  f"(sources of at most 2**31 elements)")
             # every negative index means cval: clamping keeps int64 values in int32 range
             idx = np.ascontiguousarray(np.maximum(idx, -1) if idx.dtype.kind == "i" else idx, np.int32)
-            dev = self._array.to_device(self.queue, idx) if idx.size else None
+            # copied when the buffer is made, not by a command: a blocking write would wait for
+            # every command queued before it (the first pass of a call whose second pass needs a
+            # new shape's index), and even a queued one cost ~1.5 ms of host time here
+            dev = None
+            if idx.size:
+                mf = self._cl.mem_flags
+                buf = self._cl.Buffer(self.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=idx)
+                dev = self._array.Array(self.queue, idx.shape, idx.dtype, data=buf)
             hit = self._indices[key] = (index, dev, top, idx.size)   # keeping index keeps its id unique
             if len(self._indices) > _INDEX_CACHE_SIZE:
                 self._indices.popitem(last=False)

@@ -19,6 +19,7 @@ from functools import cache
 
 import numpy as np
 
+from ..._core.hostpool import new_pool
 from ..._core.magnitude import host_in_range
 from ..._core.recursion import packed_block_powers
 from ..._core.translation import _flat_index
@@ -27,6 +28,7 @@ from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 _REALS = (np.dtype(np.float32), np.dtype(np.float64))
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
+_POOL_BYTES = 1 << 16      # CPU arrays from this size live on the host pool's reused memory
 GPU_THREADS = 132 * 1024   # threads a GPU pass should have in flight (an H200 holds 270,336)
 GPU_BLOCK_DIM = 128        # threads per block of the line kernels on a GPU
 MIN_BLOCK = 64             # shortest block of a block-parallel line (steps)
@@ -233,6 +235,7 @@ class WarpBackend(Backend):
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, arrays)
         self._indices = OrderedDict()  # id(index) -> (index, device array, max index)
         self._flat = {}                # (id(line index), shape, axis) -> (line index, flat gather index)
+        self._host_pool = new_pool()   # the CPU device's arrays and numpy results (empty, host_result)
 
     @property
     def wp_device(self):
@@ -257,6 +260,12 @@ class WarpBackend(Backend):
         return out.copy() if self._device.is_cpu else out
 
     def empty(self, shape, dtype):
+        shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
+        if self._device.is_cpu and int(np.prod(shape, dtype=np.int64)) * np.dtype(dtype).itemsize >= _POOL_BYTES:
+            # reused host memory (gfgpu._core.hostpool): a fresh allocation of an image's size
+            # costs a page fault per page at its first pass, more than the pass; CPU launches are
+            # synchronous, so a released block is never in use by a kernel
+            return self._alias(self._host_pool.take(shape, dtype))
         return self._wp.empty(_fold(shape), dtype=self._wp.dtype_from_numpy(np.dtype(dtype)),
                               device=self._device)
 
@@ -276,7 +285,7 @@ class WarpBackend(Backend):
     def host_result(self, shape, dtype, into=None):
         if not self._device.is_cpu:
             return self.empty(shape, dtype)
-        host = np.empty(shape, dtype) if into is None else into
+        host = self._host_pool.take(shape, dtype) if into is None else into
         arr = self._alias(host)
         arr.gfgpu_host = host     # keeps the memory alive; to_host returns it
         return arr

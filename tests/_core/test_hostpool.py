@@ -1,0 +1,58 @@
+"""The host pool (gfgpu._core.hostpool): half-octave classes, reuse only of released blocks, the
+held limit."""
+
+import gc
+
+import numpy as np
+import pytest
+
+from gfgpu._core.hostpool import PAGE, HostPool, size_class
+
+
+@pytest.mark.parametrize("nbytes", [1, PAGE, PAGE + 1, 4_800_000, 5_720_000, 2**26, 2**26 + 1, 3 * 2**30])
+def test_size_class_holds_the_request_within_a_half_octave(nbytes):
+    size = size_class(nbytes)
+    assert size >= nbytes and size % PAGE == 0
+    assert size <= max(PAGE, 2**0.5 * nbytes) + PAGE
+    assert size_class(size) == size
+
+
+def test_blocks_are_page_aligned_writable_and_reused_only_once_released():
+    pool = HostPool()
+    a = pool.take((1000, 1200), np.float32)
+    assert a.flags.c_contiguous and a.flags.writeable and a.ctypes.data % PAGE == 0
+    a[...] = 7
+    b = pool.take((1000, 1200), np.float32)           # a is alive: another block
+    assert not np.shares_memory(a, b) and pool.stats == {"fresh": 2, "reused": 0}
+    view = a[10:, ::2]
+    address = a.ctypes.data
+    del a                                              # a view keeps the block
+    c = pool.take((1000, 1200), np.float32)
+    assert not np.shares_memory(view, c) and pool.stats["fresh"] == 3
+    assert (view == 7).all()
+    del view
+    gc.collect()
+    d = pool.take((1100, 1300), np.float32)           # another shape of the class reuses it
+    assert d.ctypes.data == address and pool.stats["reused"] == 1
+    del b, c, d
+
+
+def test_a_request_takes_a_held_block_of_its_class_or_the_next_only():
+    pool = HostPool()
+    big = pool.take((4096, 4096), np.float32)
+    del big
+    small = pool.take((3444, 3444), np.float32)        # the class below: the held block serves it
+    assert pool.stats["reused"] == 1
+    del small
+    tiny = pool.take((1000, 1000), np.float32)          # far smaller: a fresh block, the big one stays held
+    assert pool.stats["fresh"] == 2 and pool.held_bytes == size_class(4096 * 4096 * 4)
+    del tiny
+
+
+def test_the_held_bytes_stay_below_the_limit():
+    pool = HostPool(limit=3 * size_class(2**20))
+    arrays = [pool.take((2**18,), np.float32) for _ in range(6)]
+    del arrays
+    assert pool.held_bytes <= pool.limit
+    pool.clear()
+    assert pool.held_bytes == 0
