@@ -33,7 +33,7 @@ from .backends import resolve_backend
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "make_job",
            "green_filter_program", "shift_program", "derivative_program", "projection_program",
-           "operated_axes", "line_axis", "image_plane"]
+           "operated_axes", "line_axis", "image_plane", "run_line_program", "job_gradient"]
 
 
 def make_job(input, output=None, backend=None, device=None, min_ndim=1):
@@ -547,6 +547,8 @@ def derivative(input, u, *, axis=None, axes=None, channel_axis=None, output=None
     D is applied as one causal and one anticausal pass of two 2-pole sections (one per
     scale); taps are the point samples of eq. 25-26 normalised so that ``-Σ m D[m] = 1``.
     P = ∫D, the integral of D from -∞, is even; it is sampled and normalised to unit sum.
+    On an OpenCL CPU device each axis is one kernel that runs both passes over the lines it
+    holds, reading the image once (:func:`run_line_program`).
 
     References
     ----------
@@ -566,7 +568,7 @@ def derivative(input, u, *, axis=None, axes=None, channel_axis=None, output=None
     job = make_job(input, output, backend, device)
     program = derivative_program(job.ndim, u, axis=axis, axes=axes, channel_axis=channel_axis, a=a, eta=eta,
                                  single_scale=single_scale, projection_scale=projection_scale)
-    return apply_program(job, program, mode, cval)
+    return run_line_program(job, program, mode, cval)
 
 
 def projection(input, u, *, axis=None, channel_axis=None, output=None, mode="reflect", cval=0.0,
@@ -612,7 +614,7 @@ def projection(input, u, *, axis=None, channel_axis=None, output=None, mode="ref
     job = make_job(input, output, backend, device)
     program = projection_program(job.ndim, u, axis=axis, channel_axis=channel_axis, a=a, eta=eta,
                                  single_scale=single_scale)
-    return apply_program(job, program, mode, cval)
+    return run_line_program(job, program, mode, cval)
 
 
 def gradient(input, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0, a=greens.EDGE_A,
@@ -662,7 +664,128 @@ def gradient(input, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0
     cval = finite_cval(cval)
     job = make_job(input, None, backend, device)
     ax = operated_axes(job.ndim, axes, channel_axis)
-    return tuple(apply_program(job, derivative_program(job.ndim, u, axis=d, axes=ax, a=a, eta=eta,
-                                                       single_scale=single_scale,
-                                                       projection_scale=projection_scale), mode, cval)
-                 for d in ax)
+    d_passes = greens.derivative_passes(u, a, eta, single_scale)
+    p_passes = greens.projection_passes(scale("u", u) * positive("projection_scale", projection_scale), a, eta,
+                                        single_scale)
+    return job_gradient(job, d_passes, p_passes, ax, mode, cval)
+
+
+# --------------------------------------------------------------------------------------
+# running the derivative, projection and gradient: two-sided steps where the device has them
+# --------------------------------------------------------------------------------------
+def _two_sided_runner(be):
+    """The two-sided step launcher of ``be`` (OpenCL CPU devices), else None: elsewhere (numpy,
+    Warp, OpenCL GPUs, whose generic primitive cuts lines into blocks) the program's passes run
+    one by one through :func:`~gfgpu._core.job.apply_program`."""
+    if be.name != "opencl":
+        return None
+    from .backends.opencl import twosided
+    return twosided if twosided.runs_on(be) else None
+
+
+def _two_sided_steps(job, steps, mode):
+    """``[(plan, view, line_axis), ...]`` of ``steps`` (``[(outputs, axis), ...]``, outputs as
+    :func:`~gfgpu._core.twosided.plan_two_sided` takes them), or None where one step has no plan."""
+    from ._core.lines import axis_view_shape
+    from ._core.twosided import plan_two_sided
+    plans = []
+    for outputs, axis in steps:
+        view, line = axis_view_shape(job.shape, axis)
+        plan = plan_two_sided(outputs, view[line], mode, job.dtype)
+        if plan is None:
+            return None
+        plans.append((plan, view, line))
+    return plans
+
+
+def _launch(job, runner, step, srcs, dsts, cval, check=False):
+    """One two-sided kernel: ``step`` = (plan, view, line_axis) on the job's arrays; ``cval`` is
+    the constant of the (first) input's extension."""
+    plan, view, line = step
+    be = job.backend
+    return runner.run_two_sided(be, [be.reshape(x, view) for x in srcs], [be.reshape(y, view) for y in dsts],
+                                line, plan, (cval, 0.0), check=check)
+
+
+def _checked_first_step(job, runner, step, dsts, cval, may_write):
+    """The first step on the job's input with the finite check in its read, where ``may_write``
+    (its outputs are not the caller's own ``output``, which a refused input must leave untouched).
+    Returns True when ``dsts`` hold the step's result; False when the step must run (again) on
+    :attr:`job.data`: no check ran, or the input was beyond the range limit and is now scaled.
+    A non-finite input raises."""
+    from ._core.magnitude import range_limit
+    if cval and not abs(cval) < range_limit(job.dtype):
+        job.scaled(cval)         # a constant beyond the range limit scales the job (rare)
+    if not (job.check_pending and may_write):
+        return False
+    if _launch(job, runner, step, [job.unchecked_data()], dsts, cval, check=True):
+        job.check_pending = False
+        return True
+    job.settle(cval)             # not finite (raises), or beyond the range limit: scaled
+    return not job.scale_exp
+
+
+def run_line_program(job, program, mode, cval):
+    """Run a :class:`~gfgpu._core.program.Program` of axis steps on ``job``, as
+    :func:`~gfgpu._core.job.apply_program` does (same result to rounding, same checks), with each
+    step's passes as one two-sided kernel where the backend has it (OpenCL CPU devices: the
+    step's input read once, its causal and anticausal passes in one sweep pair).
+
+    Used by :func:`derivative` and :func:`projection`; any other program, backend, or a host image
+    streamed in strips runs through :func:`~gfgpu._core.job.apply_program`.
+    """
+    from ._core import strips
+    runner = _two_sided_runner(job.backend)
+    steps = program.steps
+    plans = None
+    if runner is not None and steps and all(angle is None for _, _, angle in steps) and not (
+            job.host_input and strips.needs_strips(job)):
+        plans = _two_sided_steps(job, [([(0, tuple(passes))], axis) for passes, axis, _ in steps], mode)
+    if plans is None:
+        return apply_program(job, program, mode, cval)
+    bufs = [job.empty() for _ in plans[:-1]] + [job.result_buffer()]
+    done = _checked_first_step(job, runner, plans[0], bufs[:1], cval,
+                               may_write=len(plans) > 1 or job.output is None)
+    cval = job.scaled(cval)
+    cur = bufs[0] if done else job.data
+    for k in range(1 if done else 0, len(plans)):
+        _launch(job, runner, plans[k], [cur], [bufs[k]], cval)
+        cur = bufs[k]
+    return job.finish(cur)
+
+
+def job_gradient(job, d_passes, p_passes, axes, mode, cval):
+    """The derivative of ``job``'s input along each of ``axes``: D (``d_passes``) across the axis,
+    P (``p_passes``) along the others; a tuple in the order of ``axes``, each finished as the
+    job's result (numpy in, numpy out).
+
+    For two axes ``(y, x)`` (an image) on a device with two-sided steps, the two passes along y
+    share their states: one kernel reads the image once and gives ``C = P_y I`` and ``E = D_y I``;
+    then ``d/dy = P_x E`` and ``d/dx = D_x C``, one kernel each (three reads of an image and
+    four writes in all, against eight passes).  P has unit sum and D zero sum, so the constant
+    extension of ``C`` is ``cval`` and that of ``E`` is 0: the result equals each derivative's
+    own program (P along the other axis first) up to rounding.  Otherwise each derivative is its
+    own program (:func:`run_line_program`) on the same input, uploaded and checked once.
+    """
+    from ._core import strips
+    d_passes, p_passes = tuple(d_passes), tuple(p_passes)
+    runner = _two_sided_runner(job.backend)
+    if runner is not None and len(axes) == 2 and not (job.host_input and strips.needs_strips(job)):
+        y, x = axes
+        plans = _two_sided_steps(job, [([(0, p_passes), (0, d_passes)], y), ([(0, p_passes)], x),
+                                       ([(0, d_passes)], x)], mode)
+        if plans is not None:
+            c, e = job.empty(), job.empty()
+            if not _checked_first_step(job, runner, plans[0], [c, e], cval, may_write=True):
+                _launch(job, runner, plans[0], [job.data], [c, e], job.scaled(cval))
+            cval = job.scaled(cval)
+            gy = job.result_buffer()
+            _launch(job, runner, plans[1], [e], [gy], 0.0)
+            gx = job.result_buffer()
+            _launch(job, runner, plans[2], [c], [gx], cval)
+            return job.finish(gy), job.finish(gx)
+    results = []
+    for d in axes:
+        steps = [(list(p_passes), other, None) for other in axes if other != d] + [(list(d_passes), d, None)]
+        results.append(run_line_program(job, Program(steps), mode, cval))
+    return tuple(results)

@@ -15,7 +15,7 @@ from scipy import ndimage
 
 from .._core import strips
 from .._core.boundary import filter_mode
-from .._core.job import Job, apply_program
+from .._core.job import Job
 from .._core.validation import finite_cval, finite_scalar, flag
 from ..filters import make_job
 from ..greens import EDGE_A, EDGE_ETA
@@ -329,11 +329,11 @@ def edge_gradient(image, u=1.0, *, mode="reflect", cval=0.0, a=EDGE_A, eta=EDGE_
     single_scale = flag("single_scale", single_scale)
     mode = filter_mode(mode)
     cval = finite_cval(cval)
-    programs = operator.gradient_programs(u, a, eta, single_scale, projection_scale)
+    operator.gradient_programs(u, a, eta, single_scale, projection_scale)    # checks u, a, eta, the ratio
     job = make_job(image, None, backend, device, min_ndim=2)
     if job.ndim != 2:
         raise ValueError(f"image must be 2-D (H, W), got shape {job.shape}")
-    return tuple(apply_program(job, prog, mode, cval) for prog in programs)
+    return operator.gradient(job, u, mode, cval, a, eta, single_scale, projection_scale)
 
 
 def _nothing(job, return_gradient):

@@ -30,10 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._core.job import apply_program
 from .._core.passes import LinePass, Section
 from .._core.program import Program
 from .._core.validation import positive, scale
+from ..filters import job_gradient
 from ..greens import EDGE_A, EDGE_ETA
 
 __all__ = ["scales", "differentiator", "step_response", "derivative_passes", "projection_passes",
@@ -138,6 +138,10 @@ def gradient_programs(u, a=EDGE_A, eta=EDGE_ETA, single_scale=False, projection_
 
 
 def gradient(job, u, mode, cval, a=EDGE_A, eta=EDGE_ETA, single_scale=False, projection_scale=1.0):
-    """``(gy, gx)`` of the 2-D image of ``job`` (a :class:`~gfgpu._core.job.Job`), on its backend."""
-    return tuple(apply_program(job, prog, mode, cval)
-                 for prog in gradient_programs(u, a, eta, single_scale, projection_scale))
+    """``(gy, gx)`` of the 2-D image of ``job`` (a :class:`~gfgpu._core.job.Job`), on its backend:
+    the programs of :func:`gradient_programs`, run by :func:`gfgpu.filters.job_gradient` (on an
+    OpenCL CPU device as two kernels that share the row passes' states)."""
+    ratio = positive("projection_scale", projection_scale)
+    d = derivative_passes(u, a, eta, single_scale)
+    p = projection_passes(scale("u", u) * ratio, a, eta, single_scale)
+    return job_gradient(job, d, p, [0, 1], mode, cval)

@@ -1,0 +1,490 @@
+/*
+ * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference).
+ *
+ * Up to two inputs X_i and two outputs Y_o along the same lines; output o reads input IN(o).
+ * Per input, SECTIONS unit states (F <- lam F + x, kap = 1) run forward, then backward:
+ *
+ *     Y_o[k] = tap_o X[k] + sum_s Re(causal[o,s] F_s[k]) + sum_s Re(anticausal[o,s] G_s[k])
+ *
+ * with F_s[k] the causal state before sample k and G_s[k] the anticausal one (traversal from the
+ * end), both started from the boundary mode's initial state (omega, omega_c of the unit section).
+ * One work-item runs both sweeps over its lines: the forward sweep writes the causal part, the
+ * backward sweep reads it back (from the cache: the lines a work-item holds are a few hundred KiB)
+ * and adds the anticausal part.  So each input is read and each output written once from memory.
+ *
+ * Defines: REAL (float | double), LANES (16 float, 8 double: a cache line per vector), SECTIONS
+ * (poles per input), NIN, NOUT (1 or 2), REAL_POLES (1: every pole and weight real, real states),
+ * ROWS (1: lines along axis 2, LANES rows per work-item, tiles transposed in registers; 0: lines
+ * along axis 1, a band of up to BAND vectors of LANES adjacent columns per work-item), BAND,
+ * CHECK (1: OR flag with 1 if a sample of input 0 is NaN, infinite or beyond the range limit).
+ *
+ * coef: lam (NIN, S, 2), causal (NOUT, S, 2), anticausal (NOUT, S, 2), tap (NOUT), omega_c
+ * (NIN, 2, S, 2); omega: (NIN, 2, S, L, 2) (gfgpu._core.twosided.TwoSidedPlan.packed).
+ * Inputs and outputs never overlap.  No fast-math (contraction to fma allowed).
+ */
+#ifdef cl_khr_fp64
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#endif
+
+#define INLINE static inline __attribute__((always_inline))
+#define IMIN(a, b) ((a) < (b) ? (a) : (b))
+#define CAT_(a, b) a##b
+#define CAT(a, b) CAT_(a, b)
+
+#if LANES == 2 || LANES == 4 || LANES == 8 || LANES == 16
+typedef CAT(REAL, LANES) VT;
+typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
+#define VLOAD(p) ((VT)(*(__global const VTU *)(p)))
+#define VSTORE(v, p) (*(__global VTU *)(p) = (VTU)(v))
+#define LANE(v, l) ((v)[l])
+#else
+#error "twosided.cl runs on CPU devices: LANES 2, 4, 8 or 16"
+#endif
+
+#define TILE_LANES LANES
+#define TILE_VT VT
+#include "tile.cl"
+
+#if NIN == 2
+#define IN(o) (o)
+#else
+#define IN(o) 0
+#endif
+#define NS (NIN * SECTIONS)
+
+/* the finite and range check of recurse.cl: x * 2^(emax/2) - itself is 0 exactly for a sample in
+ * range, NaN otherwise; the lanes are summed (a NaN survives) */
+#define RANGE_SCALE (sizeof(REAL) == 8 ? (REAL)0x1p512 : (REAL)0x1p64f)
+INLINE int lanes_nonfinite(const VT x)
+{
+    const VT z = x * RANGE_SCALE - x * RANGE_SCALE;
+    REAL t = 0;
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        t += LANE(z, l);
+    return t != (REAL)0;
+}
+
+/* non-temporal store of a final output vector (aligned `p` only), else a plain one */
+#if defined(__clang__)
+#define STORE_NT(v, p) __builtin_nontemporal_store((v), (__global VT *)(p))
+#else
+#define STORE_NT(v, p) VSTORE((v), (p))
+#endif
+#if defined(__clang__) && defined(__x86_64__)
+#define STREAM_FENCE() __builtin_ia32_sfence()
+#else
+#define STREAM_FENCE() do { } while (0)
+#endif
+
+typedef struct {
+    REAL lr[NS], li[NS];
+    REAL cr[NOUT * SECTIONS], ci[NOUT * SECTIONS], ar[NOUT * SECTIONS], ai[NOUT * SECTIONS];
+    REAL tap[NOUT];
+    REAL ocr[NIN * 2 * SECTIONS], oci[NIN * 2 * SECTIONS];
+} plan_t;
+
+INLINE void load_plan(plan_t *p, __global const REAL *c)
+{
+#pragma unroll
+    for (int q = 0; q < NS; ++q) {
+        p->lr[q] = c[2 * q];
+        p->li[q] = c[2 * q + 1];
+    }
+    c += 2 * NS;
+#pragma unroll
+    for (int q = 0; q < NOUT * SECTIONS; ++q) {
+        p->cr[q] = c[2 * q];
+        p->ci[q] = c[2 * q + 1];
+        p->ar[q] = c[2 * NOUT * SECTIONS + 2 * q];
+        p->ai[q] = c[2 * NOUT * SECTIONS + 2 * q + 1];
+    }
+    c += 4 * NOUT * SECTIONS;
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        p->tap[o] = c[o];
+    c += NOUT;
+#pragma unroll
+    for (int q = 0; q < NIN * 2 * SECTIONS; ++q) {
+        p->ocr[q] = c[2 * q];
+        p->oci[q] = c[2 * q + 1];
+    }
+}
+
+/* states: fr, fi [NS * W] (W vectors per state: 1 for rows, the band for columns), state (i, s)
+ * of vector v at (i * SECTIONS + s) * W + v */
+
+/* y = sum_s Re(w[o, s] F_(IN(o), s)) for output o, vector v (anti: the anticausal weights) */
+INLINE VT readout(const plan_t *p, const VT *fr, const VT *fi, const int o, const int anti,
+                  const int v, const int W)
+{
+    VT y = (VT)(0);
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        const int q = (IN(o) * SECTIONS + s) * W + v;
+        const REAL wr = anti ? p->ar[o * SECTIONS + s] : p->cr[o * SECTIONS + s];
+#if REAL_POLES
+        y += wr * fr[q];
+#else
+        const REAL wi = anti ? p->ai[o * SECTIONS + s] : p->ci[o * SECTIONS + s];
+        y += wr * fr[q] - wi * fi[q];
+#endif
+    }
+    return y;
+}
+
+/* F <- lam F + x for the sections of input i, vector v */
+INLINE void advance(const plan_t *p, VT *fr, VT *fi, const int i, const VT x, const int v, const int W)
+{
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        const int q = (i * SECTIONS + s) * W + v;
+        const int c = i * SECTIONS + s;
+#if REAL_POLES
+        fr[q] = p->lr[c] * fr[q] + x;
+#else
+        const VT r = p->lr[c] * fr[q] - p->li[c] * fi[q] + x;
+        fi[q] = p->lr[c] * fi[q] + p->li[c] * fr[q];
+        fr[q] = r;
+#endif
+    }
+}
+
+/* F_(i, s) += omega[i, d, s, j] x (vector v) */
+INLINE void add_initial(VT *fr, VT *fi, __global const REAL *omega, const int L, const int i,
+                        const int d, const int j, const VT x, const int v, const int W)
+{
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s) {
+        const int q = (i * SECTIONS + s) * W + v;
+        const size_t o = 2 * ((((size_t)i * 2 + d) * SECTIONS + s) * L + j);
+        fr[q] += omega[o] * x;
+#if !REAL_POLES
+        fi[q] += omega[o + 1] * x;
+#endif
+    }
+}
+
+/* F_(i, s) = omega_c[i, d, s] cval_i for every input (vector v) */
+INLINE void start_states(const plan_t *p, VT *fr, VT *fi, const int d, const REAL cval0,
+                         const REAL cval1, const int v, const int W)
+{
+#pragma unroll
+    for (int i = 0; i < NIN; ++i) {
+        const REAL cv = i == 0 ? cval0 : cval1;
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            const int q = (i * SECTIONS + s) * W + v;
+            fr[q] = (VT)(p->ocr[(i * 2 + d) * SECTIONS + s] * cv);
+            fi[q] = (VT)(p->oci[(i * 2 + d) * SECTIONS + s] * cv);
+        }
+    }
+}
+
+#if ROWS
+/* ---- rows: LANES lines of M samples per work-item, tiles of LANES x LANES transposed --------- */
+
+/* w[t] = the samples of every lane at natural position p0 + t, t < cnt (lanes past `valid`
+ * repeat the last row) */
+INLINE void load_chunk(VT *w, __global const REAL *src, const int valid, const int p0, const int cnt,
+                       const int M)
+{
+    if (cnt == LANES) {
+#pragma unroll
+        for (int l = 0; l < LANES; ++l)
+            w[l] = VLOAD(src + (long)IMIN(l, valid - 1) * M + p0);
+        transpose_tile(w);
+        return;
+    }
+#pragma unroll
+    for (int t = 0; t < LANES; ++t) {
+        if (t < cnt) {
+            VT v;
+#pragma unroll
+            for (int l = 0; l < LANES; ++l)
+                LANE(v, l) = src[(long)IMIN(l, valid - 1) * M + p0 + t];
+            w[t] = v;
+        }
+    }
+}
+
+/* store y[t] (natural position p0 + t, t < cnt) of the `valid` lanes; nt: non-temporal */
+INLINE void store_chunk(VT *y, __global REAL *dst, const int valid, const int p0, const int cnt,
+                        const int M, const int nt)
+{
+    if (cnt == LANES) {
+        transpose_tile(y);
+#pragma unroll
+        for (int l = 0; l < LANES; ++l) {
+            if (l < valid) {
+                __global REAL *q = dst + (long)l * M + p0;
+                if (nt)
+                    STORE_NT(y[l], q);
+                else
+                    VSTORE(y[l], q);
+            }
+        }
+        return;
+    }
+#pragma unroll
+    for (int t = 0; t < LANES; ++t) {
+        if (t < cnt) {
+#pragma unroll
+            for (int l = 0; l < LANES; ++l)
+                if (l < valid)
+                    dst[(long)l * M + p0 + t] = LANE(y[t], l);
+        }
+    }
+}
+
+/* the forward sweep over the chunk at p0 (cnt samples): outputs written; returns the check */
+INLINE int forward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                         __global REAL *const *dst, const int valid, const int p0, const int cnt,
+                         const int M)
+{
+    VT x[NIN][LANES], y[NOUT][LANES];
+    int bad = 0;
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+        load_chunk(x[i], src[i], valid, p0, cnt, M);
+#pragma unroll
+    for (int t = 0; t < LANES; ++t) {
+        if (t < cnt) {
+#if CHECK
+            bad |= lanes_nonfinite(x[0][t]);
+#endif
+#pragma unroll
+            for (int o = 0; o < NOUT; ++o)
+                y[o][t] = p->tap[o] * x[IN(o)][t] + readout(p, fr, fi, o, 0, 0, 1);
+#pragma unroll
+            for (int i = 0; i < NIN; ++i)
+                advance(p, fr, fi, i, x[i][t], 0, 1);
+        }
+    }
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        store_chunk(y[o], dst[o], valid, p0, cnt, M, 0);
+    return bad;
+}
+
+/* the backward sweep over the chunk at p0: the causal parts read back, the anticausal added */
+INLINE void backward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                           __global REAL *const *dst, const int valid, const int p0, const int cnt,
+                           const int M, const int nt)
+{
+    VT x[NIN][LANES], y[NOUT][LANES];
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+        load_chunk(x[i], src[i], valid, p0, cnt, M);
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        load_chunk(y[o], dst[o], valid, p0, cnt, M);
+#pragma unroll
+    for (int t = LANES - 1; t >= 0; --t) {
+        if (t < cnt) {
+#pragma unroll
+            for (int o = 0; o < NOUT; ++o)
+                y[o][t] += readout(p, fr, fi, o, 1, 0, 1);
+#pragma unroll
+            for (int i = 0; i < NIN; ++i)
+                advance(p, fr, fi, i, x[i][t], 0, 1);
+        }
+    }
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        store_chunk(y[o], dst[o], valid, p0, cnt, M, nt);
+}
+
+/* the initial states of direction d: omega terms of the first (d = 0) or last (d = 1) L samples */
+INLINE void initial_rows(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                         __global const REAL *omega, const int L, const int d, const int valid,
+                         const int M, const REAL cval0, const REAL cval1)
+{
+    start_states(p, fr, fi, d, cval0, cval1, 0, 1);
+    VT x[LANES];
+    for (int j0 = 0; j0 < L; j0 += LANES) {
+        /* traversal positions j0 .. j0 + cnt - 1: natural p = j (d = 0) or M - 1 - j (d = 1) */
+        const int cnt = IMIN(LANES, L - j0);
+        const int p0 = d ? M - j0 - cnt : j0;
+#pragma unroll
+        for (int i = 0; i < NIN; ++i) {
+            load_chunk(x, src[i], valid, p0, cnt, M);
+#pragma unroll
+            for (int t = 0; t < LANES; ++t)
+                if (t < cnt)
+                    add_initial(fr, fi, omega, L, i, d, d ? j0 + cnt - 1 - t : j0 + t, x[t], 0, 1);
+        }
+    }
+}
+
+__kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
+                        __global REAL *dst1, const long src0_off, const long src1_off,
+                        const long dst0_off, const long dst1_off, __global const REAL *coef,
+                        __global const REAL *omega, const int L, const REAL cval0, const REAL cval1,
+                        const int B, const int N, const int M, const int nv, const int stream,
+                        __global int *flag)
+{
+    const long rows = (long)B * N;
+    const long r0 = (long)get_global_id(0) * LANES;
+    if (r0 >= rows)
+        return;
+    const int valid = (int)IMIN((long)LANES, rows - r0);
+    __global const REAL *src[2] = {src0 + src0_off + r0 * M, src1 + src1_off + r0 * M};
+    __global REAL *dst[2] = {dst0 + dst0_off + r0 * M, dst1 + dst1_off + r0 * M};
+    plan_t p;
+    load_plan(&p, coef);
+    VT fr[NS], fi[NS];
+    int bad = 0;
+    const int whole = M - M % LANES;
+    initial_rows(&p, fr, fi, src, omega, L, 0, valid, M, cval0, cval1);
+    for (int p0 = 0; p0 < whole; p0 += LANES)
+        bad |= forward_chunk(&p, fr, fi, src, dst, valid, p0, LANES, M);
+    if (whole < M)
+        bad |= forward_chunk(&p, fr, fi, src, dst, valid, whole, M - whole, M);
+    initial_rows(&p, fr, fi, src, omega, L, 1, valid, M, cval0, cval1);
+    /* non-temporal final stores where every row's tiles are aligned vectors */
+    int nt = stream && M % LANES == 0;
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
+    if (whole < M)
+        backward_chunk(&p, fr, fi, src, dst, valid, whole, M - whole, M, 0);
+    for (int p0 = whole - LANES; p0 >= 0; p0 -= LANES)
+        backward_chunk(&p, fr, fi, src, dst, valid, p0, LANES, M, nt);
+    if (nt)
+        STREAM_FENCE();
+#if CHECK
+    if (bad)
+        atomic_or(flag, 1);
+#else
+    (void)bad;
+#endif
+}
+
+#else
+/* ---- columns: a band of nv vectors of LANES adjacent columns, N rows ------------------------ */
+#ifndef BAND
+#define BAND 1
+#endif
+
+INLINE VT load_cols(__global const REAL *p, const int valid)
+{
+    if (valid == LANES)
+        return VLOAD(p);
+    VT v;
+#pragma unroll
+    for (int l = 0; l < LANES; ++l)
+        LANE(v, l) = p[IMIN(l, valid - 1)];
+    return v;
+}
+
+INLINE void store_cols(__global REAL *p, const VT y, const int valid, const int nt)
+{
+    if (valid == LANES) {
+        if (nt)
+            STORE_NT(y, p);
+        else
+            VSTORE(y, p);
+        return;
+    }
+    for (int l = 0; l < valid; ++l)
+        p[l] = LANE(y, l);
+}
+
+/* one row of the band: forward (d = 0, outputs written) or backward (d = 1, added to them) */
+INLINE int column_step(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                       __global REAL *const *dst, const long row, const int vecs, const int last,
+                       const int d, const int nt)
+{
+    int bad = 0;
+#pragma unroll
+    for (int v = 0; v < BAND; ++v) {
+        if (v < vecs) {
+            const int valid = v == vecs - 1 ? last : LANES;
+            VT x[NIN];
+#pragma unroll
+            for (int i = 0; i < NIN; ++i)
+                x[i] = load_cols(src[i] + row + v * LANES, valid);
+#if CHECK
+            if (!d)
+                bad |= lanes_nonfinite(x[0]);
+#endif
+#pragma unroll
+            for (int o = 0; o < NOUT; ++o) {
+                __global REAL *q = dst[o] + row + v * LANES;
+                if (d)
+                    store_cols(q, load_cols(q, valid) + readout(p, fr, fi, o, 1, v, BAND), valid, nt);
+                else
+                    store_cols(q, p->tap[o] * x[IN(o)] + readout(p, fr, fi, o, 0, v, BAND), valid, 0);
+            }
+#pragma unroll
+            for (int i = 0; i < NIN; ++i)
+                advance(p, fr, fi, i, x[i], v, BAND);
+        }
+    }
+    return bad;
+}
+
+INLINE void initial_cols(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                         __global const REAL *omega, const int L, const int d, const int N,
+                         const int M, const int vecs, const int last, const REAL cval0, const REAL cval1)
+{
+#pragma unroll
+    for (int v = 0; v < BAND; ++v)
+        start_states(p, fr, fi, d, cval0, cval1, v, BAND);
+    for (int j = 0; j < L; ++j) {
+        const long row = (long)(d ? N - 1 - j : j) * M;
+#pragma unroll
+        for (int v = 0; v < BAND; ++v) {
+            if (v < vecs) {
+                const int valid = v == vecs - 1 ? last : LANES;
+#pragma unroll
+                for (int i = 0; i < NIN; ++i)
+                    add_initial(fr, fi, omega, L, i, d, j, load_cols(src[i] + row + v * LANES, valid), v, BAND);
+            }
+        }
+    }
+}
+
+__kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
+                        __global REAL *dst1, const long src0_off, const long src1_off,
+                        const long dst0_off, const long dst1_off, __global const REAL *coef,
+                        __global const REAL *omega, const int L, const REAL cval0, const REAL cval1,
+                        const int B, const int N, const int M, const int nv, const int stream,
+                        __global int *flag)
+{
+    const int m0 = (int)get_global_id(0) * nv * LANES;
+    const int b = (int)get_global_id(1);
+    if (m0 >= M || b >= B)
+        return;
+    const int cols = IMIN(nv * LANES, M - m0);
+    const int vecs = (cols + LANES - 1) / LANES;
+    const int last = cols - (vecs - 1) * LANES;
+    const long base = (long)b * N * M + m0;
+    __global const REAL *src[2] = {src0 + src0_off + base, src1 + src1_off + base};
+    __global REAL *dst[2] = {dst0 + dst0_off + base, dst1 + dst1_off + base};
+    plan_t p;
+    load_plan(&p, coef);
+    VT fr[NS * BAND], fi[NS * BAND];
+    int bad = 0;
+    initial_cols(&p, fr, fi, src, omega, L, 0, N, M, vecs, last, cval0, cval1);
+    for (int k = 0; k < N; ++k)
+        bad |= column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 0, 0);
+    initial_cols(&p, fr, fi, src, omega, L, 1, N, M, vecs, last, cval0, cval1);
+    /* non-temporal final stores: whole aligned vectors */
+    int nt = stream && M % LANES == 0;
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
+    for (int k = N - 1; k >= 0; --k)
+        column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 1, nt);
+    if (nt)
+        STREAM_FENCE();
+#if CHECK
+    if (bad)
+        atomic_or(flag, 1);
+#else
+    (void)bad;
+#endif
+}
+#endif

@@ -1,0 +1,140 @@
+"""Two-sided steps on an OpenCL CPU device: ``twosided.cl`` (spec:
+:func:`gfgpu._core.twosided.run_two_sided_reference`).
+
+One kernel runs a step's causal and anticausal passes over the same lines for up to two inputs and
+two outputs (:class:`~gfgpu._core.twosided.TwoSidedPlan`): each input is read once and each output
+written once from memory, the backward sweep reading back what the forward one wrote from the
+cache.  CPU devices only (a work-item runs a cache line of lines; on a GPU the generic
+primitive's block-parallel lines are the right shape): :func:`runs_on` says where.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections import OrderedDict
+
+import numpy as np
+
+from . import launch
+
+__all__ = ["runs_on", "run_two_sided"]
+
+_CACHE_LINE = 64
+_STREAM_BYTES = 1 << 23    # outputs from this size are written with non-temporal stores
+_PLAN_CACHE = 32
+_uploads = weakref.WeakKeyDictionary()    # backend -> OrderedDict((id(plan), dtype) -> (plan, buffers))
+
+
+def runs_on(be):
+    """True when ``be`` runs :func:`run_two_sided`: an OpenCL CPU device."""
+    return be.name == "opencl" and be.kind == "cpu"
+
+
+def _buffers(be, plan, dtype):
+    """The plan's coefficient and initial-state buffers, uploaded once per plan (plans are cached
+    and immutable: id(plan) is a key while the plan is kept)."""
+    import pyopencl as cl
+    cache = _uploads.setdefault(be, OrderedDict())
+    key = (id(plan), dtype.str)
+    hit = cache.get(key)
+    if hit is not None and hit[0] is plan:
+        cache.move_to_end(key)
+        return hit[1]
+    mf = cl.mem_flags
+    bufs = tuple(cl.Buffer(be.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in plan.packed(dtype))
+    cache[key] = (plan, bufs)
+    if len(cache) > _PLAN_CACHE:
+        cache.popitem(last=False)
+    return bufs
+
+
+def band(plan):
+    """Most vectors of adjacent columns per work-item: the states of a band stay in registers."""
+    states = len(set(plan.inputs)) * plan.sections * (1 if plan.real else 2)
+    return max(1, min(4, 16 // states))
+
+
+def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
+    """Run a two-sided step along ``axis`` of ``(B, N, M)`` arrays.
+
+    Parameters
+    ----------
+    be : OpenCLBackend
+        A CPU device (:func:`runs_on`).
+    srcs, dsts : list of pyopencl.array.Array
+        One array per input and per output of ``plan``, C-contiguous ``(B, N, M)`` of one dtype;
+        no output overlaps an input or another output.
+    axis : int
+        1: lines along N (columns), 2: lines along M (rows).
+    plan : TwoSidedPlan
+        For lines of ``shape[axis]`` samples.
+    cvals : pair of float
+        Each input's constant of the extension (mode 'constant').
+    check : bool
+        Also test that ``srcs[0]`` is finite and within the range limit (one read: the forward
+        sweep's); then returns that bool (a blocking read of a flag).
+
+    Returns
+    -------
+    bool or None
+        With ``check``: whether every sample of ``srcs[0]`` passed.
+    """
+    if not runs_on(be):
+        raise ValueError(f"two-sided steps run on OpenCL CPU devices, not on {be!r}")
+    if axis not in (1, 2):
+        raise ValueError(f"axis must be 1 or 2, got {axis}")
+    nin, nout = len(set(plan.inputs)), len(plan.inputs)
+    if len(srcs) != nin or len(dsts) != nout:
+        raise ValueError(f"the plan takes {nin} input(s) and {nout} output(s), got {len(srcs)} and {len(dsts)}")
+    first = srcs[0]
+    for name, arrays in (("srcs", srcs), ("dsts", dsts)):
+        for a in arrays:
+            if not be.owns(a) or a.ndim != 3 or not a.flags.c_contiguous:
+                raise TypeError(f"{name} must be C-contiguous 3-D pyopencl arrays in the context of {be.device}")
+            if a.shape != first.shape or a.dtype != first.dtype:
+                raise ValueError(f"{name} must match srcs[0]: {a.shape} {a.dtype} vs {first.shape} {first.dtype}")
+    for k, d in enumerate(dsts):
+        for other in list(srcs) + list(dsts[:k]):
+            if be.may_share_memory(d, other):
+                raise ValueError("an output overlaps an input or another output")
+    if plan.n != first.shape[axis]:
+        raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {first.shape[axis]}")
+    dtype = launch.check_dtype(be, first.dtype)
+    if dtype not in launch.REALS:
+        raise TypeError(f"srcs must be float32 or float64, got {dtype}")
+    b, n, m = first.shape
+    if first.size == 0:
+        return True if check else None
+    import pyopencl as cl
+    lanes = _CACHE_LINE // dtype.itemsize
+    units = int(be.cl_device.max_compute_units)
+    width = band(plan)
+    if axis == 2:
+        items = -(-(b * n) // lanes)
+        gsize, lsize, nv = (items,), (1,), 1
+    else:
+        vecs = -(-m // lanes)
+        nv = max(1, min(width, (b * vecs) // (2 * units)))
+        gsize, lsize = (-(-vecs // nv), b), (1, 1)
+    knl = launch.kernel(be, __package__, "twosided.cl", "two_sided", dtype, LANES=lanes, SECTIONS=plan.sections,
+                        NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), ROWS=int(axis == 2), BAND=width,
+                        CHECK=int(bool(check)))
+    coef, omega = _buffers(be, plan, dtype)
+    mf = cl.mem_flags
+    flag = np.zeros(1, np.int32)
+    flag_buf = cl.Buffer(be.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+    s0, s1 = srcs[0], srcs[-1]
+    d0, d1 = dsts[0], dsts[-1]
+    item = dtype.itemsize
+    real = dtype.type
+    stream = int(first.nbytes >= _STREAM_BYTES)
+    args = (s0.base_data, s1.base_data, d0.base_data, d1.base_data,
+            np.int64(s0.offset // item), np.int64(s1.offset // item), np.int64(d0.offset // item),
+            np.int64(d1.offset // item), coef, omega, np.int32(plan.omega.shape[-1]),
+            real(cvals[0]), real(cvals[-1] if nin == 2 else 0.0), np.int32(b), np.int32(n), np.int32(m),
+            np.int32(nv), np.int32(stream), flag_buf)
+    evt = launch.launch(be, knl, gsize, lsize, list(srcs), list(dsts), args)
+    if not check:
+        return None
+    cl.enqueue_copy(be.queue, flag, flag_buf, wait_for=[evt])   # blocking
+    return int(flag[0]) == 0
