@@ -3,6 +3,8 @@ specification: :func:`gfgpu.motion.spec.field_blur_reference`."""
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from ..._core import boundary
@@ -37,21 +39,39 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     return out
 
 
+#: the rule tables on each device, by (context, PSF code, image type, position type): uploaded once
+_TABLES = {}
+os.register_at_fork(after_in_child=_TABLES.clear)      # a forked child has contexts of its own
+
+
+def _tables(be, psf, dtype, pos):
+    """``[offsets, nodes (positions' type), weights, nodes (image type)]`` of :func:`rule_table` on ``be``."""
+    key = (be.context, psf, np.dtype(dtype), np.dtype(pos))
+    if key not in _TABLES:
+        _, offsets, nodes, weights = rule_table(psf)
+        _TABLES[key] = [be.asarray(offsets), be.asarray(nodes.astype(pos)), be.asarray(weights.astype(dtype)),
+                        be.asarray(nodes.astype(dtype))]
+    return _TABLES[key]
+
+
 #: work-group of the rule kernel on a GPU: 16 x 16 pixels, whose paths read neighbouring coefficients
 GPU_TILE = (16, 16)
 
 
 def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
-    coef, field = ocl.plain(be, coef, "coef"), ocl.plain(be, field, "field")
+    coef = ocl.plain(be, coef, "coef")
+    # the field at an element offset: a host array the device reads in place (host_view) starts at an
+    # aligned address below it, and copying its 2 x H x W values would cost a tenth of the kernel
+    if not (be.owns(field) and field.flags.c_contiguous):
+        field = ocl.plain(be, field, "field")
+    fbuf, foff = ocl.written(be, field, "field")
     obuf, ooff = ocl.written(be, out, "out")
     dtype = np.dtype(coef.dtype)
     pos = np.float64 if be.supports_float64 else np.float32
     real = "double" if pos == np.float64 else "float"
     knl = ocl.kernel(be, __package__, "field.cl", "field_rule", dtype, POS=real, GRID=real, **_constants())
     first, top, per_px, extra = rule_limits(psf)
-    _, offsets, nodes, weights = rule_table(psf)
-    tables = [be.asarray(offsets), be.asarray(nodes.astype(pos)), be.asarray(weights.astype(dtype)),
-              be.asarray(nodes.astype(dtype))]
+    tables = _tables(be, psf, dtype, pos)
     bsz, h, w = (int(s) for s in coef.shape)
     if be.kind == "cpu":
         gsize, lsize = (w, h), None         # PoCL: the driver's groups (rows of work-items in vector lanes)
@@ -59,7 +79,8 @@ def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
         lsize = GPU_TILE
         gsize = tuple(-(-n // g) * g for n, g in zip((w, h), lsize))
     ocl.launch(be, knl, gsize, lsize, [coef, field] + tables, [out],
-               (coef.data, field.data, obuf, np.int32(h), np.int32(w), np.int32(bsz), pos(per_px), np.int32(extra),
+               (coef.data, fbuf, foff, obuf, np.int32(h), np.int32(w), np.int32(bsz), pos(per_px), np.int32(extra),
                 np.int32(first), np.int32(top if most is None else min(max(int(most), first), top)), tables[0].data,
-                tables[1].data, tables[2].data, tables[3].data, np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
+                tables[1].data, tables[2].data, tables[3].data, np.int32(boundary.MODE_CODES[mode]), dtype.type(cval),
+                ooff))
     return out

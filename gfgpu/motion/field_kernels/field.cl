@@ -145,7 +145,8 @@ INLINE REAL4 spline_inside(__global const REAL *src, const int w, const int y, c
 // transcendental function and no per-cell arithmetic in the loop, only the samples.  A path whose two end
 // nodes (hence all, on a straight line) have their 16 coefficients inside the image samples without the
 // boundary extension.  A still pixel is the spline at itself.
-__kernel void field_rule(__global const REAL *coef, __global const REAL *field, __global REAL *out, const int h,
+__kernel void field_rule(__global const REAL *coef, __global const REAL *field, const long field_off,
+                         __global REAL *out, const int h,
                          const int w, const int planes, const POS per_px, const int extra, const int first,
                          const int most, __global const int *offsets, __global const POS *nodes,
                          __global const REAL *weights, __global const OFF *tnear, const int mode, const REAL cval,
@@ -155,7 +156,7 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
     if (x >= w || y >= h)
         return;
     const long pix = (long)y * w + x, hw = (long)h * w;
-    const POS vy = (POS)field[pix], vx = (POS)field[hw + pix];
+    const POS vy = (POS)field[field_off + pix], vx = (POS)field[field_off + hw + pix];
     const POS length = FMAXABS(vy, vx);
     // ceil by integer conversion (PoCL's ceil() is a library call; the argument is >= -1e-9, < 2^31)
     const POS c = length * per_px - (POS)1e-9;
