@@ -80,13 +80,7 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
         return dst
     pad = decay_length(passes, dtype)
     if be.recurses_windows:
-        # one pass: the recursion reads the translated, extended line through the window index
-        # and writes only the samples on the line (whole 16-sample tiles: pad rounded up)
-        pad = -(-pad // _TILE) * _TILE
-        index = line_window(n, offset, pad, mode)
-        for i, lp in enumerate(passes):
-            plan = plan_pass(without_offset(lp), n + 2 * pad, "nearest", dtype)
-            be.recurse(s3, d3, line_axis, plan, cval, accumulate=i > 0, window=(index, pad))
+        run_windowed(be, s3, d3, line_axis, passes, offset, mode, cval, dtype)
         return dst
     view, line_axis, padded = padded_view(shape, axis, pad)
     window = be.empty(padded, dtype)
@@ -103,6 +97,40 @@ def run_axis_passes(be, src, dst, dtype, passes, mode, cval, axis, shape):
 
 
 _TILE = 16     # samples of a CPU tile: windowed passes pad to whole tiles
+
+
+def run_windowed(be, src, dst, line_axis, passes, offset, mode, cval, dtype, check=False):
+    """Translated ``passes`` on ``(B, N, M)`` device arrays as windowed recursions (backends with
+    ``recurses_windows``): each pass reads the translated, extended line through the window
+    index and writes only the samples on the line (the pad rounded up to whole 16-sample tiles).
+    With ``check`` the first pass also tests the samples it reads and the result is that bool
+    (:func:`window_reads_all` must hold, so that they are every sample of ``src``)."""
+    n = src.shape[line_axis]
+    pad = -(-decay_length(passes, dtype) // _TILE) * _TILE
+    index = line_window(n, offset, pad, mode)
+    for i, lp in enumerate(passes):
+        plan = plan_pass(without_offset(lp), n + 2 * pad, "nearest", dtype)
+        finite = be.recurse(src, dst, line_axis, plan, cval, accumulate=i > 0, window=(index, pad),
+                            check=check and i == 0)
+        if check and i == 0 and not finite:
+            return False
+    return True if check else None
+
+
+def window_reads_all(n, passes, offset, mode, dtype):
+    """True when the windowed pass of :func:`run_windowed` reads every sample of a line of ``n``
+    (so a finite check riding on its reads covers the whole input): false for translations
+    that move part of the line out of the window for good (e.g. ``'constant'`` beyond a pad)."""
+    pad = -(-decay_length(passes, dtype) // _TILE) * _TILE
+    return _covers(n, offset, pad, mode)
+
+
+@lru_cache(maxsize=32)
+def _covers(n, offset, pad, mode):
+    index = line_window(n, offset, pad, mode)
+    seen = np.zeros(n, bool)
+    seen[index[index >= 0]] = True
+    return bool(seen.all())
 
 
 @lru_cache(maxsize=32)
@@ -129,20 +157,27 @@ def is_translation(passes, angle):
 
 
 def is_checkable(passes, angle):
-    """True when a step's first pass reads every input sample in one recursion along an axis
-    (no translation), so the finite check can ride along (:func:`run_passes_checked`)."""
-    return (angle is None and bool(passes) and step_offset(passes) == 0
-            and not any(lp.is_identity for lp in passes))
+    """True when a step's first pass may read every input sample in one recursion along an axis,
+    so the finite check can ride along (:func:`run_passes_checked`, which says whether it did)."""
+    return angle is None and bool(passes) and not any(lp.is_identity for lp in passes)
 
 
 def run_passes_checked(be, src, dst, dtype, passes, mode, cval, axis, shape):
     """Run a step for which :func:`is_checkable` holds and test, in its first pass's read of
     ``src``, that ``src`` is finite; returns that bool (``dst`` is written either way, the
-    later passes are skipped when the input is not finite)."""
+    later passes are skipped when the input is not finite).  A translated step is checked so
+    when it runs as windowed recursions that read every sample (:func:`window_reads_all`);
+    otherwise nothing runs and the result is None (the caller checks the input on its own)."""
     view, line_axis = axis_view_shape(tuple(shape), axis)
     n = view[line_axis]
     s3, d3 = be.reshape(src, view), be.reshape(dst, view)
-    return run_plans(be, s3, d3, line_axis, [plan_pass(lp, n, mode, dtype) for lp in passes], cval, check=True)
+    offset = step_offset(passes)
+    if offset == 0:
+        return run_plans(be, s3, d3, line_axis, [plan_pass(lp, n, mode, dtype) for lp in passes], cval,
+                         check=True)
+    if not (be.recurses_windows and window_reads_all(n, passes, offset, mode, dtype)):
+        return None
+    return run_windowed(be, s3, d3, line_axis, passes, offset, mode, cval, dtype, check=True)
 
 
 def run_plans(be, src, dst, line_axis, plans, cval, check=False):

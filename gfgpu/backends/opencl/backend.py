@@ -948,8 +948,10 @@ class OpenCLBackend(Backend):
         return int(flag[0]) == 0
 
     def input_finite(self, host, data):
-        # a GPU tests its copy; on a CPU device numpy's test of the same memory was measured faster
-        return host_in_range(host) if self.kind == "cpu" else self.all_finite(data)
+        # the device tests its copy (on a CPU device the host memory itself): the kernel reads it
+        # once on every core, numpy's max and min twice on one (4096^2 float32 here: 2.8 ms
+        # against 9.3 ms, a copy 4.9 ms); a small array is tested on the host, without a launch
+        return host_in_range(host) if host.nbytes < _ZERO_COPY_BYTES else self.all_finite(data)
 
     def _index_array(self, index, size):
         """Upload a gather index once per identity, as int32 (the kernel's index type).
