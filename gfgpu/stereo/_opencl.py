@@ -142,11 +142,12 @@ def _cost_splits(be, w):
 
 def _block_scratch(be, w, n, block, workspace=None):
     """The Hamming ring of the CPU block_cost kernel: per column range, ``block`` rows of its
-    columns plus the block's margins, 16 * ceil(n / 16) bytes per column, and their column sums
-    (ushort: two more rows); and the slot width."""
+    columns plus the block's margins, 16 * ceil(n / 16) bytes per column, then the column sums of
+    the last ``block + 1`` columns entered (ushort; stereo.cl's COLSUM_SLOTS); and the slot width."""
     splits = _cost_splits(be, w)
     cols = -(-w // splits) + 2 * (block // 2)
-    return _empty(be, workspace, "ring", (splits * (block + 2) * cols * padded_samples(n),), np.uint8), cols
+    per_split = (block * cols + 2 * (block + 1)) * padded_samples(n)
+    return _empty(be, workspace, "ring", (splits * per_split,), np.uint8), cols
 
 
 def _band_cost(be, cl_, ri, out, ham, y0, rows, out_row0, h, w, n, first_step, steps, block, workspace=None,
@@ -253,11 +254,22 @@ def _sgm_state(be, w, n, workspace=None):
             _empty(be, workspace, "state_min", (2, 4, w + 2), np.int16))
 
 
-def _band_sweep_args(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
-                     init, active, view, write_up=True, bucket=None):
+def _checkpoints(be, w, n, paths, slots, workspace=None):
+    """``slots`` checkpoints of the up sweep's vertical (and diagonal) states, laid out as its
+    state rows (``ck_rows`` of them: 1 for 4 paths, 4 for 8) and minima rows, with their guard
+    lanes and guard cells written (stereo.cl's sgm_guards; sweeps never write them)."""
+    ck_rows = 4 if paths == 8 else 1
+    slots = max(int(slots), 1)
+    ckpt = _empty(be, workspace, "checkpoints", (slots * ck_rows, 16 + (w + 2) * (padded_samples(n) + 16)), np.int16)
+    ckpt_min = _empty(be, workspace, "checkpoint_minima", (slots * ck_rows, w + 2), np.int16)
+    return ckpt, ckpt_min, ck_rows
+
+
+def _band_sweep_args(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, cost_row0, h, w, n, p1, p2, paths,
+                     init, active, view, write_up=True, bucket=None, src=-1, dst=-1):
     """The kernel and arguments of one launch of sgm_band (:func:`_band_sweeps`); the band's
-    arguments (``y0``, ``rows``, ``init``, ``active``, ``write_up``, ``cost_row0``, ``split``) at
-    :data:`_SWEEP_BAND_ARGS`."""
+    arguments (``y0``, ``rows``, ``init``, ``active``, ``write_up``, ``cost_row0``, ``split``,
+    ``src``, ``dst``) at :data:`_SWEEP_BAND_ARGS`; ``ckpt`` from :func:`_checkpoints`."""
     nb = n if bucket is None else bucket[0]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
@@ -269,21 +281,24 @@ def _band_sweep_args(be, cost, down, up, state, state_min, bound, y0, rows, cost
                  np.int32(y0), np.int32(rows), np.int16(p1), np.int16(p2), np.int32(paths == 8),
                  np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
                  np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
-                 np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(nb) + 16)))), bound.data, np.int32(n))
+                 np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(nb) + 16)))), bound.data, np.int32(n),
+                 ckpt[0].data, ckpt[1].data, np.int32(ckpt[2]), np.int32(src), np.int32(dst))
 
 
 #: positions of sgm_band's per-band arguments in :func:`_band_sweep_args`
-_SWEEP_BAND_ARGS = (7, 8, 12, 13, 14, 15, 16)
+_SWEEP_BAND_ARGS = (7, 8, 12, 13, 14, 15, 16, 26, 27)
 
 
-def _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1, p2, paths,
-                 init, active, view, write_up=True, bucket=None):
+def _band_sweeps(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, cost_row0, h, w, n, p1, p2, paths,
+                 init, active, view, write_up=True, bucket=None, src=-1, dst=-1):
     """One launch of sgm_band on volumes of :func:`_padded` with n samples per pixel; ``view`` =
     (block, first_step, steps): which samples are in view; ``bound``: the horizontal paths'
-    states at the column tiles' edges; ``bucket`` as for :func:`_band_cost`."""
-    knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, y0, rows, cost_row0, h, w, n, p1,
-                                 p2, paths, init, active, view, write_up, bucket)
-    ocl.launch(be, knl, (2,), (1,), [cost], [down, up, state, state_min, bound], args)
+    states at the column tiles' edges; the up sweep's vertical states read from region ``src``
+    and written to region ``dst`` (-1: its own rows of ``state``; else a slot of ``ckpt``,
+    :func:`_checkpoints`); ``bucket`` as for :func:`_band_cost`."""
+    knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, cost_row0, h, w, n,
+                                 p1, p2, paths, init, active, view, write_up, bucket, src, dst)
+    ocl.launch(be, knl, (2,), (1,), [cost], [down, up, state, state_min, bound, ckpt[0], ckpt[1]], args)
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
@@ -332,26 +347,17 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     state, state_min = _sgm_state(be, w, nb, workspace)
     bound = _empty(be, workspace, "bound", (2, max(k, coarse if not keep else k), nb + 1), np.int16)
     view = (block, first_step, steps)
-    # work-item 1's live state: rows 1..4 (vertical, diagonals) of 8 paths, row 1 of 4 paths,
-    # and the matching rows of the minima
-    srow = state.shape[2] * 2
-    st_off, st_len = (5 + 1) * srow, (4 if paths == 8 else 1) * srow
-    mrow = state_min.shape[2] * 2
-    mn_off, mn_len = 4 * mrow, (4 if paths == 8 else 1) * mrow
     coarse_bands = [(y0, min(coarse, h - y0)) for y0 in range(0, h, coarse)]
     per_coarse = -(-coarse // k)                 # fine bands of a coarse band
-
-    def checkpoints(name, count):
-        return (_empty(be, workspace, name, (max(count, 1), st_len // 2), np.int16),
-                _empty(be, workspace, name + "_minima", (max(count, 1), mn_len // 2), np.int16))
-
-    def save(ckpt, index):
-        ocl.copy_bytes(be, ckpt[0], state, st_len, index * st_len, st_off)
-        ocl.copy_bytes(be, ckpt[1], state_min, mn_len, index * mn_len, mn_off)
-
-    def restore(ckpt, index):
-        ocl.copy_bytes(be, state, ckpt[0], st_len, st_off, index * st_len)
-        ocl.copy_bytes(be, state_min, ckpt[1], mn_len, mn_off, index * mn_len)
+    # the up sweep's states at band tops: slots 0 .. n_top - 1 at the tops of (coarse) bands
+    # 1 .. last, then the fine bands' of the coarse band being run (sgm_band's regions: a sweep
+    # reads one slot and writes the next, a band's up sweep runs in its slot; no copies)
+    step = k if keep else coarse
+    n_top = -(-h // step) - 1
+    n_fine = 0 if keep else per_coarse - 1
+    ckpt = _checkpoints(be, w, nb, paths, n_top + n_fine, workspace)
+    ocl.launch(be, _bucket_kernel(be, "sgm_guards", bucket), (ckpt[0].shape[0],), (1,), [], [ckpt[0], ckpt[1]],
+               (ckpt[0].data, ckpt[1].data, np.int32(w), np.int32(ckpt[0].shape[0])))
 
     def costs(y0, rows):
         ya = 0
@@ -364,21 +370,25 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # the band loop's launches with their arguments set once (ocl.PresetLaunch), where there is a
     # loop: one band (small images) launches each kernel once, cheaper than making its own kernel
     if h > k:
-        knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, 0, 1, 0, h, w, n, p1, p2,
+        knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, ckpt, 0, 1, 0, h, w, n, p1, p2,
                                      paths, 0, 0, view, True, bucket)
-        sweep_launch = ocl.PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound], args)
+        sweep_launch = ocl.PresetLaunch(be, knl, [cost], [down, up, state, state_min, bound, ckpt[0], ckpt[1]],
+                                        args)
         select_launch = ocl.PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
                                       [disp, disp_right, margin],
                                       _select_args(down, up, disp, disp_right, margin, 0, 1, w, n,
                                                    first_step // steps, steps, uniqueness, True))
 
-    def sweep(y0, rows, row0, init, active, write_up=True):
+    def sweep(y0, rows, row0, init, active, write_up=True, src=-1, dst=-1):
+        """Both sweeps (``active`` 3) or the up sweep alone (2) of a band; the up sweep's states
+        from slot ``src`` to slot ``dst`` (-1: the state's own rows)."""
         if h <= k:
-            _band_sweeps(be, cost, down, up, state, state_min, bound, y0, rows, row0, h, w, n, p1, p2, paths,
-                         init=init, active=active, view=view, write_up=write_up, bucket=bucket)
+            _band_sweeps(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, row0, h, w, n, p1, p2,
+                         paths, init=init, active=active, view=view, write_up=write_up, bucket=bucket, src=src,
+                         dst=dst)
             return
         split = not write_up and paths == 4 and w >= 2 and not init      # as _band_sweep_args
-        values = (y0, rows, init, active, int(write_up), row0, int(split))
+        values = (y0, rows, init, active, int(write_up), row0, int(split), src, dst)
         sweep_launch((2,), (1,), {i: np.int32(v) for i, v in zip(_SWEEP_BAND_ARGS, values)})
 
     def select(y0, rows):
@@ -390,47 +400,42 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
 
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
         costs(0, h)
-    # pass 1: up the image, saving the state at the top of coarse bands 1 .. last (band b's up
-    # sweep starts from checkpoint b: the state after the first row of band b + 1); with the costs
-    # kept, a coarse band is a band of k rows
-    step = k if keep else coarse
-    top = checkpoints("checkpoints", -(-h // step) - 1)
-    for b in range(-(-h // step) - 1, 0, -1):
+    # pass 1: up the image, writing the state at the top of (coarse) band b into slot b - 1: band
+    # b's up sweep starts from slot b, the state after the first row of band b + 1 (the last
+    # band: from zeros, in the state's own rows); with the costs kept, a coarse band is a band of k
+    # rows
+    for b in range(n_top, 0, -1):
         y0 = b * step
         rows = min(step, h - y0)
         if not keep:
             costs(y0, rows)
-        sweep(y0, rows, y0 if keep else 0, init=2 if y0 + rows == h else 0, active=2, write_up=False)
-        save(top, b - 1)
-    fine = checkpoints("fine_checkpoints", per_coarse - 1) if not keep else None
+        bottom = y0 + rows == h
+        sweep(y0, rows, y0 if keep else 0, init=2 if bottom else 0, active=2, write_up=False,
+              src=-1 if bottom else b, dst=b - 1)
     # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
     for cb, (c0, crows) in enumerate(coarse_bands):
         bands = [(y0, min(k, c0 + crows - y0)) for y0 in range(c0, c0 + crows, k)]
         last_coarse = cb == len(coarse_bands) - 1
+        # the slot the up sweep of this coarse band's last band starts from (-1: from zeros)
+        below = -1 if last_coarse else cb
         if not keep:
             costs(c0, crows)
-            # the up state at the top of this coarse band's fine bands 1 .. last (the state is
-            # still checkpoint 0, the first pass's last save, at the first coarse band; the loop
-            # ends in fine checkpoint 0, which band 0 then sweeps from: neither copied)
-            if len(bands) > 1 and not last_coarse and cb > 0:
-                restore(top, cb)
+            # the up state at the top of this coarse band's fine bands 1 .. last into fine slots
+            # 0 .. last - 1 (n_top + f - 1), read from the coarse slot (not spent: the coarse
+            # band's last fine band runs in it below)
             for f in range(len(bands) - 1, 0, -1):
                 y0, rows = bands[f]
-                sweep(y0, rows, y0 - c0, init=2 if last_coarse and f == len(bands) - 1 else 0, active=2,
-                      write_up=False)
-                if f > 1:
-                    save(fine, f - 1)
+                first = f == len(bands) - 1
+                sweep(y0, rows, y0 - c0, init=2 if first and last_coarse else 0, active=2, write_up=False,
+                      src=(below if first else n_top + f), dst=n_top + f - 1)
         for f, (y0, rows) in enumerate(bands):
             last = y0 + rows == h
             if keep:
-                if not last and y0 > 0:       # band 0: the state the first pass ended in
-                    restore(top, y0 // k)
-            elif f < len(bands) - 1:
-                if f > 0:
-                    restore(fine, f)
-            elif not last_coarse:
-                restore(top, cb)
-            sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3)
+                slot = -1 if last else y0 // k
+            else:
+                slot = below if f == len(bands) - 1 else n_top + f
+            sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3,
+                  src=slot, dst=slot)
             select(y0, rows)
     return disp, disp_right, margin
 

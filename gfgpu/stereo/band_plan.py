@@ -173,5 +173,5 @@ def match_memory(h, w, n, paths, keep_cost, block=3, rows=None):
         cost = coarse * w * npix
         checkpoints = (-(-h // coarse) + -(-coarse // k)) * checkpoint
     splits = 2 * (os.cpu_count() or 1)                      # _cost_splits on a CPU device
-    ring = splits * (block + 2) * (-(-w // splits) + block) * nb
+    ring = splits * (block * (-(-w // splits) + 2 * (block // 2)) + 2 * (block + 1)) * nb
     return cost + ring + 14 * w * n + 4 * k * w * npix + 10 * state_row + checkpoints + 4 * max(k, coarse) * cell

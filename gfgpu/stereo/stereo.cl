@@ -479,7 +479,7 @@ static VPOP_TARGET void hamming_row(__global uchar *dst, __global const ulong *c
     }
 }
 
-// the block's column c (index c - ca of the ring's rows), vector j
+// the block's column c (index c - ca of the ring's rows), vector j: the sum of its BLOCK rows
 static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size_t slot, const int c, const int j)
 {
     ushort16 s = (ushort16)(0);
@@ -488,6 +488,9 @@ static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size
         s += TO_USHORT16(*(__global const uchar16 *)(ring + v * slot + (size_t)c * NP + 16 * j));
     return s;
 }
+
+// the column sums' slots: the last BLOCK + 1 columns entered, column c in slot c mod (BLOCK + 1)
+#define COLSUM_SLOTS (BLOCK + 1)
 
 __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
                          __global uchar *scratch, const int h, const int w, const int first_step,
@@ -500,9 +503,11 @@ __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ul
     const int xa = (int)((long)g * w / splits), xb = (int)((long)(g + 1) * w / splits);
     const int ca = IMAX(xa - r, 0), cb = IMIN(xb + r, w);
     const size_t slot = (size_t)slot_cols * NP;
-    __global uchar *ring = scratch + (size_t)g * (BLOCK + 2) * slot;
-    // the ring's column sums (ushort, two slots): each output row's block sums read one vector
-    // per entering and leaving column instead of BLOCK
+    // per column range: BLOCK row slots, then the column sums' COLSUM_SLOTS (ushort)
+    __global uchar *ring = scratch + (size_t)g * (BLOCK * slot + 2 * COLSUM_SLOTS * NP);
+    // the column sums of the ring (ushort) in COLSUM_SLOTS slots, computed as a column enters the
+    // window and read again as it leaves it (BLOCK + 1 columns later at most; the column entering
+    // at a clamped right border is the one already there): cache-resident, no row of them
     __global ushort *colsum = (__global ushort *)(ring + BLOCK * slot);
     for (int i = 0; i < rows; ++i) {
         const int y = y0 + i;
@@ -512,26 +517,35 @@ __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ul
             hamming_row(ring + sl * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step, steps, n_valid,
                         ri_row0);
         }
-        for (int c = 0; c < cb - ca; ++c) {
-            UNROLL_NV
-            for (int j = 0; j < NV; ++j)
-                VSTORE(ushort, 16, ring_column(ring, slot, c, j), colsum + (size_t)c * NP + 16 * j);
-        }
         ushort16 sum[NV];
         UNROLL_NV
-        for (int j = 0; j < NV; ++j) {
+        for (int j = 0; j < NV; ++j)
             sum[j] = (ushort16)(0);
-            for (int u = -r; u <= r; ++u)
-                sum[j] += VLOAD(ushort, 16, colsum + (size_t)(CLAMPI(xa + u, 0, w - 1) - ca) * NP + 16 * j);
+        // the window of x = xa: columns clamp(xa - r .. xa + r), each distinct one into its slot
+        for (int c = IMAX(xa - r, 0); c <= IMIN(xa + r, w - 1); ++c) {
+            __global ushort *cs = colsum + (size_t)(c % COLSUM_SLOTS) * NP;
+            UNROLL_NV
+            for (int j = 0; j < NV; ++j)
+                VSTORE(ushort, 16, ring_column(ring, slot, c - ca, j), cs + 16 * j);
+        }
+        for (int u = -r; u <= r; ++u) {
+            __global const ushort *cs = colsum + (size_t)(CLAMPI(xa + u, 0, w - 1) % COLSUM_SLOTS) * NP;
+            UNROLL_NV
+            for (int j = 0; j < NV; ++j)
+                sum[j] += VLOAD(ushort, 16, cs + 16 * j);
         }
         __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * PIX;
         for (int x = xa; x < xb; ++x, dst += PIX) {
-            const int add = IMIN(x + r, w - 1) - ca, sub = IMAX(x - 1 - r, 0) - ca;
+            const int add = IMIN(x + r, w - 1), sub = IMAX(x - 1 - r, 0);
             if (x > xa && add != sub) {
-                __global const ushort *pa = colsum + (size_t)add * NP, *ps = colsum + (size_t)sub * NP;
+                __global ushort *pa = colsum + (size_t)(add % COLSUM_SLOTS) * NP;
+                __global const ushort *ps = colsum + (size_t)(sub % COLSUM_SLOTS) * NP;
                 UNROLL_NV
-                for (int j = 0; j < NV; ++j)
-                    sum[j] += VLOAD(ushort, 16, pa + 16 * j) - VLOAD(ushort, 16, ps + 16 * j);
+                for (int j = 0; j < NV; ++j) {
+                    const ushort16 in = ring_column(ring, slot, add - ca, j);
+                    sum[j] += in - VLOAD(ushort, 16, ps + 16 * j);
+                    VSTORE(ushort, 16, in, pa + 16 * j);
+                }
             }
             store_block_costs(sum, dst, x, r, w, first_step, steps, n_valid);
         }
@@ -691,6 +705,14 @@ path_vec(__global const short *in, const int j, const short16 vm, const short16 
 // only advances its vertical and diagonal paths (a checkpointing sweep: no horizontal path, no
 // output; `split` runs it on both work-items).  Memory O(band rows x w x N_DISP) whatever the
 // image's height.
+// Work-item 1's vertical and diagonal states (its state rows 1 .. 4 and minima rows 0 .. 3; 1 and
+// 0 only with 4 paths) are a *region*: its own rows in `state` / `state_min` (index -1) or a slot
+// of the checkpoints `ckpt` / `ckpt_min` (index s >= 0: `ck_rows` state rows and minima rows each,
+// laid out as those rows).  The sweep reads its first row's predecessors from region `src` and
+// writes every row's states to region `dst` (the rows after the first read `dst`): a checkpointing
+// sweep writes the next checkpoint while it sweeps, and a band's up sweep runs in the slot it
+// starts from, which is then spent -- no copies of states between launches.  A slot's guard lanes
+// and guard cells are written once by sgm_guards, never by a sweep; init zeroes region `src`.
 #ifdef COST_BYTES
 static inline short16 load_cost_bytes(__global const uchar *p, const int j)
 {
@@ -703,7 +725,9 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        const int y0, const int rows, const short p1, const short p2,
                        const int diagonals, const int init, const int active, const int write_up,
                        const int cost_row0, const int split, const int r, const int first_step,
-                       const int steps, const int tile, __global short *bound, const int n_valid)
+                       const int steps, const int tile, __global short *bound, const int n_valid,
+                       __global short *ckpt, __global short *ckpt_min, const int ck_rows, const int src,
+                       const int dst)
 {
     // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
     // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2); the state is
@@ -717,13 +741,18 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
     __global short *st = state + (size_t)pass * 5 * row;
     __global short *mins = state_min + (size_t)pass * 4 * cells;
+    // the regions of the vertical and diagonal states (row 1 of st and row 0 of mins, or a slot)
+    __global short *reg_src = pass == 1 && src >= 0 ? ckpt + (size_t)src * ck_rows * row : st + row;
+    __global short *reg_dst = pass == 1 && dst >= 0 ? ckpt + (size_t)dst * ck_rows * row : st + row;
+    __global short *min_src = pass == 1 && src >= 0 ? ckpt_min + (size_t)src * ck_rows * cells : mins;
+    __global short *min_dst = pass == 1 && dst >= 0 ? ckpt_min + (size_t)dst * ck_rows * cells : mins;
     if (!split && ((init >> pass) & 1)) {
         // (never with split: the vertical path reads the last guard lane of the cell before
         // its first, which the other work-item would be writing)
         // (4 paths: the horizontal and vertical rows only; the diagonals' rows are never read,
         // and untouched they take no memory)
         for (size_t q = 0; q < (diagonals ? 5 : 2); ++q) {
-            __global short *p = st + q * row;
+            __global short *p = q == 0 ? st : reg_src + (q - 1) * row;
             for (int i = 0; i < 16; ++i)
                 p[i] = PAD_COST;
             for (size_t c = 0; c < cells; ++c) {
@@ -734,10 +763,9 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             }
         }
         for (size_t i = 0; i < (diagonals ? 4 : 1) * cells; ++i)
-            mins[i] = 0;
+            min_src[i] = 0;
     }
-    __global short *sh = st + 16, *sv = sh + row, *se = sv + row;
-    __global short *mv = mins, *me = mv + cells;
+    __global short *sh = st + 16;
     // A state row's cells in the sweep's order: column x in cell x + 1 going right (work-item
     // 0), in cell w - x going left, so that both sweeps walk their states (and the path
     // predecessors) upwards in memory: descending, the up sweep took 35 % longer than the down
@@ -752,10 +780,15 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
       const int tn = IMIN(tw, ncol - t0);
       for (int i = 0; i < rows; ++i) {
         const int bi = pass == 0 ? i : rows - 1 - i, y = y0 + bi;
+        // the predecessors: the first row's in region src, the others' in region dst
+        __global short *sv_in = (i == 0 ? reg_src : reg_dst) + 16, *sv_out = reg_dst + 16;
+        __global short *se_in = sv_in + row, *se_out = sv_out + row;
+        __global short *mv_in = i == 0 ? min_src : min_dst, *mv_out = min_dst;
+        __global short *me_in = mv_in + cells, *me_out = mv_out + cells;
         // the diagonal from x - s: read the buffer of the previous row's parity, write this row's
         const int in_buf = 1 + ((y & 1) ^ 1), out_buf = 1 + (y & 1);
-        __global short *sd_in = se + in_buf * row, *sd_out = se + out_buf * row;
-        __global short *md_in = me + in_buf * cells, *md_out = me + out_buf * cells;
+        __global short *sd_in = se_in + in_buf * row, *sd_out = se_out + out_buf * row;
+        __global short *md_in = me_in + in_buf * cells, *md_out = me_out + out_buf * cells;
         short mh = 0;
         if (write && t0 > 0) {      // the predecessor's cell of the tile's first pixel
             __global short *c = sh + (size_t)(pass == 0 ? xa + t0 : w - xb + t0) * CELL;
@@ -771,12 +804,12 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             __global short *o = out + ((size_t)bi * w + (pass == 0 ? x : w - 1 - x)) * PIX;
             // the paths: horizontal from x - s, vertical, diagonals from x + s and x - s (cells
             // cell - 1, cell, cell + 1 and cell - 1: the cells' order above)
-            __global const short *in_h = sh + (cell - 1) * CELL, *in_v = sv + cell * CELL;
-            __global const short *in_e = se + (cell + 1) * CELL, *in_d = sd_in + (cell - 1) * CELL;
-            __global short *out_h = sh + cell * CELL, *out_v = in_v, *out_e = se + cell * CELL;
-            __global short *out_d = sd_out + cell * CELL;
-            const short16 vm_h = (short16)(mh), vm_v = (short16)(mv[cell]);
-            const short16 vm_e = (short16)(diagonals ? me[cell + 1] : 0);
+            __global const short *in_h = sh + (cell - 1) * CELL, *in_v = sv_in + cell * CELL;
+            __global const short *in_e = se_in + (cell + 1) * CELL, *in_d = sd_in + (cell - 1) * CELL;
+            __global short *out_h = sh + cell * CELL, *out_v = sv_out + cell * CELL;
+            __global short *out_e = se_out + cell * CELL, *out_d = sd_out + cell * CELL;
+            const short16 vm_h = (short16)(mh), vm_v = (short16)(mv_in[cell]);
+            const short16 vm_e = (short16)(diagonals ? me_in[cell + 1] : 0);
             const short16 vm_d = (short16)(diagonals ? md_in[cell - 1] : 0);
             short16 pend_h = pad, pend_v = pad, pend_e = pad, pend_d = pad;
             short16 run_h = pad, run_v = pad, run_e = pad, run_d = pad;
@@ -784,8 +817,9 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
             // out of view or entering it, the masks drop out.  The vertical path never needs
             // the entering rule: its predecessor is the same column, whose samples in view are
             // the same.
-            if (all_in_view(x - 1, r, w, first_step, steps, n_valid) &&
-                all_in_view(x + 1, r, w, first_step, steps, n_valid))
+            const int interior = all_in_view(x - 1, r, w, first_step, steps, n_valid) &&
+                                 all_in_view(x + 1, r, w, first_step, steps, n_valid);
+            if (interior)
                 if (!diagonals && write)
                     BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)), 1, 0);
                 else if (!diagonals)
@@ -799,11 +833,11 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                 mh = hmin16(run_h);
             }
             VSTORE(short, 16, pend_v, out_v + 16 * (NV - 1));
-            mv[cell] = hmin16(run_v);
+            mv_out[cell] = hmin16(run_v);
             if (diagonals) {
                 VSTORE(short, 16, pend_e, out_e + 16 * (NV - 1));
                 VSTORE(short, 16, pend_d, out_d + 16 * (NV - 1));
-                me[cell] = hmin16(run_e);
+                me_out[cell] = hmin16(run_e);
                 md_out[cell] = hmin16(run_d);
             }
         }
@@ -815,6 +849,32 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
         }
       }
     }
+}
+
+
+// The guard lanes and guard cells of `slots` checkpoint slots of sgm_band (`ck_rows` state rows and
+// minima rows each): each row's 16 leading lanes and each cell's gap PAD_COST, the guard cells 0
+// and w + 1 zeros (a path's first pixel), their minima zeros; one work-item per row.  The cells
+// 1 .. w are left as they are: a sweep writes them before it reads them.
+__kernel void sgm_guards(__global short *ckpt, __global short *ckpt_min, const int w, const int rows_total)
+{
+    const int q = get_global_id(0);
+    if (q >= rows_total)
+        return;
+    const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
+    __global short *p = ckpt + (size_t)q * row;
+    for (int i = 0; i < 16; ++i)
+        p[i] = PAD_COST;
+    for (size_t c = 0; c < cells; ++c) {
+        __global short *cell = p + 16 + c * CELL;
+        if (c == 0 || c == cells - 1)
+            for (int i = 0; i < NP; ++i)
+                cell[i] = 0;
+        for (int i = NP; i < CELL; ++i)
+            cell[i] = PAD_COST;
+    }
+    ckpt_min[(size_t)q * cells] = 0;
+    ckpt_min[(size_t)q * cells + cells - 1] = 0;
 }
 
 #endif  // COST_BYTES
