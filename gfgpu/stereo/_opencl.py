@@ -331,6 +331,9 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # state at its fine bands' tops, then runs its fine bands (O(K W D + (H / K + K / k) W D)).
     plan = band_plan.match_plan(h, w, n, paths, block, budget)
     k, keep = plan.rows, plan.keep
+    # one call's buffers are made once even without the caller's workspace (the cost kernel's
+    # ring was allocated at each of its launches: 55 x 1.7 MB of fresh pages at 1000 x 1500)
+    workspace = {} if workspace is None else workspace
     # the kernels are built for the bucket of n (nb samples, the rest padding), n an argument: a
     # new range within a built bucket builds nothing
     nb, nv_full = band_plan.sample_bucket(n)

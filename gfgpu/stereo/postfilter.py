@@ -63,8 +63,14 @@ def check_postfilter(speckle_size, speckle_range, min_confidence):
 def _joins(d, max_diff):
     """Which 4-neighbours are joined: ``(right, down)`` booleans of shapes (H, W-1), (H-1, W).
     NaN - x is NaN and NaN <= m is False, so a join needs both pixels valid."""
+    def joined(a, b):
+        # in place in one temporary (three whole-image float64 arrays each before: 77 ms at
+        # 1000 x 1500 under load, mostly fresh pages)
+        t = np.subtract(a, b)
+        np.abs(t, out=t)
+        return np.less_equal(t, max_diff)
     with np.errstate(invalid="ignore"):
-        return (np.abs(d[:, 1:] - d[:, :-1]) <= max_diff), (np.abs(d[1:, :] - d[:-1, :]) <= max_diff)
+        return joined(d[:, 1:], d[:, :-1]), joined(d[1:, :], d[:-1, :])
 
 
 def small_regions(disp, max_size, max_diff):
