@@ -13,8 +13,13 @@ samples, once on an N/4 square, its cost refusal lifted: ``motion_blur`` refuses
 average beside each row.  The process's CPU time (all its threads) is less sensitive to other jobs
 than the wall time: twice the pixels per CPU second is what two idle cores would give.
 
+With ``--speed N --compare REV``: the Gauss rule only, ``motion_blur`` as of the git revision REV
+(imported beside the working tree's, as benchmarks/oblique.py does) and now, calls alternated in one
+process, best of ``--repeat`` wall and CPU times, with the load average: the A/B figure a shared
+machine allows.
+
 Usage:  python benchmarks/field_rule.py [--side 128] [--copies 512] [--backend numpy] [--peaks 0.3,1,3,10,30]
-        python benchmarks/field_rule.py --speed 2048 [--repeat 3] [--backend opencl]
+        python benchmarks/field_rule.py --speed 2048 [--repeat 3] [--backend opencl] [--compare REV]
 """
 
 from __future__ import annotations
@@ -111,6 +116,39 @@ def speed(n, backend, repeat):
                   f"{cpu[rule]:.3f} | {2 * side * side / cpu[rule] / 1e6:.2f} | {os.getloadavg()[0]:.1f} |", flush=True)
 
 
+def compare(n, backend, repeat, rev):
+    """The Gauss rule as of ``rev`` and now, alternated in one process (Markdown rows)."""
+    from oblique import gfgpu_at
+    before, sha = gfgpu_at(rev)
+    img = refs.texture((n, n), seed=3).astype(np.float32)
+    field = refs.velocity_field((n, n), 30.0)
+    out = np.empty_like(img)
+    calls = {(who, psf): (lambda f=f, psf=psf: f(img, field, psf=psf, mode="wrap", backend=backend, output=out))
+             for who, f in (("before", before.motion.motion_blur), ("now", motion_blur)) for psf in ("box", "green")}
+    for fn in calls.values():       # builds the kernels
+        fn()
+    load0 = os.getloadavg()
+    best, cpu = dict.fromkeys(calls, np.inf), dict.fromkeys(calls, np.inf)
+    for _ in range(repeat):
+        for key, fn in calls.items():
+            c0, t0 = time.process_time(), time.perf_counter()
+            fn()
+            best[key] = min(best[key], time.perf_counter() - t0)
+            cpu[key] = min(cpu[key], time.process_time() - c0)
+    load1 = os.getloadavg()
+    print(f"(2, {n}, {n}) field, |v| <= 30, float32, {backend}, best of {repeat} alternated; load average "
+          f"{load0[0]:.2f} before, {load1[0]:.2f} after")
+    print(f"| psf | {sha}: Mpix/s | now: Mpix/s | now / {sha} | {sha}: Mpix/s per 2 CPU s | now: per 2 CPU s | "
+          f"now / {sha} (CPU) |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
+    px = n * n / 1e6
+    for psf in ("box", "green"):
+        b, w = best["before", psf], best["now", psf]
+        cb, cw = cpu["before", psf], cpu["now", psf]
+        print(f"| {psf} | {px / b:.2f} | {px / w:.2f} | {b / w:.2f} | {2 * px / cb:.2f} | {2 * px / cw:.2f} | "
+              f"{cb / cw:.2f} |")
+
+
 def errors(out, ref):
     d, r = (out - ref)[MARGIN:-MARGIN, MARGIN:-MARGIN], ref[MARGIN:-MARGIN, MARGIN:-MARGIN]
     return float(np.linalg.norm(d) / np.linalg.norm(r)), float(np.abs(d).max())
@@ -124,7 +162,10 @@ def main(argv=None):
     ap.add_argument("--peaks", default="0.3,1,3,10,30")
     ap.add_argument("--speed", type=int, metavar="N", help="time both rules on (2, N, N) instead")
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--compare", metavar="REV", help="with --speed: the Gauss rule as of git revision REV and now")
     opts = ap.parse_args(argv)
+    if opts.speed and opts.compare:
+        return compare(opts.speed, opts.backend, opts.repeat, opts.compare)
     if opts.speed:
         return speed(opts.speed, opts.backend, opts.repeat)
     n = opts.side

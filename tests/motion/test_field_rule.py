@@ -11,7 +11,7 @@ from scipy import ndimage as ndi
 
 from conftest import gpu_shaped_backend
 from gfgpu.motion import kernels, motion_blur, spec
-from gfgpu.motion.field import FIELD_RULES, rule_fits
+from gfgpu.motion.field import FIELD_RULES, check_field, rule_fits
 
 # the documented bounds (docs/motion.md, velocity fields): Gaussian-filtered noise (sigma 2 px), |v| <= 30
 RENDER_BOUND = {"box": 0.005, "green": 0.012}
@@ -219,6 +219,45 @@ def test_kernel_matches_specification(backend):
         pytest.skip("the numpy launcher is the specification")
     _kernel_against_spec(backend, (2, 37, 45), 2.0, 21)
     _kernel_against_spec(backend, (1, 14, 17), 25.0, 22)
+
+
+def test_kernel_reads_a_field_held_in_place(backend):
+    """The field as ``apply_field`` hands it over (``host_view``): on a CPU OpenCL device a host array
+    above the zero-copy size is read in place from the aligned address below it, so the kernel sees it
+    at an element offset; elsewhere a copy.  Against the specification, paths inside and across the border."""
+    if backend.name == "numpy":
+        pytest.skip("the numpy launcher is the specification")
+    rng = np.random.default_rng(31)
+    shape = (1, 96, 100)                        # the field: 2 x 96 x 100 float32, 75 kB
+    coef = rng.standard_normal(shape).astype(np.float32)
+    values = (smooth_field(100, 14.0, seed=3)[:, :96, :]).astype(np.float32)
+    buf = np.empty(values.size + 64, np.float32)
+    start = 1 if (buf.ctypes.data + 4) % 128 else 2      # not on an aligned address
+    field = buf[start:start + values.size].reshape(values.shape)
+    field[...] = values
+    for psf in range(4):
+        out = backend.empty(shape, np.float32)
+        kernels.field_rule(backend, backend.asarray(coef), backend.host_view(field), out, psf, "reflect", 0.3)
+        ref = spec.field_rule_reference(coef, values, psf, "reflect", 0.3)
+        assert np.abs(backend.to_host(out).reshape(ref.shape) - ref).max() <= 2e-5 * max(1.0, np.abs(ref).max()), psf
+
+
+def test_a_field_keeps_its_precision(backend):
+    """``check_field`` copies a float32 field as float32 (no float64 round trip on the way to a float32
+    kernel), float64 as float64, integers as float64; a float32 field and the same values in float64
+    give the same output."""
+    f32 = smooth_field(40, 12.0, seed=5).astype(np.float32)
+    kept = check_field(f32, (40, 40))
+    assert kept.dtype == np.float32 and not np.shares_memory(kept, f32)
+    np.testing.assert_array_equal(kept, f32)
+    assert check_field(f32.astype(np.float64), (3, 40, 40)).dtype == np.float64
+    assert check_field(np.ones((2, 40, 40), np.int16), (40, 40)).dtype == np.float64
+    img = texture(40, seed=6)
+    for dtype in (np.float32, np.float64) if backend.supports_float64 else (np.float32,):
+        for psf in ("box", "green"):
+            a = motion_blur(img.astype(dtype), f32, psf=psf, mode="wrap", backend=backend.name)
+            b = motion_blur(img.astype(dtype), f32.astype(np.float64), psf=psf, mode="wrap", backend=backend.name)
+            np.testing.assert_array_equal(a, b)
 
 
 @pytest.mark.parametrize("name", ["opencl", "warp"])
