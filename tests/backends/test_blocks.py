@@ -102,6 +102,31 @@ def test_few_long_lines_run_in_blocks(backend, dtype, rng):
     _check_backend(backend, FEW_LINES, dtype, rng)
 
 
+# few long rows whose blocks divide them: the OpenCL CPU kernel runs each line's blocks as rows of a
+# view, in the lanes of its vectors (rows_as_blocks)
+ROW_BLOCKS = [((1, 4, 65536), 2), ((2, 1, 40960), 2), ((1, 3, 49152), 2)]
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_few_long_rows_run_as_rows_of_blocks(backend, dtype, rng):
+    if backend.name == "opencl" and backend.kind == "cpu":
+        for shape, axis in ROW_BLOCKS:
+            launch = backend.recurse_shape(shape, axis, np.dtype(dtype))
+            assert launch.rows_as_blocks and launch.blocks > 1, (shape, launch)
+    _check_backend(backend, ROW_BLOCKS, dtype, rng)
+    # accumulating, and the finite check of every sample (a NaN first, in the middle, last)
+    x = rng.standard_normal(ROW_BLOCKS[0][0]).astype(dtype)
+    base = rng.standard_normal(x.shape).astype(dtype)
+    got, _ = _run(backend, x, PASSES["two sections, anticausal"], 2, "reflect", 0.3, accumulate=base)
+    want = base + reference(x, PASSES["two sections, anticausal"], 2, "reflect", 0.3)
+    assert np.abs(got - want).max() < 2e-5 * np.abs(want).max()
+    for where in (0, x.size // 2 + 1, x.size - 1):
+        bad = x.copy()
+        bad.reshape(-1)[where] = np.nan
+        _, finite = _run(backend, bad, PASSES["G_u"], 2, "wrap", 0.0, check=True)
+        assert finite is False, where
+
+
 def _blocks(be, shape, axis, dtype):
     if be.name == "opencl":
         return be.recurse_shape(shape, axis, np.dtype(dtype)).blocks

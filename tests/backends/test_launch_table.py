@@ -33,6 +33,8 @@ def launch_table():
         gpu = recurse_launch(shape, axis, 4, GPU_UNITS, "gpu", GPU_GROUP)
         lines_, blocks, _ = block_split(shape, axis, "gpu")
         band = f"{cpu.vectors * cpu.lanes} columns" if axis == 1 else f"{cpu.lanes} rows"
+        if cpu.rows_as_blocks:     # few long rows: the lanes hold blocks of a line
+            band = f"{cpu.lanes} blocks of {cpu.block}"
         lines.append(f"| {name} of {h}×{w} | {_items(cpu.gsize)} × {cpu.lanes} ({band}, {cpu.blocks}) | "
                      f"{_items(gpu.gsize)} ({gpu.blocks}) | {lines_ * blocks} ({blocks}), {GPU_BLOCK_DIM} |")
     return "\n".join(lines)

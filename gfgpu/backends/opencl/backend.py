@@ -25,7 +25,7 @@ import numpy as np
 
 from ..._core.hostpool import new_pool
 from ..._core.magnitude import host_in_range
-from ..._core.recursion import packed_block_powers
+from ..._core.recursion import PassPlan, packed_block_powers
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 from . import launch
 
@@ -296,9 +296,21 @@ class RecurseShape(NamedTuple):
     blocks: int      # blocks per line (1: whole lines, no carries)
     gsize: tuple     # global size of the pass kernel
     lsize: tuple     # local size
+    rows_as_blocks: bool = False   # few long rows on a CPU: each line's blocks are rows of a view, in lanes
 
 
-def recurse_launch(shape, axis, itemsize, units, kind, group, length=None):
+def _row_blocks(lines, m, lanes, units):
+    """Blocks per line when few long rows run as rows of blocks (:func:`recurse_launch`), else 0:
+    at least two work-items of full lanes per core, blocks of whole tiles of at least
+    ``_MIN_BLOCK`` steps that divide the line exactly."""
+    least = -(-2 * lanes * units // lines)
+    for nb in range(least, 4 * least + 1):
+        if m % nb == 0 and (m // nb) % lanes == 0 and m // nb >= _MIN_BLOCK:
+            return nb
+    return 0
+
+
+def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, constant=True):
     """The launch of one recursion pass over a ``(B, N, M)`` array along ``axis`` (1 or 2).
 
     Parameters
@@ -318,6 +330,8 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None):
     length : int, optional
         Steps per line when they differ from the line's samples (a windowed pass): such lines
         are never cut into blocks.
+    constant : bool, optional
+        The pass has constant coefficients (rows of blocks need them).
 
     Returns
     -------
@@ -327,11 +341,21 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None):
         work-items); a GPU work-item runs one line.  Lines too few for the device (fewer
         work-items than cores on a CPU, than ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a
         GPU) are cut into blocks of at least ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried
-        exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).
+        exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).  On a CPU, rows too few
+        to fill the lanes of a work-item per core (a 1-D signal, a (4, 4194304) array) put the
+        blocks in the lanes instead (``rows_as_blocks``): each line's ``blocks`` blocks of
+        ``block`` steps are rows of the array viewed as ``(lines * blocks, block)``, run by the
+        row kernel, whose idle lanes would otherwise multiply the work (where ``block`` divides
+        the line; constant coefficients).
     """
     b, n, m = (int(x) for x in shape)
     cpu = kind == "cpu"
     lanes = _CACHE_LINE // itemsize if cpu else 1
+    if cpu and axis == 2 and length is None and constant and b * n < lanes * units:
+        nb = _row_blocks(b * n, m, lanes, units)
+        if nb:
+            items = -(-(b * n * nb) // lanes)
+            return RecurseShape(lanes, 1, m // nb, nb, (items, 1), (1, 1), True)
     if axis == 1:   # columns: B*M lines, LANES x nv adjacent ones per work-item
         vecs = -(-m // lanes)
         nv = max(1, min(_BAND, (b * vecs) // (2 * units))) if cpu else 1
@@ -751,11 +775,11 @@ class OpenCLBackend(Backend):
         return self._plans[key][1]
 
     # ---- the primitive --------------------------------------------------------------
-    def recurse_shape(self, shape, axis, dtype, length=None):
+    def recurse_shape(self, shape, axis, dtype, length=None, constant=True):
         """How :meth:`recurse` runs lines of a ``(B, N, M)`` array along ``axis``
         (:func:`recurse_launch` for this device)."""
         return recurse_launch(shape, axis, np.dtype(dtype).itemsize, int(self._device.max_compute_units),
-                              self.kind, launch.group_size(self), length)
+                              self.kind, launch.group_size(self), length, constant)
 
     #: :meth:`recurse` takes ``window=``: an integer translation fused into the pass
     recurses_windows = True
@@ -804,7 +828,9 @@ class OpenCLBackend(Backend):
         b, n, m = src.shape
         if src.size == 0:
             return True if check else dst
-        shape = self.recurse_shape(src.shape, axis, dtype, None if window is None else plan.n)
+        shape = self.recurse_shape(src.shape, axis, dtype, None if window is None else plan.n, plan.constant)
+        if shape.rows_as_blocks:
+            return self._recurse_row_blocks(src, dst, plan, dtype, cval, accumulate, check, shape)
         if window is None:
             win_buf, first = self._dummy(), 0
         else:
@@ -849,6 +875,77 @@ class OpenCLBackend(Backend):
                            np.int32(shape.blocks), np.int64(count), np.int32(outer)))
             knl = self._kernel("recurse", dtype, PHASE=2, **config)
             evt = launch.launch(self, knl, shape.gsize, shape.lsize, [src, carry], [dst], head + tail)
+        if not check:
+            return dst
+        self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking
+        return int(flag[0]) == 0
+
+    def _row_view_plan(self, plan, block):
+        """The plan of one block of ``plan`` run as a row of ``block`` steps: its constant
+        coefficients and tap, no initial state (the blocks' states are composed), cached."""
+        key = (id(plan), "rows", block)
+        hit = self._plans.get(key)
+        if hit is not None and hit[0] is plan:
+            self._plans.move_to_end(key)
+            return hit[1]
+        sections = plan.sections
+        view = PassPlan(plan.lam[:, :block], plan.kap[:, :block], np.zeros((sections, 0), np.complex128),
+                        np.zeros(sections, np.complex128), plan.tap, plan.reverse, True)
+        self._plans[key] = (plan, view)
+        if len(self._plans) > _PLAN_CACHE_SIZE:
+            self._plans.popitem(last=False)
+        return view
+
+    def _recurse_row_blocks(self, src, dst, plan, dtype, cval, accumulate, check, shape):
+        """A row pass over few long lines with their blocks in the lanes (``rows_as_blocks``):
+        (1) every block, a row of the ``(lines * blocks, block)`` view, runs from a zero state to
+        its end state (PHASE 1; the finite check rides here); (2) the line's initial state, the
+        omega terms of its first samples, by the block kernel on the first blocks of the lines
+        alone; (3) ``compose_rows`` turns end states into start states along each line; (4) every
+        block runs again from its start state and writes (PHASE 2).  Equal to the sequential pass
+        within rounding (:func:`gfgpu._core.recursion.run_reference_blocks`, blocks of ``block``)."""
+        b, n, m = src.shape
+        lines, nb, blen = b * n, shape.blocks, shape.block
+        rows = lines * nb
+        sections, item, real = plan.sections, dtype.itemsize, dtype.type
+        view = self._row_view_plan(plan, blen)
+        lam, kap, omega, omega_c = self._plan_buffers(view, dtype)
+        mf = self._cl.mem_flags
+        flag = np.zeros(1, np.int32)
+        flag_buf = (self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+                    if check else self._dummy())
+        stream = int(src.nbytes >= _STREAM_BYTES)
+        carry = self.empty((sections * 2 * rows,), dtype)
+        scratch = self.empty((sections * 2 * rows,), dtype)
+        config = dict(SECTIONS=sections, CONSTANT_COEF=1, LANES=shape.lanes, ROWS=1, BAND=1, STREAM=1, WINDOW=0)
+        head = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                lam, kap, omega, omega_c, np.int32(0), np.int32(blen), real(cval), real(plan.tap),
+                np.int32(plan.reverse), np.int32(bool(accumulate)), np.int32(1), np.int32(rows), np.int32(blen),
+                np.int32(1), np.int32(stream), flag_buf, np.int32(blen), np.int32(1))
+        tail = (carry.base_data, scratch.base_data, self._dummy(), np.int32(0))
+        knl = self._kernel("recurse", dtype, PHASE=1, CHECK=int(bool(check)), **config)
+        launch.launch(self, knl, shape.gsize, shape.lsize, [src], [carry, scratch], head + tail)
+        # the initial state: the omega terms of the samples of each line's first blocks (traversal)
+        L = plan.omega.shape[1]
+        lblocks = -(-L // blen)
+        partial = self.empty((max(1, nb * sections * 2 * lines),), dtype)
+        if lblocks:
+            ends = self.empty((nb * sections * 2 * lines,), dtype)
+            lam0, kap0, omega0, omega_c0 = self._plan_buffers(plan, dtype)
+            first = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
+                     lam0, kap0, omega0, omega_c0, np.int32(L), np.int32(plan.n), real(cval), real(plan.tap),
+                     np.int32(plan.reverse), np.int32(0), np.int32(b), np.int32(n), np.int32(m), np.int32(1),
+                     np.int32(0), self._dummy(), np.int32(blen), np.int32(nb),
+                     ends.base_data, partial.base_data, self._dummy(), np.int32(0))
+            knl = self._kernel("recurse", dtype, PHASE=1, CHECK=0, **config)
+            launch.launch(self, knl, (-(-lines // shape.lanes), lblocks), (1, 1), [src], [ends, partial], first)
+        compose = self._kernel("compose_rows", dtype, SECTIONS=sections, LANES=1)
+        launch.launch(self, compose, (-(-lines // 64) * 64,), (64,), [partial], [carry],
+                      (carry.base_data, partial.base_data, self._plan_buffers(plan, dtype)[3],
+                       self._block_powers(plan, dtype, blen, nb), real(cval), np.int32(nb), np.int32(lblocks),
+                       np.int32(nb), np.int64(lines), np.int32(plan.reverse)))
+        knl = self._kernel("recurse", dtype, PHASE=2, CHECK=0, **config)
+        evt = launch.launch(self, knl, shape.gsize, shape.lsize, [src, carry], [dst], head + tail)
         if not check:
             return dst
         self._cl.enqueue_copy(self.queue, flag, flag_buf, wait_for=[evt])   # blocking

@@ -770,6 +770,44 @@ __kernel void compose(__global REAL *carry, __global const REAL *partial,
     }
 }
 
+/* ---- compose_rows: the blocks of few long lines laid out as rows --------------------------
+ * A CPU pass over fewer lines than a vector has lanes runs each line's nb blocks as rows of the
+ * array viewed as (lines * nb, blen): line i's block t (natural order) is row i * nb + t, so the
+ * row kernel's lanes hold blocks, not idle lines.  PHASE 1 on that view left each row's end state
+ * from a zero start in `carry` at [s][part][row] (rows = count * nb); `partial` holds the omega
+ * terms of the line's first `lblocks` blocks in traversal order, as the block kernel stores them
+ * (carry_index(0, blk, pblocks, s, part, i, count)).  One work-item per line walks its blocks in
+ * traversal order and overwrites each row's end state with its start state, which PHASE 2 on
+ * the view runs from.  blockpow: lam^blen per section (constant coefficients only). */
+__kernel void compose_rows(__global REAL *carry, __global const REAL *partial,
+                           __global const REAL *omega_c, __global const REAL *blockpow, const REAL cval,
+                           const int nb, const int lblocks, const int pblocks, const long count,
+                           const int reverse)
+{
+    const long i = (long)get_global_id(0);
+    if (i >= count)
+        return;
+    const long rows = count * nb;
+    for (int s = 0; s < SECTIONS; ++s) {
+        REAL fr = omega_c[2 * s] * cval, fi = omega_c[2 * s + 1] * cval;
+        for (int blk = 0; blk < lblocks; ++blk) {
+            fr += partial[carry_index(0, blk, pblocks, s, 0, i, count)];
+            fi += partial[carry_index(0, blk, pblocks, s, 1, i, count)];
+        }
+        const REAL pr = blockpow[2 * ((size_t)s * nb)], pi = blockpow[2 * ((size_t)s * nb) + 1];
+        for (int t = 0; t < nb; ++t) {
+            const long r = i * nb + (reverse ? nb - 1 - t : t);
+            const size_t re = (size_t)(2 * s) * rows + r, im = (size_t)(2 * s + 1) * rows + r;
+            const REAL er = carry[re], ei = carry[im];
+            carry[re] = fr;
+            carry[im] = fi;
+            const REAL nr = pr * fr - pi * fi + er;
+            fi = pr * fi + pi * fr + ei;
+            fr = nr;
+        }
+    }
+}
+
 /* ---- gather: out[i] = index[i] >= 0 ? src[index[i]] : cval ----------------------------- */
 __kernel void gather(__global const REAL *src, const long src_off, __global const int *index,
                      __global REAL *out, const long out_off, const REAL cval, const long size)
