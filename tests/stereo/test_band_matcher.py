@@ -97,6 +97,44 @@ def test_coarse_bands_match_the_specification(require_backend, monkeypatch, h, k
         np.testing.assert_array_equal(g, r)
 
 
+@pytest.mark.parametrize("keep,paths", [(True, 4), (True, 8), (False, 4), (False, 8)])
+def test_band_sweeps_run_in_their_checkpoints(require_backend, monkeypatch, keep, paths):
+    # the up sweep reads a band's first predecessors from one checkpoint slot and writes the next
+    # (or runs in its own slot): no device copy of a state, with the costs kept or recomputed, and
+    # the maps still the specification's; the slots' guard lanes matter (not written: wrong maps)
+    from gfgpu.backends.opencl import launch as ocl
+    be = _cpu_opencl(require_backend)
+    monkeypatch.setattr(band_plan, "WHOLE_BYTES", 0)
+    monkeypatch.setattr(band_plan, "band_rows", lambda h_, paths_, w=1, n=1: min(h_, 3))
+    if not keep:
+        monkeypatch.setattr(band_plan, "KEEP_BYTES", 0)
+
+    def no_copy(*args, **kwargs):
+        raise AssertionError("the band matcher copied a device buffer")
+    monkeypatch.setattr(ocl, "copy_bytes", no_copy)
+    h, w, n, steps, first = 20, 30, 21, 2, -4
+    assert band_plan.match_plan(h, w, n, paths).keep == keep
+    left, right = _codes(np.random.default_rng(5), h, w, steps, 2, 0.25)
+    want = specs.semi_global_match_reference(left[0], right, first, n, steps, 3, 5, 40, paths, 10)
+    for g, r in zip(_match(be, left, right, first, n, steps, 3, paths), want):
+        np.testing.assert_array_equal(g, r)
+    real_launch = ocl.launch
+
+    def launch_without_guards(be_, knl, *args):
+        return None if knl.function_name == "sgm_guards" else real_launch(be_, knl, *args)
+    monkeypatch.setattr(ocl, "launch", launch_without_guards)
+    # fresh buffers that hold no guard lanes: zeros (a reused buffer would keep the last call's)
+    real_empty = be.empty
+
+    def zeroed(shape, dtype):
+        a = real_empty(shape, dtype)
+        a.fill(0)
+        return a
+    monkeypatch.setattr(be, "empty", zeroed)
+    got = _match(be, left, right, first, n, steps, 3, paths)
+    assert any(not np.array_equal(g, r, equal_nan=True) for g, r in zip(got, want))
+
+
 @pytest.mark.parametrize("paths", [4, 8])
 def test_stream_in_coarse_bands_equals_disparity(require_backend, monkeypatch, paths):
     # StereoMatcher keeps the coarse bands' buffers (costs, interleaved codes of one coarse band,
