@@ -105,6 +105,7 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
 #define CAT(a, b) CAT_(a, b)
 #define REAL4 CAT(REAL, 4)
 #define REAL8 CAT(REAL, 8)
+#define REAL16 CAT(REAL, 16)
 
 // 6 times the four cubic B-spline weights of the fraction tx (lanes 0-3) and of ty (lanes 4-7), by Horner on
 // the weights' polynomials (6 w0 = (1 - t)^3, 6 w1 = 3t^3 - 6t^2 + 4, 6 w2 = -3t^3 + 3t^2 + 3t + 1, 6 w3 = t^3)
@@ -116,26 +117,35 @@ INLINE REAL8 weights6(const REAL tx, const REAL ty)
     return ((a * t + b) * t + c) * t + d;
 }
 
-// 6 times the x weights of the 2-D cubic B-spline of one plane at (y + oy, x + ox), times 6 times the
-// sums of its four coefficient rows weighted along y, all 16 coefficients inside (no extension): the
-// sample is 1/36 of the lanes' sum, which the caller takes once for a whole path (its nodes' weights
-// times these, summed lane by lane).  The offsets from the pixel in OFF (float for float32 images: an
-// offset of a few hundred pixels keeps 1e-5 px, where a float position at 2000 px would keep 1e-4).
-// Four rows of four adjacent coefficients: four vector loads and four vector multiply-adds.
-INLINE REAL4 spline_inside(__global const REAL *src, const int w, const int y, const int x, const OFF oy,
-                           const OFF ox)
+// The 16 terms of 36 times the 2-D cubic B-spline of one plane at (y + oy, x + ox), all 16 coefficients
+// inside (no extension), from the coefficient at (y - 1, x - 1), `corner`: lane 4p + q is 6 wy[p] times
+// 6 wx[q] times coefficient (p, q) of the 4 x 4 window.  The caller sums the lanes once for a whole path
+// (its nodes' weights times these, added lane by lane) and divides by 36.  Four rows of four adjacent
+// coefficients in one 16-lane vector: the outer product of the weights and one multiply-add per node,
+// not a multiply-add and a broadcast per row.  The offsets from the pixel in OFF (float for float32
+// images: an offset of a few hundred pixels keeps 1e-5 px, where a float position at 2000 px would keep
+// 1e-4).
+INLINE REAL16 spline_inside(__global const REAL *corner, const int w, const OFF oy, const OFF ox)
 {
     const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
     const REAL8 wt = weights6((REAL)(ox - (OFF)jx), (REAL)(oy - (OFF)jy));
-    __global const REAL *line = src + (long)(y + jy - 1) * w + (x + jx - 1);
-    REAL4 r = wt.s4 * (REAL4)(line[0], line[1], line[2], line[3]);
+    __global const REAL *line = corner + (long)jy * w + jx;
+    const REAL4 c0 = (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
-    r += wt.s5 * (REAL4)(line[0], line[1], line[2], line[3]);
+    const REAL4 c1 = (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
-    r += wt.s6 * (REAL4)(line[0], line[1], line[2], line[3]);
+    const REAL4 c2 = (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
-    r += wt.s7 * (REAL4)(line[0], line[1], line[2], line[3]);
-    return wt.lo * r;
+    const REAL4 c3 = (REAL4)(line[0], line[1], line[2], line[3]);
+    return wt.s0123012301230123 * wt.s4444555566667777 * (REAL16)(c0, c1, c2, c3);
+}
+
+// the sum of a path's 16 lanes (spline_inside) over 36
+INLINE REAL lanes_sum(const REAL16 lanes)
+{
+    const REAL8 a = lanes.lo + lanes.hi;
+    const REAL4 b = a.lo + a.hi;
+    return (b.s0 + b.s1 + b.s2 + b.s3) * (REAL)(1.0 / 36.0);
 }
 
 // The fields' default rule (spec: gfgpu.motion.spec.field_rule_reference): one work-item per pixel, whose
@@ -169,29 +179,31 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
     const int inside = fmin(ya, yb) >= (POS)1 && fmax(ya, yb) < (POS)(h - 3) && fmin(xa, xb) >= (POS)1
                        && fmax(xa, xb) < (POS)(w - 3);
     const int roomy = h >= 4 && w >= 4;
-    const OFF fy = (OFF)vy, fx = (OFF)vx;
+    const OFF ny = -(OFF)vy, nx = -(OFF)vx;     // a node t is at (y, x) + t (ny, nx)
+    // the window's corner at the pixel, (y - 1, x - 1): the samples inside add only their offset
+    __global const REAL *corner = coef + ((long)y - 1) * w + (x - 1);
     for (int b = 0; b < planes; ++b) {
         REAL acc = 0;
         if (length == 0)
             acc = spline2(coef, b * hw, h, w, (POS)y, (POS)x, mode, mode, cval);
         else if (inside) {
-            REAL4 lanes = 0;
+            REAL16 lanes = 0;
             for (int k = k0; k < k1; ++k)
-                lanes += weights[k] * spline_inside(coef + b * hw, w, y, x, -tnear[k] * fy, -tnear[k] * fx);
-            acc = (lanes.s0 + lanes.s1 + lanes.s2 + lanes.s3) * (REAL)(1.0 / 36.0);
+                lanes += weights[k] * spline_inside(corner + b * hw, w, tnear[k] * ny, tnear[k] * nx);
+            acc = lanes_sum(lanes);
         }
         else {      // a path that leaves the image: its samples with 16 coefficients inside still sample so
-            REAL4 lanes = 0;
+            REAL16 lanes = 0;
             for (int k = k0; k < k1; ++k) {
-                const OFF oy = -tnear[k] * fy, ox = -tnear[k] * fx;
+                const OFF oy = tnear[k] * ny, ox = tnear[k] * nx;
                 const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
                 if (roomy && (unsigned)(y + jy - 1) <= (unsigned)(h - 4) && (unsigned)(x + jx - 1) <= (unsigned)(w - 4))
-                    lanes += weights[k] * spline_inside(coef + b * hw, w, y, x, oy, ox);
+                    lanes += weights[k] * spline_inside(corner + b * hw, w, oy, ox);
                 else
                     acc += weights[k] * spline2(coef, b * hw, h, w, (POS)y - nodes[k] * vy, (POS)x - nodes[k] * vx,
                                                 mode, mode, cval);
             }
-            acc += (lanes.s0 + lanes.s1 + lanes.s2 + lanes.s3) * (REAL)(1.0 / 36.0);
+            acc += lanes_sum(lanes);
         }
         out[out_off + b * hw + pix] = acc;
     }
