@@ -143,6 +143,18 @@ INLINE int lanes_nonfinite(const VT z)
 }
 #endif
 
+/* The fused check's running residue: RESIDUE(x) is +0 for a sample in range and NaN or an
+ * infinity otherwise (NONFINITE above); a work-item sums the residues of its samples, in which a
+ * NaN or an infinity never cancels to 0 (inf - inf is NaN), and tests the lanes once at its end
+ * (RESIDUE_BAD) instead of reducing 16 lanes at every step (measured: the per-step reduction
+ * made a checked pass ~40 % slower than an unchecked one) */
+#define RESIDUE(x) (((x) * RANGE_SCALE) - ((x) * RANGE_SCALE))
+#if LANES == 1
+#define RESIDUE_BAD(acc) ((acc) != (REAL)0)
+#else
+#define RESIDUE_BAD(acc) lanes_nonfinite(acc)
+#endif
+
 /* A store of one vector of LANES samples: non-temporal (past the caches, no read for ownership)
  * where the host asked for it (CPU devices, arrays larger than the caches) and `p` is aligned to
  * the vector, else a plain store.  Every output sample is written once, so nothing is lost by
@@ -337,7 +349,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
         }
     }
 #endif
-    int bad = 0;
+    VT chk = (VT)(0);
     coef_t c;
     load_coef(&c, lam, kap, n, k_lo);
     for (int k = k_lo; k < k_hi; ++k) {
@@ -361,7 +373,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
             /* read before dst (may alias) is written */
             const VT x = from >= 0 ? load_cols(p + v * LANES, valid) : (VT)(cval);
 #if CHECK
-            bad |= ANY_NONFINITE(x);
+            chk += RESIDUE(x);
 #endif
             VT y = fr[0][v];
 #pragma unroll
@@ -393,8 +405,10 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 #endif
     STREAM_FENCE(nt);
 #if CHECK
-    if (bad)
+    if (RESIDUE_BAD(chk))
         atomic_or(flag, 1);
+#else
+    (void)chk;
 #endif
 }
 
@@ -537,7 +551,7 @@ INLINE int run_rows(__global const REAL *src, __global REAL *dst,
                            const int first, const REAL cval)
 {
     VT w[LANES];
-    int bad = 0;
+    VT chk = (VT)(0);
     coef_t c;
     load_coef(&c, lam, kap, n, k_lo);
     int k0 = k_lo;
@@ -546,7 +560,7 @@ INLINE int run_rows(__global const REAL *src, __global REAL *dst,
 #pragma unroll
         for (int i = 0; i < LANES; ++i) {
 #if CHECK
-            bad |= ANY_NONFINITE(w[i]);
+            chk += RESIDUE(w[i]);
 #endif
 #if !CONSTANT_COEF
             load_coef(&c, lam, kap, n, k0 + i);
@@ -564,7 +578,7 @@ INLINE int run_rows(__global const REAL *src, __global REAL *dst,
         for (int i = 0; i < LANES; ++i) {
             if (i < cnt) {
 #if CHECK
-                bad |= ANY_NONFINITE(w[i]);
+                chk += RESIDUE(w[i]);
 #endif
 #if !CONSTANT_COEF
                 load_coef(&c, lam, kap, n, k0 + i);
@@ -576,7 +590,12 @@ INLINE int run_rows(__global const REAL *src, __global REAL *dst,
         store_chunk(w, dst, n, valid, k0, cnt, reverse, accumulate, nt, M, first);
 #endif
     }
-    return bad;
+#if CHECK
+    return RESIDUE_BAD(chk);
+#else
+    (void)chk;
+    return 0;
+#endif
 }
 
 /* The omega terms of traversal positions j_lo .. j_hi - 1 added to fr/fi. */
