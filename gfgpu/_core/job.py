@@ -283,8 +283,13 @@ def apply_program(job, program, mode, cval):
     steps = program.steps
     if not steps:
         return job.finish(copy_of_input(job))
-    bufs = [job.empty() for _ in range(min(2, len(steps)))]
-    bufs[(len(steps) - 1) % 2] = job.result_buffer()
+    # the last step writes the result buffer; a ping-pong partner only where there are two steps
+    # or more (no temporary allocated to be dropped at once)
+    last = (len(steps) - 1) % 2
+    bufs = [None] * min(2, len(steps))
+    bufs[last] = job.result_buffer()
+    if len(bufs) == 2:
+        bufs[1 - last] = job.empty()
     done = 0
     passes, axis, angle = steps[0]
     if cval and not abs(cval) < range_limit(job.dtype):
