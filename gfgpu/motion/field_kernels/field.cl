@@ -106,6 +106,16 @@ __kernel void field_blur(__global const REAL *coef, __global const REAL *field, 
 #define REAL4 CAT(REAL, 4)
 #define REAL8 CAT(REAL, 8)
 #define REAL16 CAT(REAL, 16)
+// floor in the image's type: one rounding instruction under clang (vectorised over the two axes)
+#ifdef __clang__
+#if IS_DOUBLE(REAL)
+#define FLOOR_REAL(x) __builtin_floor(x)
+#else
+#define FLOOR_REAL(x) __builtin_floorf(x)
+#endif
+#else
+#define FLOOR_REAL(x) floor(x)
+#endif
 
 // 6 times the four cubic B-spline weights of the fraction tx (lanes 0-3) and of ty (lanes 4-7), by Horner on
 // the weights' polynomials (6 w0 = (1 - t)^3, 6 w1 = 3t^3 - 6t^2 + 4, 6 w2 = -3t^3 + 3t^2 + 3t + 1, 6 w3 = t^3)
@@ -127,9 +137,9 @@ INLINE REAL8 weights6(const REAL tx, const REAL ty)
 // 1e-4).
 INLINE REAL16 spline_inside(__global const REAL *corner, const int w, const OFF oy, const OFF ox)
 {
-    const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
-    const REAL8 wt = weights6((REAL)(ox - (OFF)jx), (REAL)(oy - (OFF)jy));
-    __global const REAL *line = corner + (long)jy * w + jx;
+    const OFF fy = FLOOR_REAL(oy), fx = FLOOR_REAL(ox);
+    const REAL8 wt = weights6(ox - fx, oy - fy);
+    __global const REAL *line = corner + (long)(int)fy * w + (int)fx;
     const REAL4 c0 = (REAL4)(line[0], line[1], line[2], line[3]);
     line += w;
     const REAL4 c1 = (REAL4)(line[0], line[1], line[2], line[3]);
