@@ -33,7 +33,8 @@ from .backends import resolve_backend
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "make_job",
            "green_filter_program", "shift_program", "derivative_program", "projection_program",
-           "operated_axes", "line_axis", "image_plane", "run_line_program", "job_gradient"]
+           "operated_axes", "line_axis", "image_plane", "run_line_program", "job_gradient",
+           "register_two_sided"]
 
 
 def make_job(input, output=None, backend=None, device=None, min_ndim=1):
@@ -673,14 +674,26 @@ def gradient(input, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0
 # --------------------------------------------------------------------------------------
 # running the derivative, projection and gradient: two-sided steps where the device has them
 # --------------------------------------------------------------------------------------
+_TWO_SIDED = []      # [(runs_on, run)]: device code of two-sided steps, registered from above
+
+
+def register_two_sided(runs_on, run):
+    """Register device code for two-sided steps (:mod:`gfgpu._core.twosided`): ``run(be, srcs,
+    dsts, axis, plan, cvals, check=False)`` on the backends for which ``runs_on(be)`` holds, as
+    :func:`gfgpu.edges.twosided.run_two_sided` on OpenCL CPU devices (registered by
+    :mod:`gfgpu.edges.kernels`, a layer above this module, which therefore never imports it)."""
+    if (runs_on, run) not in _TWO_SIDED:
+        _TWO_SIDED.append((runs_on, run))
+
+
 def _two_sided_runner(be):
-    """The two-sided step launcher of ``be`` (OpenCL CPU devices), else None: elsewhere (numpy,
+    """The registered two-sided step launcher that runs on ``be``, else None: elsewhere (numpy,
     Warp, OpenCL GPUs, whose generic primitive cuts lines into blocks) the program's passes run
     one by one through :func:`~gfgpu._core.job.apply_program`."""
-    if be.name != "opencl":
-        return None
-    from .backends.opencl import twosided
-    return twosided if twosided.runs_on(be) else None
+    for runs_on, run in _TWO_SIDED:
+        if runs_on(be):
+            return run
+    return None
 
 
 def _two_sided_steps(job, steps, mode):
@@ -703,8 +716,8 @@ def _launch(job, runner, step, srcs, dsts, cval, check=False):
     the constant of the (first) input's extension."""
     plan, view, line = step
     be = job.backend
-    return runner.run_two_sided(be, [be.reshape(x, view) for x in srcs], [be.reshape(y, view) for y in dsts],
-                                line, plan, (cval, 0.0), check=check)
+    return runner(be, [be.reshape(x, view) for x in srcs], [be.reshape(y, view) for y in dsts],
+                  line, plan, (cval, 0.0), check=check)
 
 
 def _checked_first_step(job, runner, step, dsts, cval, may_write):

@@ -1,4 +1,4 @@
-"""Two-sided steps (gfgpu/_core/twosided.py, backends/opencl/twosided.cl): the specification
+"""Two-sided steps (gfgpu/_core/twosided.py, gfgpu/edges/twosided.cl): the specification
 against the passes it fuses, the OpenCL CPU kernel against the specification, and the public
 derivative / projection / gradient that run them against the numpy backend and direct summation."""
 
@@ -84,7 +84,7 @@ def cpu_opencl(require_backend):
 @pytest.mark.parametrize("kind", ["chapter", "one-signed", "ratio"])
 def test_kernel_matches_spec(cpu_opencl, dtype, shape, axis, kind, rng):
     """Partial tiles and bands, several images, both axes, one and two inputs and outputs."""
-    from gfgpu.backends.opencl.twosided import run_two_sided
+    from gfgpu.edges.twosided import run_two_sided
     be = cpu_opencl
     n = shape[axis]
     P, D = _passes(kind)
@@ -104,7 +104,7 @@ def test_kernel_matches_spec(cpu_opencl, dtype, shape, axis, kind, rng):
 @pytest.mark.parametrize("axis", [1, 2])
 def test_kernel_check_and_large_arrays(cpu_opencl, axis, rng):
     """Arrays beyond the caches (non-temporal stores, prefetch) and the finite check's verdicts."""
-    from gfgpu.backends.opencl.twosided import run_two_sided
+    from gfgpu.edges.twosided import run_two_sided
     be = cpu_opencl
     shape = (1, 1040, 2064)                 # 8.6 MB float32: the streaming path
     x = rng.standard_normal(shape).astype(np.float32)

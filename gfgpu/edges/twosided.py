@@ -1,4 +1,4 @@
-"""Two-sided steps on an OpenCL CPU device: ``twosided.cl`` (spec:
+"""Two-sided steps on an OpenCL CPU device: ``twosided.cl`` beside this module (spec:
 :func:`gfgpu._core.twosided.run_two_sided_reference`).
 
 One kernel runs a step's causal and anticausal passes over the same lines for up to two inputs and
@@ -6,6 +6,12 @@ two outputs (:class:`~gfgpu._core.twosided.TwoSidedPlan`): each input is read on
 written once from memory, the backward sweep reading back what the forward one wrote from the
 cache.  CPU devices only (a work-item runs a cache line of lines; on a GPU the generic
 primitive's block-parallel lines are the right shape): :func:`runs_on` says where.
+
+The derivative, projection and gradient of :mod:`gfgpu.filters` (and :func:`gfgpu.canny`'s
+gradient) run their steps here: :mod:`gfgpu.edges.kernels` hands :func:`run_two_sided` to
+:func:`gfgpu.filters.register_two_sided`, so the layer below calls it without importing the
+edge detector.  Built and launched through the OpenCL launch toolkit (no PyOpenCL import here:
+importing gfgpu loads no device library).
 """
 
 from __future__ import annotations
@@ -15,7 +21,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from . import launch
+from ..backends.opencl import launch
 
 __all__ = ["runs_on", "run_two_sided"]
 
@@ -31,17 +37,15 @@ def runs_on(be):
 
 
 def _buffers(be, plan, dtype):
-    """The plan's coefficient and initial-state buffers, uploaded once per plan (plans are cached
-    and immutable: id(plan) is a key while the plan is kept)."""
-    import pyopencl as cl
+    """The plan's coefficient and initial-state arrays on the device, uploaded once per plan
+    (plans are cached and immutable: id(plan) is a key while the plan is kept)."""
     cache = _uploads.setdefault(be, OrderedDict())
     key = (id(plan), dtype.str)
     hit = cache.get(key)
     if hit is not None and hit[0] is plan:
         cache.move_to_end(key)
         return hit[1]
-    mf = cl.mem_flags
-    bufs = tuple(cl.Buffer(be.context, mf.READ_ONLY | mf.COPY_HOST_PTR, hostbuf=a) for a in plan.packed(dtype))
+    bufs = tuple(be.asarray(a) for a in plan.packed(dtype))
     cache[key] = (plan, bufs)
     if len(cache) > _PLAN_CACHE:
         cache.popitem(last=False)
@@ -105,7 +109,6 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     b, n, m = first.shape
     if first.size == 0:
         return True if check else None
-    import pyopencl as cl
     lanes = _CACHE_LINE // dtype.itemsize
     units = int(be.cl_device.max_compute_units)
     width = band(plan)
@@ -120,9 +123,7 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
                         NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), ROWS=int(axis == 2), BAND=width,
                         CHECK=int(bool(check)))
     coef, omega = _buffers(be, plan, dtype)
-    mf = cl.mem_flags
-    flag = np.zeros(1, np.int32)
-    flag_buf = cl.Buffer(be.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
+    flag = be.asarray(np.zeros(1, np.int32))
     s0, s1 = srcs[0], srcs[-1]
     d0, d1 = dsts[0], dsts[-1]
     item = dtype.itemsize
@@ -130,11 +131,10 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     stream = int(first.nbytes >= _STREAM_BYTES)
     args = (s0.base_data, s1.base_data, d0.base_data, d1.base_data,
             np.int64(s0.offset // item), np.int64(s1.offset // item), np.int64(d0.offset // item),
-            np.int64(d1.offset // item), coef, omega, np.int32(plan.omega.shape[-1]),
+            np.int64(d1.offset // item), coef.data, omega.data, np.int32(plan.omega.shape[-1]),
             real(cvals[0]), real(cvals[-1] if nin == 2 else 0.0), np.int32(b), np.int32(n), np.int32(m),
-            np.int32(nv), np.int32(stream), flag_buf)
-    evt = launch.launch(be, knl, gsize, lsize, list(srcs), list(dsts), args)
+            np.int32(nv), np.int32(stream), flag.data)
+    launch.launch(be, knl, gsize, lsize, list(srcs), list(dsts) + ([flag] if check else []), args)
     if not check:
         return None
-    cl.enqueue_copy(be.queue, flag, flag_buf, wait_for=[evt])   # blocking
-    return int(flag[0]) == 0
+    return int(be.to_host(flag)[0]) == 0      # waits for the kernel (the flag holds its event)

@@ -1,5 +1,5 @@
 /*
- * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference).
+ * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference; launcher gfgpu/edges/twosided.py).
  *
  * Up to two inputs X_i and two outputs Y_o along the same lines; output o reads input IN(o).
  * Per input, SECTIONS unit states (F <- lam F + x, kap = 1) run forward, then backward:
@@ -43,7 +43,7 @@ typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
 
 #define TILE_LANES LANES
 #define TILE_VT VT
-#include "tile.cl"
+#include "backends/opencl/tile.cl"
 
 #if NIN == 2
 #define IN(o) (o)
