@@ -3,11 +3,20 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from . import spec as specs
 
 
 def launch_census(be, image, out, plane, radius):
     out[plane] = specs.census_transform_reference(image, radius)
+    return out
+
+
+def launch_planes(be, right, out, steps):
+    # the host's batched recursions (bit for bit the specification's, which runs a row at a time)
+    from .matching import subpixel_planes
+    out[...] = subpixel_planes(np.asarray(right, np.float32), steps)
     return out
 
 

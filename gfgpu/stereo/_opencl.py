@@ -106,6 +106,36 @@ def launch_census(be, image, out, plane, radius):
                (image.data, out.data, np.int64(plane * h * w), np.int32(h), np.int32(w)))
     return out
 
+def launch_planes(be, right, out, steps):
+    right = ocl.plain(be, right, "right", np.float32)
+    ocl.plain(be, out, "out", np.float32, output=True)
+    h, w = right.shape
+    if out.shape != (steps, h, w):
+        raise ValueError(f"out must have shape {(steps, h, w)}, got {out.shape}")
+    if not be.supports_float64:
+        raise TypeError("the sub-pixel planes are float64 recursions: this OpenCL device has no cl_khr_fp64")
+    if steps > 1 and right.size:
+        ocl.copy_bytes(be, out, right, right.nbytes)          # plane 0: the view itself
+        knl = _build(be, "shift_planes", SHIFT_PLANES=1)
+        scratch = be.empty((h, w), np.float64)
+        group = ocl.group_size(be)
+        for f, jobs in enumerate(specs.subpixel_jobs(steps), start=1):
+            # per job b0, b1, b2, a1, a2, zi0, zi1, n, reverse (stereo.cl's shift_row)
+            coef = np.zeros((2, 9))
+            for q, job in enumerate(jobs):
+                b, a, zi, n, reverse = specs.shift_recursion(*job)
+                if n < 0:       # (no sub-pixel job has one: shifts by 0 .. 1 px, offsets 0 and 1)
+                    raise ValueError(f"shift_planes extends rows at their start only, got n = {n}")
+                coef[q] = (*b, a[1], a[2], *zi, n, reverse)
+            coef_d = be.asarray(coef)
+            ocl.launch(be, knl, (-(-h // group) * group,), (group,), [right, coef_d], [out, scratch],
+                       (right.data, out.data, scratch.data, coef_d.data, np.int32(h), np.int32(w), np.int32(f),
+                        np.int32(len(jobs))))
+    elif right.size:
+        ocl.copy_bytes(be, out, right, right.nbytes)
+    return out
+
+
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     cl_ = ocl.plain(be, census_left, "census_left", np.uint64)
     cr = ocl.plain(be, census_right, "census_right", np.uint64)

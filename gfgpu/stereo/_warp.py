@@ -515,6 +515,14 @@ def launch_census(be, image, out, plane, radius):
     wpl.launch(be, census, dim=image.shape, inputs=[image, out, int(plane), int(radius)])
     return out
 
+def launch_planes(be, right, out, steps):
+    # float64 row recursions on the host (bit for bit the specification's), then to the device
+    from .matching import subpixel_planes
+    host = subpixel_planes(np.ascontiguousarray(right.numpy(), np.float32), steps)
+    wp.copy(out, wp.array(host, dtype=wp.float32, device=out.device))
+    return out
+
+
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
     wpl.launch(be, census_cost, dim=out.shape,
                inputs=[census_left, census_right, out, int(first_step), int(steps), int(block),

@@ -11,7 +11,7 @@ from __future__ import annotations
 from ..backends.fused import register
 from . import spec as specs
 
-__all__ = ["census", "cost", "sgm", "select", "match", "left_right", "sweep"]
+__all__ = ["census", "planes", "cost", "sgm", "select", "match", "left_right", "sweep"]
 
 
 def _launchers(name):
@@ -21,6 +21,11 @@ def _launchers(name):
 #: ``census(be, image, out, plane, radius)``: ``out[plane] = census_transform_reference(image, radius)``
 #: (``image`` (H, W) float32, ``out`` (S, H, W) uint64 device arrays)
 census = register("stereo.census", specs.census_transform_reference, **_launchers("census"))
+
+#: ``planes(be, right, out, steps)``: ``out = subpixel_planes_reference(right, steps)``, the right
+#: view's sub-pixel planes (``right`` (H, W) float32, scaled as ``disparity`` scales it; ``out``
+#: (steps, H, W) float32; float64 recursions: the OpenCL kernel needs ``cl_khr_fp64``)
+planes = register("stereo.planes", specs.subpixel_planes_reference, **_launchers("planes"))
 
 #: ``cost(be, census_left, census_right, out, first_step, steps, block)``: ``out =
 #: census_cost_reference(census_left[0], census_right, first_step, n_disp, steps, block)`` (block sums

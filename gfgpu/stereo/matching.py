@@ -325,22 +325,39 @@ def matching_views(left, right, steps):
     left : (H, W) float32 ndarray
     right : (steps, H, W) float32 ndarray
     """
+    if left.dtype != np.float64:
+        lft, rgt = _scaled_views(left, right)
+        return lft, subpixel_planes(rgt, steps)
+    # wide integers (_exact_views): float64 views and planes, no flush (the census of float64
+    # views runs on the host, the same bits for every backend)
+    exp = _scale_exponent(left, right)
+    lft, rgt = np.ldexp(left, exp), np.ldexp(right, exp)
+    planes = np.empty((steps,) + rgt.shape, np.float64)
+    planes[0] = rgt
+    for f in range(1, steps):
+        moved = _green_shift_rows(rgt, f / steps)
+        if 2 * f == steps:
+            moved = 0.5 * (moved + _green_shift_rows(rgt, -0.5, 1))
+        planes[f] = moved
+    return lft, planes
+
+
+def _scale_exponent(left, right):
+    """The power of two that brings the pair's largest magnitude into [1, 2) (0 for a zero pair)."""
     top = max(float(np.abs(left).max(initial=0.0)), float(np.abs(right).max(initial=0.0)))
-    exp = 1 - math.frexp(top)[1] if top > 0 else 0
-    if left.dtype == np.float64:
-        # wide integers (_exact_views): float64 views and planes, no flush (the census of float64
-        # views runs on the host, the same bits for every backend)
-        lft, rgt = np.ldexp(left, exp), np.ldexp(right, exp)
-        planes = np.empty((steps,) + rgt.shape, np.float64)
-        planes[0] = rgt
-        for f in range(1, steps):
-            moved = _green_shift_rows(rgt, f / steps)
-            if 2 * f == steps:
-                moved = 0.5 * (moved + _green_shift_rows(rgt, -0.5, 1))
-            planes[f] = moved
-        return lft, planes
-    lft = _flush(_scale2(left, exp))
-    rgt = _flush(_scale2(right, exp))
+    return 1 - math.frexp(top)[1] if top > 0 else 0
+
+
+def _scaled_views(left, right):
+    """Both float32 views scaled as :func:`matching_views` scales them, subnormals flushed."""
+    exp = _scale_exponent(left, right)
+    return _flush(_scale2(left, exp)), _flush(_scale2(right, exp))
+
+
+def subpixel_planes(rgt, steps):
+    """The right view's sub-pixel planes of :func:`matching_views` from the scaled right view
+    ``rgt`` ((H, W) float32): (steps, H, W) float32, plane 0 ``rgt`` itself (the host's batched
+    form of :func:`gfgpu.stereo.spec.subpixel_planes_reference`, bit for bit)."""
     planes = np.empty((steps,) + rgt.shape, np.float32)
     planes[0] = rgt
     # the shifts run on blocks of rows (each row is its own recursion: the same values), so that
@@ -351,7 +368,7 @@ def matching_views(left, right, steps):
     # symmetric about the half-pixel point.  The causal shift alone blurs to one side: samples
     # half a pixel below and above a whole-pixel match cost unequally, and an exact 8 px shift
     # came out 7.95 (median).  All shifts of a block of rows run as one batch.
-    jobs = [job for f in range(1, steps) for job in [(f / steps, 0)] + ([(-0.5, 1)] if 2 * f == steps else [])]
+    jobs = [job for plane in specs.subpixel_jobs(steps) for job in plane]
     for r0 in range(0, rgt.shape[0], _SHIFT_ROWS):
         shifted = iter(_green_shifts(rgt[r0:r0 + _SHIFT_ROWS].astype(np.float64), jobs)) if jobs else None
         for f in range(1, steps):
@@ -362,7 +379,7 @@ def matching_views(left, right, steps):
             planes[f, r0:r0 + _SHIFT_ROWS] = moved      # rounded to float32 as astype rounds
     for f in range(1, steps):
         _flush(planes[f])
-    return lft, planes
+    return planes
 
 
 #: rows per block of the right view's sub-pixel shifts in :func:`matching_views`
@@ -396,20 +413,16 @@ def _green_shifts(rows, jobs):
     h, w = rows.shape
     srcs, coefs, layout = [], [], []
     for amount, offset in jobs:
-        lp, = greens.translation_passes(amount)
-        (sec,) = lp.sections
-        lam, kap, tap = complex(sec.lam), complex(sec.kap), float(lp.tap)
-        a = np.array([1.0, -2 * lam.real, abs(lam) ** 2])
-        b = np.array([tap, tap * a[1] + kap.real, tap * a[2] - (kap * lam.conjugate()).real])
-        n = lp.offset + offset              # the result at x is the filtered line at x - n
+        # the result at x is the filtered line at x - n
+        b, a, _, n, reverse = specs.shift_recursion(amount, offset)
         src = rows
         if n > 0:                           # the extension's first n columns are needed
             src = np.concatenate([np.repeat(rows[:, :1], n, axis=1), rows], axis=1)
-        if lp.reverse:
+        if reverse:
             src = src[:, ::-1]
         srcs.append(src)
         coefs.append((b, a))
-        layout.append((n, lp.reverse, src.shape[1]))
+        layout.append((n, reverse, src.shape[1]))
     # one batch: every job's rows, as long as the longest (a recursion is causal: the columns
     # appended after a shorter job's end change none of its outputs), written transposed (the
     # recursion's layout)
@@ -520,11 +533,27 @@ def _sgm_options(window, subpixel_steps, census_radius, p1, p2, paths, uniquenes
     return window, steps, radius, p1, p2, paths, uniq
 
 
+def _planes_on_device(be, dtype, steps):
+    """Whether the right view's sub-pixel planes are computed on the device (``kernels.planes``):
+    OpenCL with fp64 and float32 views (the host's values bit for bit; at 1000 x 1500 they took
+    ~60-120 ms of one host core while the device waited).  Elsewhere on the host
+    (:func:`matching_views`; wide-integer views are float64 and their census runs on the host)."""
+    return dtype == np.float32 and steps > 1 and be.name == "opencl" and be.supports_float64
+
+
 def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, paths, uniqueness,
          lr_check, progress, buffers=None, workspace=None):
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
-    lft, planes = matching_views(*_exact_views(left, right), steps)
+    views = _exact_views(left, right)
+    if _planes_on_device(be, views[0].dtype, steps):
+        lft, rgt = _scaled_views(*views)
+        planes = _empty(be, buffers, "planes", (steps, h, w), np.float32)
+        kernels.planes(be, be.asarray(rgt), planes, steps)
+        del rgt
+    else:
+        lft, planes = matching_views(*views, steps)
+    on_device = not isinstance(planes, np.ndarray)
     if lft.dtype == np.float64:
         # wide integers that float32 cannot hold: the census of the float64 views on the host
         # (its numpy specification), the same codes for every backend
@@ -535,7 +564,7 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         kernels.census(be, be.asarray(lft), cen_l, 0, census_radius)
         cen_r = _empty(be, buffers, "census_right", (steps, h, w), np.uint64)
         for f in range(steps):
-            kernels.census(be, be.asarray(planes[f]), cen_r, f, census_radius)
+            kernels.census(be, planes[f] if on_device else be.asarray(planes[f]), cen_r, f, census_radius)
     # the views are not read again: released before the matcher's buffers are allocated (the
     # process's peak memory)
     del lft, planes

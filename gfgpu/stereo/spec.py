@@ -15,7 +15,8 @@ __all__ = [
     "SGM_PATHS", "NO_MATCH", "OUT_OF_VIEW", "COST_MAX", "PATH_UNDEFINED", "NO_CANDIDATE", "SWEEP_PLANES",
     "census_transform_reference", "in_view_reference", "cost_shift", "census_cost_reference", "sgm_aggregate_reference",
     "select_disparity_reference", "left_right_check_reference", "left_right_reference",
-    "semi_global_match_reference", "sweep_update_reference",
+    "semi_global_match_reference", "sweep_update_reference", "subpixel_jobs", "shift_recursion",
+    "subpixel_planes_reference",
 ]
 
 #: the 8 path directions (dy, dx) of semi-global aggregation; the first 4 are the axis paths
@@ -448,3 +449,70 @@ def sweep_update_reference(state, left_shifted, right_shifted, gain_left, gain_r
     older[...] = np.fmin(older, prev)       # prev is NaN before the first step
     prev[...] = cost
     return state
+
+
+def subpixel_jobs(steps):
+    """The Green shifts of the right view's sub-pixel planes 1 .. steps - 1: per plane ``f`` a
+    tuple of ``(amount, offset)`` shifts whose mean it is (:func:`subpixel_planes_reference`):
+    ``((f / steps, 0),)``, and for the half-pixel plane (``2 f = steps``) also ``(-1/2, 1)``, the
+    anticausal shift moved by one pixel (a kernel symmetric about the half-pixel point)."""
+    return [((f / steps, 0),) + (((-0.5, 1),) if 2 * f == steps else ()) for f in range(1, steps)]
+
+
+def shift_recursion(amount, offset):
+    """The row recursion of the discrete Green shift by ``amount`` px then ``offset`` whole px
+    (:func:`gfgpu.shift`'s G_f, nearest extension): ``(b, a, zi, n, reverse)``.
+
+    A row, extended by ``n`` copies of its first value where ``n > 0`` and reversed where
+    ``reverse``, is filtered by ``b(z) / a(z)`` (three taps each, ``a[0] = 1``; the section
+    ``y = tap x + Re F``, ``F[x+1] = lam F[x] + kap x[x]``) from the steady state ``zi`` times its
+    first value (``scipy.signal.lfilter_zi``'s, solved as it solves it); reversed back, the
+    result at x is the filtered line at x - n (n < 0: its last value repeated at the end)."""
+    from ..greens import translation_passes
+    lp, = translation_passes(amount)
+    (sec,) = lp.sections
+    lam, kap, tap = complex(sec.lam), complex(sec.kap), float(lp.tap)
+    a = np.array([1.0, -2 * lam.real, abs(lam) ** 2])
+    b = np.array([tap, tap * a[1] + kap.real, tap * a[2] - (kap * lam.conjugate()).real])
+    zi = np.linalg.solve(np.array([[1.0 + a[1], -1.0], [a[2], 1.0]]), b[1:] - a[1:] * b[0])
+    return b, a, zi, lp.offset + offset, bool(lp.reverse)
+
+
+def _shift_row_reference(row, amount, offset):
+    # one row (float64) through shift_recursion's filter, one sample at a time
+    b, a, zi, n, reverse = shift_recursion(amount, offset)
+    src = np.concatenate([np.full(max(n, 0), row[0]), row])
+    if reverse:
+        src = src[::-1]
+    out = np.empty_like(src)
+    z0, z1 = zi[0] * src[0], zi[1] * src[0]
+    for i, x in enumerate(src):
+        # lfilter's transposed direct form II, its operations in its order
+        y = x * b[0] + z0
+        z0 = (z1 + x * b[1]) - y * a[1]
+        z1 = x * b[2] - y * a[2]
+        out[i] = y
+    if reverse:
+        out = out[::-1]
+    w = row.size
+    return np.concatenate([out[-n:], np.full(-n, out[-1])]) if n < 0 else out[:w]
+
+
+def subpixel_planes_reference(right, steps):
+    """The right view's sub-pixel planes of the matcher's census (``"sgm"``'s views): plane 0 is
+    ``right`` (float32, already scaled by :func:`gfgpu.stereo.matching.matching_views`), plane f
+    the mean of the Green shifts of :func:`subpixel_jobs` (each :func:`shift_recursion` in float64,
+    row by row), rounded to float32, with magnitudes below float32's smallest normal (and -0) set
+    to +0 (devices flush subnormals; numpy does not).  Returns (steps, H, W) float32."""
+    right = np.asarray(right, np.float32)
+    planes = np.empty((steps,) + right.shape, np.float32)
+    planes[0] = right
+    for f, jobs in enumerate(subpixel_jobs(steps), start=1):
+        for y, row in enumerate(right.astype(np.float64)):
+            moved = _shift_row_reference(row, *jobs[0])
+            if len(jobs) == 2:
+                moved = (moved + _shift_row_reference(row, *jobs[1])) * 0.5
+            planes[f, y] = moved
+        bits = planes[f].view(np.uint32)
+        bits[(bits & np.uint32(0x7F800000)) == 0] = 0
+    return planes

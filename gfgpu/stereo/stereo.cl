@@ -1116,6 +1116,67 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
     }
 }
 
+// The right view's sub-pixel planes (gfgpu.stereo.spec.subpixel_planes_reference; built with
+// -D SHIFT_PLANES, float64 as the specification): one work-item per row of plane `plane`, the mean
+// of `jobs` (1 or 2) Green shifts of the row, each a second-order recursion (spec.shift_recursion:
+// `coef` holds per job b0, b1, b2, a1, a2, zi0, zi1, n >= 0, reverse), in lfilter's operations and order
+// with no contraction into fused multiply-adds, so the values are the host's bit for bit; rounded to
+// float32, subnormals and -0 set to +0.  The first job's values wait in `scratch` (a float64 row per
+// image row) for the second's.
+#ifdef SHIFT_PLANES
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+
+// x = 0 .. w - 1 of the shifted row of job `c`; mode 0: scratch[x] = value, 1: plane[x] = value,
+// 2: plane[x] = (scratch[x] + value) * 0.5 (then rounded and flushed)
+static void shift_row(__global const float *row, const int w, __global const double *c, const int mode,
+                      __global double *scratch, __global float *plane)
+{
+    #pragma OPENCL FP_CONTRACT OFF
+    const double b0 = c[0], b1 = c[1], b2 = c[2], a1 = c[3], a2 = c[4];
+    const int n = (int)c[7], reverse = c[8] != 0.0;
+    const int len = w + n;                        // the row extended by n >= 0 copies of its first value
+    // src[i] = row[max(i - n, 0)]; the recursion runs over src, reversed if `reverse`; its value
+    // at step i is moved[s], s = i or len - 1 - i, the output at column s (s < w)
+    const double first = reverse ? (double)row[w - 1] : (double)row[0];
+    double z0 = c[5] * first, z1 = c[6] * first;
+    for (int i = 0; i < len; ++i) {
+        const int s = reverse ? len - 1 - i : i;
+        const double x = (double)row[s - n > 0 ? s - n : 0];
+        const double bx0 = x * b0, bx1 = x * b1, bx2 = x * b2;
+        const double y = bx0 + z0;
+        const double t = z1 + bx1;
+        z0 = t - y * a1;
+        z1 = bx2 - y * a2;
+        if (s >= w)
+            continue;
+        if (mode == 0) {
+            scratch[s] = y;
+        } else {
+            const float v = (float)(mode == 2 ? (scratch[s] + y) * 0.5 : y);
+            plane[s] = (as_uint(v) & 0x7F800000u) == 0 ? 0.0f : v;
+        }
+    }
+}
+
+__kernel void shift_planes(__global const float *right, __global float *planes, __global double *scratch,
+                           __global const double *coef, const int h, const int w, const int plane,
+                           const int jobs)
+{
+    const int y = get_global_id(0);
+    if (y >= h)
+        return;
+    __global const float *row = right + (size_t)y * w;
+    __global float *out = planes + ((size_t)plane * h + y) * w;
+    __global double *tmp = scratch + (size_t)y * w;
+    if (jobs == 1) {
+        shift_row(row, w, coef, 1, tmp, out);
+    } else {
+        shift_row(row, w, coef, 0, tmp, out);
+        shift_row(row, w, coef + 9, 2, tmp, out);
+    }
+}
+#endif  // SHIFT_PLANES
+
 // Left-right check of the matcher's maps in place (built with -D LEFT_RIGHT; float64 as the
 // specification, left_right_reference, so that a tie of rint(x - d) or of |d - d_R| = tol
 // falls the same way): NaN where the right view's winner at rint(x - d) is missing or more than

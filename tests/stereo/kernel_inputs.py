@@ -22,6 +22,19 @@ def _census(be, kernel, rng):
         compare(be.to_host(out), ref, f"census radius {radius}")      # the other planes untouched
 
 
+@builds("stereo.planes")
+def _planes(be, kernel, rng):
+    # the right view's sub-pixel planes: float64 recursions per row, bit for bit on every backend
+    # (tests/stereo/test_views.py: edge cases of the values)
+    for (h, w), steps in (((5, 1), 2), ((7, 23), 2), ((4, 40), 3), ((6, 17), 4), ((3, 9), 1)):
+        right = (rng.random((h, w)) * 1.9).astype(np.float32)
+        right[:, w // 2:] = 0.0
+        out = be.empty((steps, h, w), np.float32)
+        kernel(be, be.asarray(right), out, steps)
+        got, want = np.asarray(be.to_host(out)), kernel.spec(right, steps)
+        compare(got.view(np.uint32), want.view(np.uint32), f"planes {h}x{w} steps {steps}")
+
+
 # (h, w, disparity samples, steps, first step, block, census radius): one and several 16-lane
 # vectors per pixel, partial last vectors, negative and positive disparity ranges
 COST_CASES = [(7, 11, 5, 1, 0, 1, 1), (13, 29, 16, 2, -3, 3, 2), (9, 40, 17, 3, 4, 5, 3), (6, 50, 33, 2, -20, 3, 3),

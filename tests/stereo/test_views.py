@@ -5,7 +5,7 @@ backend's census reads them), whatever the block of rows it runs in."""
 import numpy as np
 import pytest
 
-from gfgpu.stereo import matching
+from gfgpu.stereo import kernels, matching, spec
 
 
 @pytest.mark.parametrize("amount,offset", [(0.5, 0), (-0.5, 1), (0.25, 0), (0.75, 0), (1 / 3, 0), (-0.25, 2)])
@@ -36,3 +36,25 @@ def test_views_do_not_depend_on_the_row_blocks(monkeypatch):
         monkeypatch.undo()
         np.testing.assert_array_equal(whole[0], blocks[0])
         np.testing.assert_array_equal(whole[1].view(np.uint32), blocks[1].view(np.uint32))
+
+
+def test_subpixel_planes_on_every_backend_are_the_hosts(backend):
+    # the planes the census reads (OpenCL: float64 recursions on the device, one row per
+    # work-item) equal the specification's row-by-row recursion and the host's batched one bit for
+    # bit: steps 1..4 (causal, anticausal and offset shifts), rows of 1 and 2 pixels, a zero run
+    # long enough for the recursion's state to reach float64 subnormals (devices may flush them),
+    # values that round to float32 subnormals (flushed to +0) and -0
+    rng = np.random.default_rng(11)
+    for shape in ((3, 1), (2, 2), (5, 37), (4, 900)):
+        right = (rng.random(shape) * 1.9).astype(np.float32)
+        right[:, shape[1] // 3:] = 0.0
+        right[-1, : shape[1] // 2] = np.float32(2e-38)
+        right[0, -1] = -0.0
+        for steps in (1, 2, 3, 4):
+            want = spec.subpixel_planes_reference(right, steps)
+            np.testing.assert_array_equal(matching.subpixel_planes(right, steps).view(np.uint32),
+                                          want.view(np.uint32))
+            out = backend.empty((steps,) + shape, np.float32)
+            kernels.planes(backend, backend.asarray(right), out, steps)
+            got = np.asarray(backend.to_host(out))
+            np.testing.assert_array_equal(got.view(np.uint32), want.view(np.uint32), err_msg=f"{shape} {steps}")
