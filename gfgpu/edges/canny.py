@@ -53,7 +53,7 @@ def hysteresis(suppressed, low, high):
             maps.append(candidates.copy())
             continue
         keep = np.zeros(count + 1, bool)
-        keep[np.unique(labels[candidates & (suppressed >= h)])] = True
+        keep[labels[candidates & (suppressed >= h)]] = True      # (repeated labels: no sort needed)
         keep[0] = False
         maps.append(keep[labels])
     return maps if np.ndim(high) else maps[0]
@@ -269,7 +269,9 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     if exponent:
         img = np.ldexp(img, -exponent).astype(job.dtype, copy=False)
     cval = float(np.ldexp(cval, -exponent))
-    dev = be.asarray(np.ascontiguousarray(img))
+    # read in place by a CPU device (a copy elsewhere); img is never written: a scaled or converted
+    # image is a new array, and the caller's own array is only read
+    dev = be.host_view(np.ascontiguousarray(img))
     gy, gx = operator.gradient(Job(dev, None, be, finite=True), u, mode, cval, a, eta, single_scale,
                                projection_scale)
     suppressed = be.empty(job.shape, job.dtype)
