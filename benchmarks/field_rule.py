@@ -18,7 +18,14 @@ With ``--speed N --compare REV``: the Gauss rule only, ``motion_blur`` as of the
 process, best of ``--repeat`` wall and CPU times, with the load average: the A/B figure a shared
 machine allows.
 
+With ``--candidates``: rules the specification does not define, measured in float64 numpy beside
+today's (docs/motion.md, "Counting the Euclidean length"): the node count from the Euclidean length
+|v| instead of the dominant component, other spacings, G_u cut later and with cells graded along
+``t``, a capped cell count; the rel. L2 against the rendering of the σ = 2 noise and the photograph
+under the smooth and the split field at |v| <= 30, and the samples per pixel on the benchmark field.
+
 Usage:  python benchmarks/field_rule.py [--side 128] [--copies 512] [--backend numpy] [--peaks 0.3,1,3,10,30]
+        python benchmarks/field_rule.py --candidates [--side 128] [--copies 512]
         python benchmarks/field_rule.py --speed 2048 [--repeat 3] [--backend opencl] [--compare REV]
 """
 
@@ -149,6 +156,99 @@ def compare(n, backend, repeat, rev):
               f"{cb / cw:.2f} |")
 
 
+def _green_cells(edges, code=1):
+    """G_u's cells with 3 Gauss-Legendre nodes each, weighted as spec.gauss_rule weights them."""
+    from gfgpu.motion import spec
+    cum = spec.psf_cdf(code, edges)
+    cum[0], cum[-1] = 0.0, 1.0
+    u, g = np.asarray(spec.GAUSS_NODES)[None], np.asarray(spec.GAUSS_WEIGHTS)[None]
+    a, width = edges[:-1, None], np.diff(edges)[:, None]
+    t = a + width * u
+    quad = width * g * spec.psf_density(code, t)
+    return t.ravel(), (quad + g * (np.diff(cum)[:, None] - quad.sum(1, keepdims=True))).ravel()
+
+
+def candidate_green(end, cell_px, first=8, most=128, grade=0.0, euclid=True, cap=None):
+    """``(count(vy, vx), rule(n))``: max(first, ceil(length end / cell_px)) cells (at most ``cap``) over
+    ``[0, end]`` velocities, equal or graded (widths growing as ``e^{grade t}``)."""
+    def count(vy, vx):
+        length = np.hypot(vy, vx) if euclid else np.maximum(abs(vy), abs(vx))
+        n = np.minimum(np.maximum(first, np.ceil(length * end / cell_px - 1e-9)), cap or most)
+        return np.where(length > 0, n, 0).astype(int)
+
+    def rule(n):
+        u = np.arange(n + 1) / n
+        edges = end * u if not grade else -np.log1p(-u * (1 - np.exp(-grade * end))) / grade
+        edges[-1] = end
+        return _green_cells(edges)
+    return count, rule
+
+
+def candidate_box(spacing, euclid=True):
+    """``ceil(length / spacing) + 1`` Gauss-Legendre nodes over the box's support."""
+    def count(vy, vx):
+        length = np.hypot(vy, vx) if euclid else np.maximum(abs(vy), abs(vx))
+        return np.where(length > 0, np.minimum(np.ceil(length / spacing - 1e-9) + 1, 64), 0).astype(int)
+
+    def rule(n):
+        x, g = np.polynomial.legendre.leggauss(n)
+        return 0.5 * (x + 1), g / g.sum()
+    return count, rule
+
+
+CANDIDATES = {
+    "box": {"ceil(L/2) + 1 (now)": candidate_box(2.0, euclid=False), "ceil(|v|/2) + 1": candidate_box(2.0),
+            "ceil(|v|/2.5) + 1": candidate_box(2.5), "ceil(|v|/3) + 1": candidate_box(3.0)},
+    "green": {"max(8, ceil(L)) cells (now)": candidate_green(6.0, 6.0, euclid=False),
+              "max(8, ceil(|v|)) cells": candidate_green(6.0, 6.0),
+              "cells of 7.5 px of |v|": candidate_green(6.0, 7.5), "cells of 9 px of |v|": candidate_green(6.0, 9.0),
+              "cut at 9, cells of 9 px": candidate_green(9.0, 9.0),
+              "cut at 9, 12 px cells graded e^(0.3 t)": candidate_green(9.0, 12.0, grade=0.3),
+              "max(8, ceil(L)) capped at 16": candidate_green(6.0, 6.0, euclid=False, cap=16)},
+}
+
+
+def candidates(n, copies):
+    """The candidate rules' accuracy and samples per pixel (Markdown rows)."""
+    from scipy import ndimage
+
+    from gfgpu.motion import spec
+
+    def apply(coef, field, count, rule):
+        vy, vx = field
+        counts = count(vy, vx)
+        yy, xx = np.mgrid[:n, :n].astype(np.float64)
+        out = np.zeros((n, n))
+        for c in np.unique(counts):
+            at = counts == c
+            if c == 0:
+                out[at] = spec.spline_sample(coef, yy[at], xx[at], "wrap", 0.0)[0]
+                continue
+            for t, wt in zip(*rule(int(c))):
+                out[at] += wt * spec.spline_sample(coef, yy[at] - t * vy[at], xx[at] - t * vx[at], "wrap", 0.0)[0]
+        return out
+
+    big = refs.velocity_field((512, 512), 30.0).astype(np.float64)     # the benchmark's field, any size alike
+    images = {"noise": refs.texture((n, n), seed=3), "photograph": photograph(n)}
+    fields = {"smooth": refs.velocity_field((n, n), 30.0).astype(np.float64), "split": split_field(n, 30.0)}
+    print("| psf | rule | samples / px | noise: smooth / split | photograph: smooth / split |")
+    print("|---|---|---:|---|---|")
+    for psf, rules in CANDIDATES.items():
+        cells = refs.time_cells(psf, 30.0, copies)
+        refs_ = {(i, f): refs.render(img, lambda yy, xx, t, v=field: (yy - t * v[0], xx - t * v[1]), cells, "wrap")
+                 for i, img in images.items() for f, field in fields.items()}
+        for name, (count, rule) in rules.items():
+            counts = count(*big)
+            samples = sum(len(rule(int(c))[0]) * int((counts == c).sum()) for c in np.unique(counts) if c) / counts.size
+            errs = {}
+            for i, img in images.items():
+                coef = ndimage.spline_filter(img, 3, mode="grid-wrap")[None]
+                for f, field in fields.items():
+                    errs[i, f] = 100 * errors(apply(coef, field, count, rule), refs_[i, f])[0]
+            noise, photo = (f"{errs[i, 'smooth']:.2f} / {errs[i, 'split']:.2f} %" for i in images)
+            print(f"| {psf} | {name} | {samples:.1f} | {noise} | {photo} |", flush=True)
+
+
 def errors(out, ref):
     d, r = (out - ref)[MARGIN:-MARGIN, MARGIN:-MARGIN], ref[MARGIN:-MARGIN, MARGIN:-MARGIN]
     return float(np.linalg.norm(d) / np.linalg.norm(r)), float(np.abs(d).max())
@@ -163,7 +263,10 @@ def main(argv=None):
     ap.add_argument("--speed", type=int, metavar="N", help="time both rules on (2, N, N) instead")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--compare", metavar="REV", help="with --speed: the Gauss rule as of git revision REV and now")
+    ap.add_argument("--candidates", action="store_true", help="rules the specification does not define, measured")
     opts = ap.parse_args(argv)
+    if opts.candidates:
+        return candidates(opts.side, opts.copies)
     if opts.speed and opts.compare:
         return compare(opts.speed, opts.backend, opts.repeat, opts.compare)
     if opts.speed:

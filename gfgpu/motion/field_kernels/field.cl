@@ -164,11 +164,14 @@ INLINE REAL lanes_sum(const REAL16 lanes)
 // tables (spec.rule_table), rule n at offsets[n - first] .. offsets[n - first + 1], nodes ascending: no
 // transcendental function and no per-cell arithmetic in the loop, only the samples.  A path whose two end
 // nodes (hence all, on a straight line) have their 16 coefficients inside the image samples without the
-// boundary extension.  A still pixel is the spline at itself.
+// boundary extension (spline_inside); a path that leaves the image tests each node and extends only at
+// the nodes that need it.  A still pixel is the spline at itself.  The field (2, h, w) starts at element
+// field_off of its buffer (a host array read in place), the tables' nodes come in POS (the extension's
+// positions) and in the image's type (tnear: offsets from the pixel).
 __kernel void field_rule(__global const REAL *coef, __global const REAL *field, const long field_off,
-                         __global REAL *out, const int h,
-                         const int w, const int planes, const POS per_px, const int extra, const int first,
-                         const int most, __global const int *offsets, __global const POS *nodes,
+                         __global REAL *out, const int h, const int w, const int planes, const POS per_px,
+                         const int extra, const int first, const int most, __global const int *offsets,
+                         __global const POS *nodes,
                          __global const REAL *weights, __global const OFF *tnear, const int mode, const REAL cval,
                          const long out_off)
 {
