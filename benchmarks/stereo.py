@@ -28,6 +28,7 @@ Usage::
     python benchmarks/stereo.py --stages teddy [--backends opencl]   # per-stage times only
     python benchmarks/stereo.py --stream teddy [--frames 20]          # StereoMatcher vs disparity()
     python benchmarks/stereo.py --windows 1 3 5 7 9 11 13 15 --scenes tsukuba venus teddy cones motorcycle
+    python benchmarks/stereo.py --compare REV --scenes teddy synth-1500 [--repeat 7]  # REV and now, one process
 """
 
 from __future__ import annotations
@@ -314,6 +315,53 @@ def stream_times(scene, backend, frames=20):
             "built_after": _programs(be) - built1}
 
 
+def compare(rev, scenes, backend, repeat):
+    """The default ``disparity`` as of git revision ``rev`` and now (the working tree), and OpenCV
+    StereoSGBM, alternated in one process on each scene (each warmed up first; best of ``repeat``
+    rounds, wall and this process's CPU time): Markdown rows, with whether the two maps are
+    identical and the load average before and after each scene."""
+    import sys
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from oblique import gfgpu_at
+    before, sha = gfgpu_at(rev)
+    print(f"default sgm ({backend}) as of {sha} and now, StereoSGBM ({SGBM_SETTINGS}), one process, best of "
+          f"{repeat} alternated rounds\n")
+    print(f"| scene | {sha} (ms) | now (ms) | SGBM (ms) | {sha} / SGBM | now / SGBM | now / {sha} | CPU {sha} (ms) | "
+          f"CPU now (ms) | CPU SGBM (ms) | maps identical | load |")
+    print("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|")
+    for scene in scenes:
+        calls = _compared_calls(scene, before.stereo.disparity, sha, backend)
+        maps = {who: fn() for who, fn in calls.items()}       # builds the kernels
+        load0 = os.getloadavg()[0]
+        wall, cpu = dict.fromkeys(calls, np.inf), dict.fromkeys(calls, np.inf)
+        for _ in range(repeat):
+            for who, fn in calls.items():
+                c0, t0 = time.process_time(), time.perf_counter()
+                fn()
+                wall[who] = min(wall[who], time.perf_counter() - t0)
+                cpu[who] = min(cpu[who], time.process_time() - c0)
+        same = np.array_equal(maps[sha], maps["now"], equal_nan=True)
+        ms = {who: 1e3 * t for who, t in wall.items()}
+        print(f"| {scene} | {ms[sha]:.1f} | {ms['now']:.1f} | {ms['SGBM']:.1f} | {wall[sha] / wall['SGBM']:.2f}x | "
+              f"{wall['now'] / wall['SGBM']:.2f}x | {wall['now'] / wall[sha]:.2f} | {1e3 * cpu[sha]:.1f} | "
+              f"{1e3 * cpu['now']:.1f} | {1e3 * cpu['SGBM']:.1f} | {same} | {load0:.1f}-{os.getloadavg()[0]:.1f} |",
+              flush=True)
+
+
+def _compared_calls(scene, disparity_before, sha, backend):
+    """{who: call} of :func:`compare` on ``scene``."""
+    left, right, _, _, top = load_scene(scene)
+    num_disp = 16 * int(np.ceil((top + 1) / 16))
+    sgbm = opencv_matchers(num_disp)["OpenCV StereoSGBM"]
+    return {sha: lambda: disparity_before(left, right, num_disp - 1, backend=backend),
+            "now": lambda: disparity(left, right, num_disp - 1, backend=backend),
+            "SGBM": lambda: sgbm(left, right)}
+
+
+#: OpenCV's settings, as :func:`opencv_matchers` makes them (for the tables' captions)
+SGBM_SETTINGS = "blockSize 5, P1 8*25, P2 32*25, uniquenessRatio 10, speckle 100/2"
+
+
 def _rss_mb():
     with open("/proc/self/statm") as f:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
@@ -363,7 +411,12 @@ def main():
                     "the default sgm on this scene (each launch waited for)")
     ap.add_argument("--windows", nargs="+", type=int, metavar="W", help="bad-2 of the default sgm with each "
                     "block side W (default penalties) on --scenes, instead of the scene table")
+    ap.add_argument("--compare", metavar="REV", help="the default sgm as of git revision REV and now, with "
+                    "StereoSGBM, alternated in one process on --scenes (first backend), instead of the scene table")
     args = ap.parse_args()
+    if args.compare:
+        compare(args.compare, args.scenes, args.backends[0], args.repeat)
+        return
     if args.windows:
         print("| scene | " + " | ".join(f"window {w}" for w in args.windows) + " |")
         print("|---|" + "---|" * len(args.windows))
