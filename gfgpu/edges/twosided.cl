@@ -53,11 +53,12 @@ typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
 #define NS (NIN * SECTIONS)
 
 /* the finite and range check of recurse.cl: x * 2^(emax/2) - itself is 0 exactly for a sample in
- * range, NaN otherwise; the lanes are summed (a NaN survives) */
+ * range, NaN otherwise (inf - inf); the residues are summed per lane as the sweep reads (a NaN
+ * survives the sum) and the lanes once at the end */
 #define RANGE_SCALE (sizeof(REAL) == 8 ? (REAL)0x1p512 : (REAL)0x1p64f)
-INLINE int lanes_nonfinite(const VT x)
+#define RESIDUE(x) ((x) * RANGE_SCALE - (x) * RANGE_SCALE)
+INLINE int lanes_nonzero(const VT z)
 {
-    const VT z = x * RANGE_SCALE - x * RANGE_SCALE;
     REAL t = 0;
 #pragma unroll
     for (int l = 0; l < LANES; ++l)
@@ -237,13 +238,12 @@ INLINE void store_chunk(VT *y, __global REAL *dst, const int valid, const int p0
     }
 }
 
-/* the forward sweep over the chunk at p0 (cnt samples): outputs written; returns the check */
-INLINE int forward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
-                         __global REAL *const *dst, const int valid, const int p0, const int cnt,
-                         const int M)
+/* the forward sweep over the chunk at p0 (cnt samples): outputs written, residues added to chk */
+INLINE void forward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                          __global REAL *const *dst, const int valid, const int p0, const int cnt,
+                          const int M, VT *chk)
 {
     VT x[NIN][LANES], y[NOUT][LANES];
-    int bad = 0;
 #pragma unroll
     for (int i = 0; i < NIN; ++i)
         load_chunk(x[i], src[i], valid, p0, cnt, M);
@@ -251,7 +251,7 @@ INLINE int forward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *c
     for (int t = 0; t < LANES; ++t) {
         if (t < cnt) {
 #if CHECK
-            bad |= lanes_nonfinite(x[0][t]);
+            *chk += RESIDUE(x[0][t]);
 #endif
 #pragma unroll
             for (int o = 0; o < NOUT; ++o)
@@ -264,7 +264,6 @@ INLINE int forward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *c
 #pragma unroll
     for (int o = 0; o < NOUT; ++o)
         store_chunk(y[o], dst[o], valid, p0, cnt, M, 0);
-    return bad;
 }
 
 /* the backward sweep over the chunk at p0: the causal parts read back, the anticausal added */
@@ -334,13 +333,13 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
     plan_t p;
     load_plan(&p, coef);
     VT fr[NS], fi[NS];
-    int bad = 0;
+    VT chk = (VT)(0);
     const int whole = M - M % LANES;
     initial_rows(&p, fr, fi, src, omega, L, 0, valid, M, cval0, cval1);
     for (int p0 = 0; p0 < whole; p0 += LANES)
-        bad |= forward_chunk(&p, fr, fi, src, dst, valid, p0, LANES, M);
+        forward_chunk(&p, fr, fi, src, dst, valid, p0, LANES, M, &chk);
     if (whole < M)
-        bad |= forward_chunk(&p, fr, fi, src, dst, valid, whole, M - whole, M);
+        forward_chunk(&p, fr, fi, src, dst, valid, whole, M - whole, M, &chk);
     initial_rows(&p, fr, fi, src, omega, L, 1, valid, M, cval0, cval1);
     /* non-temporal final stores where every row's tiles are aligned vectors */
     int nt = stream && M % LANES == 0;
@@ -354,10 +353,10 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
     if (nt)
         STREAM_FENCE();
 #if CHECK
-    if (bad)
+    if (lanes_nonzero(chk))
         atomic_or(flag, 1);
 #else
-    (void)bad;
+    (void)chk;
 #endif
 }
 
@@ -392,11 +391,10 @@ INLINE void store_cols(__global REAL *p, const VT y, const int valid, const int 
 }
 
 /* one row of the band: forward (d = 0, outputs written) or backward (d = 1, added to them) */
-INLINE int column_step(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
-                       __global REAL *const *dst, const long row, const int vecs, const int last,
-                       const int d, const int nt)
+INLINE void column_step(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
+                        __global REAL *const *dst, const long row, const int vecs, const int last,
+                        const int d, const int nt, VT *chk)
 {
-    int bad = 0;
 #pragma unroll
     for (int v = 0; v < BAND; ++v) {
         if (v < vecs) {
@@ -407,7 +405,7 @@ INLINE int column_step(const plan_t *p, VT *fr, VT *fi, __global const REAL *con
                 x[i] = load_cols(src[i] + row + v * LANES, valid);
 #if CHECK
             if (!d)
-                bad |= lanes_nonfinite(x[0]);
+                *chk += RESIDUE(x[0]);
 #endif
 #pragma unroll
             for (int o = 0; o < NOUT; ++o) {
@@ -422,7 +420,6 @@ INLINE int column_step(const plan_t *p, VT *fr, VT *fi, __global const REAL *con
                 advance(p, fr, fi, i, x[i], v, BAND);
         }
     }
-    return bad;
 }
 
 INLINE void initial_cols(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
@@ -483,12 +480,12 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
     plan_t p;
     load_plan(&p, coef);
     VT fr[NS * BAND], fi[NS * BAND];
-    int bad = 0;
+    VT chk = (VT)(0);
     initial_cols(&p, fr, fi, src, omega, L, 0, N, M, vecs, last, cval0, cval1);
     for (int k = 0; k < N; ++k) {
         if (stream)
             PREFETCH_ROW(k + PF_AHEAD);
-        bad |= column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 0, 0);
+        column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 0, 0, &chk);
     }
     initial_cols(&p, fr, fi, src, omega, L, 1, N, M, vecs, last, cval0, cval1);
     /* non-temporal final stores: whole aligned vectors */
@@ -499,15 +496,15 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
     for (int k = N - 1; k >= 0; --k) {
         if (stream)
             PREFETCH_ROW(k - PF_AHEAD);
-        column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 1, nt);
+        column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 1, nt, &chk);
     }
     if (nt)
         STREAM_FENCE();
 #if CHECK
-    if (bad)
+    if (lanes_nonzero(chk))
         atomic_or(flag, 1);
 #else
-    (void)bad;
+    (void)chk;
 #endif
 }
 #endif
