@@ -33,8 +33,7 @@ from .backends import resolve_backend
 
 __all__ = ["green_filter", "shift", "derivative", "projection", "gradient", "make_job",
            "green_filter_program", "shift_program", "derivative_program", "projection_program",
-           "operated_axes", "line_axis", "image_plane", "run_line_program", "job_gradient",
-           "register_two_sided"]
+           "operated_axes", "line_axis", "image_plane", "run_line_program", "job_gradient"]
 
 
 def make_job(input, output=None, backend=None, device=None, min_ndim=1):
@@ -674,40 +673,28 @@ def gradient(input, u, *, axes=None, channel_axis=None, mode="reflect", cval=0.0
 # --------------------------------------------------------------------------------------
 # running the derivative, projection and gradient: two-sided steps where the device has them
 # --------------------------------------------------------------------------------------
-_TWO_SIDED = []      # [(runs_on, run)]: device code of two-sided steps, registered from above
-
-
-def register_two_sided(runs_on, run):
-    """Register device code for two-sided steps (:mod:`gfgpu._core.twosided`): ``run(be, srcs,
-    dsts, axis, plan, cvals, check=False)`` on the backends for which ``runs_on(be)`` holds, as
-    :func:`gfgpu.edges.twosided.run_two_sided` on OpenCL CPU devices (registered by
-    :mod:`gfgpu.edges.kernels`, a layer above this module, which therefore never imports it)."""
-    if (runs_on, run) not in _TWO_SIDED:
-        _TWO_SIDED.append((runs_on, run))
-
-
 def _two_sided_runner(be):
-    """The registered two-sided step launcher that runs on ``be``, else None: elsewhere (numpy,
+    """The two-sided step launcher of ``be`` (OpenCL CPU devices), else None: elsewhere (numpy,
     Warp, OpenCL GPUs, whose generic primitive cuts lines into blocks) the program's passes run
     one by one through :func:`~gfgpu._core.job.apply_program`."""
-    for runs_on, run in _TWO_SIDED:
-        if runs_on(be):
-            return run
-    return None
+    if be.name != "opencl":
+        return None
+    from .backends.opencl import twosided
+    return twosided.run_two_sided if twosided.runs_on(be) else None
 
 
 def _two_sided_steps(job, steps, mode):
-    """``[(plan, view, line_axis), ...]`` of ``steps`` (``[(outputs, axis), ...]``, outputs as
-    :func:`~gfgpu._core.twosided.plan_two_sided` takes them), or None where one step has no plan."""
+    """Per step of ``steps`` (``[(outputs, axis), ...]``, outputs as
+    :func:`~gfgpu._core.twosided.plan_two_sided` takes them): ``(plan, view, line_axis)`` for a
+    step along columns that a two-sided kernel runs, else None (rows: the generic primitive's
+    fused pair; a step no plan expresses)."""
     from ._core.lines import axis_view_shape
     from ._core.twosided import plan_two_sided
     plans = []
     for outputs, axis in steps:
         view, line = axis_view_shape(job.shape, axis)
-        plan = plan_two_sided(outputs, view[line], mode, job.dtype)
-        if plan is None:
-            return None
-        plans.append((plan, view, line))
+        plan = plan_two_sided(outputs, view[line], mode, job.dtype) if line == 1 else None
+        plans.append(None if plan is None else (plan, view, line))
     return plans
 
 
@@ -748,21 +735,27 @@ def run_line_program(job, program, mode, cval):
     streamed in strips runs through :func:`~gfgpu._core.job.apply_program`.
     """
     from ._core import strips
+    from ._core.program import run_passes
     runner = _two_sided_runner(job.backend)
     steps = program.steps
     plans = None
     if runner is not None and steps and all(angle is None for _, _, angle in steps) and not (
             job.host_input and strips.needs_strips(job)):
         plans = _two_sided_steps(job, [([(0, tuple(passes))], axis) for passes, axis, _ in steps], mode)
-    if plans is None:
+    if plans is None or all(p is None for p in plans):
         return apply_program(job, program, mode, cval)
     bufs = [job.empty() for _ in plans[:-1]] + [job.result_buffer()]
-    done = _checked_first_step(job, runner, plans[0], bufs[:1], cval,
-                               may_write=len(plans) > 1 or job.output is None)
+    # the finite check rides on a first two-sided step; otherwise job.data checks the input
+    done = plans[0] is not None and _checked_first_step(job, runner, plans[0], bufs[:1], cval,
+                                                        may_write=len(plans) > 1 or job.output is None)
     cval = job.scaled(cval)
     cur = bufs[0] if done else job.data
     for k in range(1 if done else 0, len(plans)):
-        _launch(job, runner, plans[k], [cur], [bufs[k]], cval)
+        passes, axis, _ = steps[k]
+        if plans[k] is None:
+            run_passes(job.backend, cur, bufs[k], job.dtype, passes, mode, cval, axis=axis, shape=job.shape)
+        else:
+            _launch(job, runner, plans[k], [cur], [bufs[k]], cval)
         cur = bufs[k]
     return job.finish(cur)
 
@@ -772,10 +765,11 @@ def job_gradient(job, d_passes, p_passes, axes, mode, cval):
     P (``p_passes``) along the others; a tuple in the order of ``axes``, each finished as the
     job's result (numpy in, numpy out).
 
-    For two axes ``(y, x)`` (an image) on a device with two-sided steps, the two passes along y
-    share their states: one kernel reads the image once and gives ``C = P_y I`` and ``E = D_y I``;
-    then ``d/dy = P_x E`` and ``d/dx = D_x C``, one kernel each (three reads of an image and
-    four writes in all, against eight passes).  P has unit sum and D zero sum, so the constant
+    For two axes ``(y, x)`` (an image, y the columns' axis) on a device with two-sided steps, the
+    passes along y share their states: one kernel reads the image once and gives ``C = P_y I``
+    and ``E = D_y I``; then ``d/dy = P_x E`` and ``d/dx = D_x C`` along the rows, each step's
+    passes one fused pair where the backend fuses them (three reads of an image and four writes
+    in all, against eight passes).  P has unit sum and D zero sum, so the constant
     extension of ``C`` is ``cval`` and that of ``E`` is 0: the result equals each derivative's
     own program (P along the other axis first) up to rounding.  Otherwise each derivative is its
     own program (:func:`run_line_program`) on the same input, uploaded and checked once.
@@ -785,17 +779,17 @@ def job_gradient(job, d_passes, p_passes, axes, mode, cval):
     runner = _two_sided_runner(job.backend)
     if runner is not None and len(axes) == 2 and not (job.host_input and strips.needs_strips(job)):
         y, x = axes
-        plans = _two_sided_steps(job, [([(0, p_passes), (0, d_passes)], y), ([(0, p_passes)], x),
-                                       ([(0, d_passes)], x)], mode)
-        if plans is not None:
+        plans = _two_sided_steps(job, [([(0, p_passes), (0, d_passes)], y)], mode)
+        if plans[0] is not None:
+            from ._core.program import run_passes
             c, e = job.empty(), job.empty()
             if not _checked_first_step(job, runner, plans[0], [c, e], cval, may_write=True):
                 _launch(job, runner, plans[0], [job.data], [c, e], job.scaled(cval))
             cval = job.scaled(cval)
             gy = job.result_buffer()
-            _launch(job, runner, plans[1], [e], [gy], 0.0)
+            run_passes(job.backend, e, gy, job.dtype, list(p_passes), mode, 0.0, axis=x, shape=job.shape)
             gx = job.result_buffer()
-            _launch(job, runner, plans[2], [c], [gx], cval)
+            run_passes(job.backend, c, gx, job.dtype, list(d_passes), mode, cval, axis=x, shape=job.shape)
             return job.finish(gy), job.finish(gx)
     results = []
     for d in axes:

@@ -1,17 +1,13 @@
-"""Two-sided steps on an OpenCL CPU device: ``twosided.cl`` beside this module (spec:
-:func:`gfgpu._core.twosided.run_two_sided_reference`).
+"""Two-sided steps on an OpenCL CPU device: ``twosided.cl`` (spec:
+:func:`gfgpu._core.twosided.run_two_sided_reference`), run by :mod:`gfgpu.filters` for the
+derivative, projection and gradient (and :func:`gfgpu.canny`'s gradient).
 
-One kernel runs a step's causal and anticausal passes over the same lines for up to two inputs and
-two outputs (:class:`~gfgpu._core.twosided.TwoSidedPlan`): each input is read once and each output
-written once from memory, the backward sweep reading back what the forward one wrote from the
-cache.  CPU devices only (a work-item runs a cache line of lines; on a GPU the generic
-primitive's block-parallel lines are the right shape): :func:`runs_on` says where.
-
-The derivative, projection and gradient of :mod:`gfgpu.filters` (and :func:`gfgpu.canny`'s
-gradient) run their steps here: :mod:`gfgpu.edges.kernels` hands :func:`run_two_sided` to
-:func:`gfgpu.filters.register_two_sided`, so the layer below calls it without importing the
-edge detector.  Built and launched through the OpenCL launch toolkit (no PyOpenCL import here:
-importing gfgpu loads no device library).
+One kernel runs a step's causal and anticausal passes down and up a band of columns for up to two
+inputs and two outputs: each input is read once and each output written once from memory, the
+backward sweep reading back what the forward one wrote from the cache (the generic primitive runs
+the passes of a column step one by one, each reading the image and the second the output too).
+CPU devices only (:func:`runs_on`): a work-item runs bands of cache lines; on a GPU the generic
+primitive's block-parallel lines are the right shape.
 """
 
 from __future__ import annotations
@@ -21,7 +17,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ..backends.opencl import launch
+from . import launch
 
 __all__ = ["runs_on", "run_two_sided"]
 
@@ -69,7 +65,8 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
         One array per input and per output of ``plan``, C-contiguous ``(B, N, M)`` of one dtype;
         no output overlaps an input or another output.
     axis : int
-        1: lines along N (columns), 2: lines along M (rows).
+        1: lines along N (columns).  Rows are the generic primitive's (``recurse_pair`` runs a
+        step's two passes in one kernel there).
     plan : TwoSidedPlan
         For lines of ``shape[axis]`` samples.
     cvals : pair of float
@@ -85,8 +82,8 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     """
     if not runs_on(be):
         raise ValueError(f"two-sided steps run on OpenCL CPU devices, not on {be!r}")
-    if axis not in (1, 2):
-        raise ValueError(f"axis must be 1 or 2, got {axis}")
+    if axis != 1:
+        raise ValueError(f"two-sided steps run lines along axis 1 (columns; rows: recurse_pair), got axis {axis}")
     nin, nout = len(set(plan.inputs)), len(plan.inputs)
     if len(srcs) != nin or len(dsts) != nout:
         raise ValueError(f"the plan takes {nin} input(s) and {nout} output(s), got {len(srcs)} and {len(dsts)}")
@@ -112,15 +109,11 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     lanes = _CACHE_LINE // dtype.itemsize
     units = int(be.cl_device.max_compute_units)
     width = band(plan)
-    if axis == 2:
-        items = -(-(b * n) // lanes)
-        gsize, lsize, nv = (items,), (1,), 1
-    else:
-        vecs = -(-m // lanes)
-        nv = max(1, min(width, (b * vecs) // (2 * units)))
-        gsize, lsize = (-(-vecs // nv), b), (1, 1)
+    vecs = -(-m // lanes)
+    nv = max(1, min(width, (b * vecs) // (2 * units)))     # every core gets two bands at least
+    gsize, lsize = (-(-vecs // nv), b), (1, 1)
     knl = launch.kernel(be, __package__, "twosided.cl", "two_sided", dtype, LANES=lanes, SECTIONS=plan.sections,
-                        NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), ROWS=int(axis == 2), BAND=width,
+                        NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), BAND=width,
                         CHECK=int(bool(check)))
     coef, omega = _buffers(be, plan, dtype)
     flag = be.asarray(np.zeros(1, np.int32))

@@ -1,5 +1,5 @@
 /*
- * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference; launcher gfgpu/edges/twosided.py).
+ * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference; launcher twosided.py).
  *
  * Up to two inputs X_i and two outputs Y_o along the same lines; output o reads input IN(o).
  * Per input, SECTIONS unit states (F <- lam F + x, kap = 1) run forward, then backward:
@@ -14,8 +14,7 @@
  *
  * Defines: REAL (float | double), LANES (16 float, 8 double: a cache line per vector), SECTIONS
  * (poles per input), NIN, NOUT (1 or 2), REAL_POLES (1: every pole and weight real, real states),
- * ROWS (1: lines along axis 2, LANES rows per work-item, tiles transposed in registers; 0: lines
- * along axis 1, a band of up to BAND vectors of LANES adjacent columns per work-item), BAND,
+ * BAND (most vectors of LANES adjacent columns per work-item: lines along axis 1 of (B, N, M)),
  * CHECK (1: OR flag with 1 if a sample of input 0 is NaN, infinite or beyond the range limit).
  *
  * coef: lam (NIN, S, 2), causal (NOUT, S, 2), anticausal (NOUT, S, 2), tap (NOUT), omega_c
@@ -40,10 +39,6 @@ typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
 #else
 #error "twosided.cl runs on CPU devices: LANES 2, 4, 8 or 16"
 #endif
-
-#define TILE_LANES LANES
-#define TILE_VT VT
-#include "backends/opencl/tile.cl"
 
 #if NIN == 2
 #define IN(o) (o)
@@ -182,185 +177,6 @@ INLINE void start_states(const plan_t *p, VT *fr, VT *fi, const int d, const REA
     }
 }
 
-#if ROWS
-/* ---- rows: LANES lines of M samples per work-item, tiles of LANES x LANES transposed --------- */
-
-/* w[t] = the samples of every lane at natural position p0 + t, t < cnt (lanes past `valid`
- * repeat the last row) */
-INLINE void load_chunk(VT *w, __global const REAL *src, const int valid, const int p0, const int cnt,
-                       const int M)
-{
-    if (cnt == LANES) {
-#pragma unroll
-        for (int l = 0; l < LANES; ++l)
-            w[l] = VLOAD(src + (long)IMIN(l, valid - 1) * M + p0);
-        transpose_tile(w);
-        return;
-    }
-#pragma unroll
-    for (int t = 0; t < LANES; ++t) {
-        if (t < cnt) {
-            VT v;
-#pragma unroll
-            for (int l = 0; l < LANES; ++l)
-                LANE(v, l) = src[(long)IMIN(l, valid - 1) * M + p0 + t];
-            w[t] = v;
-        }
-    }
-}
-
-/* store y[t] (natural position p0 + t, t < cnt) of the `valid` lanes; nt: non-temporal */
-INLINE void store_chunk(VT *y, __global REAL *dst, const int valid, const int p0, const int cnt,
-                        const int M, const int nt)
-{
-    if (cnt == LANES) {
-        transpose_tile(y);
-#pragma unroll
-        for (int l = 0; l < LANES; ++l) {
-            if (l < valid) {
-                __global REAL *q = dst + (long)l * M + p0;
-                if (nt)
-                    STORE_NT(y[l], q);
-                else
-                    VSTORE(y[l], q);
-            }
-        }
-        return;
-    }
-#pragma unroll
-    for (int t = 0; t < LANES; ++t) {
-        if (t < cnt) {
-#pragma unroll
-            for (int l = 0; l < LANES; ++l)
-                if (l < valid)
-                    dst[(long)l * M + p0 + t] = LANE(y[t], l);
-        }
-    }
-}
-
-/* the forward sweep over the chunk at p0 (cnt samples): outputs written, residues added to chk */
-INLINE void forward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
-                          __global REAL *const *dst, const int valid, const int p0, const int cnt,
-                          const int M, VT *chk)
-{
-    VT x[NIN][LANES], y[NOUT][LANES];
-#pragma unroll
-    for (int i = 0; i < NIN; ++i)
-        load_chunk(x[i], src[i], valid, p0, cnt, M);
-#pragma unroll
-    for (int t = 0; t < LANES; ++t) {
-        if (t < cnt) {
-#if CHECK
-            *chk += RESIDUE(x[0][t]);
-#endif
-#pragma unroll
-            for (int o = 0; o < NOUT; ++o)
-                y[o][t] = p->tap[o] * x[IN(o)][t] + readout(p, fr, fi, o, 0, 0, 1);
-#pragma unroll
-            for (int i = 0; i < NIN; ++i)
-                advance(p, fr, fi, i, x[i][t], 0, 1);
-        }
-    }
-#pragma unroll
-    for (int o = 0; o < NOUT; ++o)
-        store_chunk(y[o], dst[o], valid, p0, cnt, M, 0);
-}
-
-/* the backward sweep over the chunk at p0: the causal parts read back, the anticausal added */
-INLINE void backward_chunk(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
-                           __global REAL *const *dst, const int valid, const int p0, const int cnt,
-                           const int M, const int nt)
-{
-    VT x[NIN][LANES], y[NOUT][LANES];
-#pragma unroll
-    for (int i = 0; i < NIN; ++i)
-        load_chunk(x[i], src[i], valid, p0, cnt, M);
-#pragma unroll
-    for (int o = 0; o < NOUT; ++o)
-        load_chunk(y[o], dst[o], valid, p0, cnt, M);
-#pragma unroll
-    for (int t = LANES - 1; t >= 0; --t) {
-        if (t < cnt) {
-#pragma unroll
-            for (int o = 0; o < NOUT; ++o)
-                y[o][t] += readout(p, fr, fi, o, 1, 0, 1);
-#pragma unroll
-            for (int i = 0; i < NIN; ++i)
-                advance(p, fr, fi, i, x[i][t], 0, 1);
-        }
-    }
-#pragma unroll
-    for (int o = 0; o < NOUT; ++o)
-        store_chunk(y[o], dst[o], valid, p0, cnt, M, nt);
-}
-
-/* the initial states of direction d: omega terms of the first (d = 0) or last (d = 1) L samples */
-INLINE void initial_rows(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
-                         __global const REAL *omega, const int L, const int d, const int valid,
-                         const int M, const REAL cval0, const REAL cval1)
-{
-    start_states(p, fr, fi, d, cval0, cval1, 0, 1);
-    VT x[LANES];
-    for (int j0 = 0; j0 < L; j0 += LANES) {
-        /* traversal positions j0 .. j0 + cnt - 1: natural p = j (d = 0) or M - 1 - j (d = 1) */
-        const int cnt = IMIN(LANES, L - j0);
-        const int p0 = d ? M - j0 - cnt : j0;
-#pragma unroll
-        for (int i = 0; i < NIN; ++i) {
-            load_chunk(x, src[i], valid, p0, cnt, M);
-#pragma unroll
-            for (int t = 0; t < LANES; ++t)
-                if (t < cnt)
-                    add_initial(fr, fi, omega, L, i, d, d ? j0 + cnt - 1 - t : j0 + t, x[t], 0, 1);
-        }
-    }
-}
-
-__kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
-                        __global REAL *dst1, const long src0_off, const long src1_off,
-                        const long dst0_off, const long dst1_off, __global const REAL *coef,
-                        __global const REAL *omega, const int L, const REAL cval0, const REAL cval1,
-                        const int B, const int N, const int M, const int nv, const int stream,
-                        __global int *flag)
-{
-    const long rows = (long)B * N;
-    const long r0 = (long)get_global_id(0) * LANES;
-    if (r0 >= rows)
-        return;
-    const int valid = (int)IMIN((long)LANES, rows - r0);
-    __global const REAL *src[2] = {src0 + src0_off + r0 * M, src1 + src1_off + r0 * M};
-    __global REAL *dst[2] = {dst0 + dst0_off + r0 * M, dst1 + dst1_off + r0 * M};
-    plan_t p;
-    load_plan(&p, coef);
-    VT fr[NS], fi[NS];
-    VT chk = (VT)(0);
-    const int whole = M - M % LANES;
-    initial_rows(&p, fr, fi, src, omega, L, 0, valid, M, cval0, cval1);
-    for (int p0 = 0; p0 < whole; p0 += LANES)
-        forward_chunk(&p, fr, fi, src, dst, valid, p0, LANES, M, &chk);
-    if (whole < M)
-        forward_chunk(&p, fr, fi, src, dst, valid, whole, M - whole, M, &chk);
-    initial_rows(&p, fr, fi, src, omega, L, 1, valid, M, cval0, cval1);
-    /* non-temporal final stores where every row's tiles are aligned vectors */
-    int nt = stream && M % LANES == 0;
-#pragma unroll
-    for (int o = 0; o < NOUT; ++o)
-        nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
-    if (whole < M)
-        backward_chunk(&p, fr, fi, src, dst, valid, whole, M - whole, M, 0);
-    for (int p0 = whole - LANES; p0 >= 0; p0 -= LANES)
-        backward_chunk(&p, fr, fi, src, dst, valid, p0, LANES, M, nt);
-    if (nt)
-        STREAM_FENCE();
-#if CHECK
-    if (lanes_nonzero(chk))
-        atomic_or(flag, 1);
-#else
-    (void)chk;
-#endif
-}
-
-#else
 /* ---- columns: a band of nv vectors of LANES adjacent columns, N rows ------------------------ */
 #ifndef BAND
 #define BAND 1
@@ -443,23 +259,6 @@ INLINE void initial_cols(const plan_t *p, VT *fr, VT *fi, __global const REAL *c
     }
 }
 
-/* the band's samples PF_AHEAD rows ahead of the sweep, asked of the caches now (arrays beyond the
- * caches: `stream`): a band is a few cache lines of a row, each row a long stride away, which the
- * hardware prefetchers follow late (4096^2 float32: -20 % CPU time; costs time on cached arrays) */
-#ifndef PF_AHEAD
-#define PF_AHEAD 8
-#endif
-#if defined(__clang__) && PF_AHEAD > 0
-#define PREFETCH_ROW(k) do { if ((k) >= 0 && (k) < N) { \
-        for (int v_ = 0; v_ < vecs; ++v_) { \
-            for (int i_ = 0; i_ < NIN; ++i_) \
-                __builtin_prefetch((const void *)(size_t)(src[i_] + (long)(k) * M + v_ * LANES)); \
-            for (int o_ = 0; o_ < NOUT; ++o_) \
-                __builtin_prefetch((const void *)(size_t)(dst[o_] + (long)(k) * M + v_ * LANES)); } } } while (0)
-#else
-#define PREFETCH_ROW(k) do { } while (0)
-#endif
-
 __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
                         __global REAL *dst1, const long src0_off, const long src1_off,
                         const long dst0_off, const long dst1_off, __global const REAL *coef,
@@ -482,22 +281,16 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
     VT fr[NS * BAND], fi[NS * BAND];
     VT chk = (VT)(0);
     initial_cols(&p, fr, fi, src, omega, L, 0, N, M, vecs, last, cval0, cval1);
-    for (int k = 0; k < N; ++k) {
-        if (stream)
-            PREFETCH_ROW(k + PF_AHEAD);
+    for (int k = 0; k < N; ++k)
         column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 0, 0, &chk);
-    }
     initial_cols(&p, fr, fi, src, omega, L, 1, N, M, vecs, last, cval0, cval1);
     /* non-temporal final stores: whole aligned vectors */
     int nt = stream && M % LANES == 0;
 #pragma unroll
     for (int o = 0; o < NOUT; ++o)
         nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
-    for (int k = N - 1; k >= 0; --k) {
-        if (stream)
-            PREFETCH_ROW(k - PF_AHEAD);
+    for (int k = N - 1; k >= 0; --k)
         column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 1, nt, &chk);
-    }
     if (nt)
         STREAM_FENCE();
 #if CHECK
@@ -507,4 +300,3 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
     (void)chk;
 #endif
 }
-#endif
