@@ -698,6 +698,22 @@ def _two_sided_steps(job, steps, mode):
     return plans
 
 
+def _paired(passes):
+    """A step's passes as one causal and one anticausal pass (their sections and taps summed: the
+    same sum) where all are shift-invariant without translation, so that the generic primitive of
+    an OpenCL CPU device runs the step as one fused pair (``recurse_pair``; the one-signed D of
+    :mod:`gfgpu.edges.operator` has one pass per scale and direction).  Only for devices whose
+    recursions take any number of sections (Warp's take two)."""
+    from ._core.passes import LinePass
+    passes = list(passes)
+    causal = [lp for lp in passes if not lp.reverse]
+    anti = [lp for lp in passes if lp.reverse]
+    if len(causal) < 2 and len(anti) < 2 or any(lp.offset or not lp.shift_invariant for lp in passes):
+        return passes
+    return [LinePass(tuple(sec for lp in group for sec in lp.sections), sum(lp.tap for lp in group), reverse)
+            for group, reverse in ((causal, False), (anti, True)) if group]
+
+
 def _launch(job, runner, step, srcs, dsts, cval, check=False):
     """One two-sided kernel: ``step`` = (plan, view, line_axis) on the job's arrays; ``cval`` is
     the constant of the (first) input's extension."""
@@ -753,7 +769,8 @@ def run_line_program(job, program, mode, cval):
     for k in range(1 if done else 0, len(plans)):
         passes, axis, _ = steps[k]
         if plans[k] is None:
-            run_passes(job.backend, cur, bufs[k], job.dtype, passes, mode, cval, axis=axis, shape=job.shape)
+            run_passes(job.backend, cur, bufs[k], job.dtype, _paired(passes), mode, cval, axis=axis,
+                       shape=job.shape)
         else:
             _launch(job, runner, plans[k], [cur], [bufs[k]], cval)
         cur = bufs[k]
@@ -787,9 +804,9 @@ def job_gradient(job, d_passes, p_passes, axes, mode, cval):
                 _launch(job, runner, plans[0], [job.data], [c, e], job.scaled(cval))
             cval = job.scaled(cval)
             gy = job.result_buffer()
-            run_passes(job.backend, e, gy, job.dtype, list(p_passes), mode, 0.0, axis=x, shape=job.shape)
+            run_passes(job.backend, e, gy, job.dtype, _paired(p_passes), mode, 0.0, axis=x, shape=job.shape)
             gx = job.result_buffer()
-            run_passes(job.backend, c, gx, job.dtype, list(d_passes), mode, cval, axis=x, shape=job.shape)
+            run_passes(job.backend, c, gx, job.dtype, _paired(d_passes), mode, cval, axis=x, shape=job.shape)
             return job.finish(gy), job.finish(gx)
     results = []
     for d in axes:

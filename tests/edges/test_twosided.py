@@ -189,3 +189,22 @@ def test_two_sided_runner_is_chosen_per_device(require_backend):
     assert filters._two_sided_runner(require_backend("numpy")) is None
     be = require_backend("opencl")
     assert (filters._two_sided_runner(be) is not None) == (be.kind == "cpu")
+
+
+@pytest.mark.parametrize("mode", MODES)
+def test_paired_passes_sum_the_same(mode, rng):
+    """The one-signed D's four passes (one per scale and direction) as one causal and one
+    anticausal pass of four sections (the row pair of an OpenCL CPU device): the same sum."""
+    passes = operator.derivative_passes(1.3)
+    paired = filters._paired(passes)
+    assert len(passes) == 4 and len(paired) == 2 and [lp.reverse for lp in paired] == [False, True]
+    assert filters._paired(greens.derivative_passes(1.3)) == list(greens.derivative_passes(1.3))
+    x, n = rng.standard_normal((40, 3)), 40
+
+    def summed(ps):
+        out = np.zeros_like(x)
+        for k, lp in enumerate(ps):
+            run_reference(x, plan_pass(lp, n, mode, np.float64), 0.3, out=out, accumulate=k > 0)
+        return out
+    ref = summed(passes)
+    assert np.abs(summed(paired) - ref).max() <= 1e-14 * np.abs(ref).max()
