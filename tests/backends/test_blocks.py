@@ -239,3 +239,41 @@ def test_per_line_passes_in_vector_lanes(backend, dtype, axis, rng):
         same = backend.asarray(src.copy())
         backend.recurse_lines(same, same, axis, plans, cval=-0.5)
         assert np.abs(backend.to_host(same) - ref).max() <= tol * np.abs(ref).max(), (mode, "in place")
+
+
+@pytest.mark.parametrize("offset", [0, 1, 4, 12, 15])
+@pytest.mark.parametrize("shape", [(1, 40, 256), (1, 4, 65536)])
+def test_rows_into_arrays_that_start_off_a_vector(backend, offset, shape, rng):
+    """Row passes whose source and destination start ``offset`` samples into a buffer (a numpy
+    ``output=`` starts 16 bytes past a cache line): the OpenCL row kernel aligns its tiles to the
+    destination (a partial chunk first); rows of many lines and rows of blocks, both senses,
+    accumulating or not, and the fused pair of a step's two passes."""
+    if backend.name == "numpy":
+        pytest.skip("numpy arrays: no device offsets")
+    size = int(np.prod(shape))
+    x = rng.standard_normal(shape).astype(np.float32)
+    base = rng.standard_normal(shape).astype(np.float32)
+    flat_src = backend.empty((size + 16,), np.float32)
+    flat_dst = backend.empty((size + 16,), np.float32)
+    src = backend.reshape(flat_src[offset:offset + size], shape)
+    dst = backend.reshape(flat_dst[(offset * 3) % 16:(offset * 3) % 16 + size], shape)
+    backend.copy(backend.asarray(x), src)
+    for name in ("G_u", "two sections, anticausal"):
+        lp = PASSES[name]
+        plan = recursion.plan_pass(lp, shape[2], "reflect", np.float32)
+        backend.copy(backend.asarray(base), dst)
+        backend.recurse(src, dst, 2, plan, cval=0.0, accumulate=True)
+        want = base + reference(x, lp, 2, "reflect", 0.0)
+        got = backend.to_host(dst)
+        assert np.abs(got - want).max() <= 2e-5 * np.abs(want).max(), (name, offset)
+        backend.recurse(src, dst, 2, plan, cval=0.0)
+        want = reference(x, lp, 2, "reflect", 0.0)
+        assert np.abs(backend.to_host(dst) - want).max() <= 2e-5 * np.abs(want).max(), (name, offset)
+    fuse = getattr(backend, "fuses_pair", None)
+    first, second = (recursion.plan_pass(lp, shape[2], "reflect", np.float32)
+                     for lp in (PASSES["G_u"], greens.UniformGreen(2.0).line_pass(reverse=True)))
+    if fuse is not None and fuse(2, first, second):
+        backend.recurse_pair(src, dst, 2, first, second, cval=0.0)
+        want = reference(x, PASSES["G_u"], 2, "reflect", 0.0) + reference(
+            x, greens.UniformGreen(2.0).line_pass(reverse=True), 2, "reflect", 0.0)
+        assert np.abs(backend.to_host(dst) - want).max() <= 2e-5 * np.abs(want).max(), offset

@@ -492,7 +492,7 @@ INLINE void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
                     if (accumulate)
                         VSTORE(VLOAD(p) + t[l], p);
                     else
-                        STORE_V(t[l], p, nt && x0 % LANES == 0);
+                        STORE_V(t[l], p, nt && ((ulong)p % sizeof(VT)) == 0);
                 }
             }
             return;
@@ -541,20 +541,59 @@ INLINE void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
     }
 }
 
+/* Steps before the first whole tile such that the tiles' stores start on vector-aligned
+ * addresses of dst (rows of M samples, M a multiple of LANES: every row shares its alignment):
+ * a caller's output= array from numpy starts 16 bytes past a cache line, and a tile grid fixed
+ * to the row start then split every vector store (and load of a like-aligned input) over two
+ * cache lines.  0 for windowed passes (their tiles follow the window) and LANES = 1. */
+INLINE int tile_lead(__global const REAL *d0, const int n, const int M, const int reverse)
+{
+#if LANES == 1 || WINDOW
+    return 0;
+#else
+    if (M % LANES)
+        return 0;
+    const int mis = (int)(((ulong)d0 / sizeof(REAL)) % LANES);    /* samples past an aligned vector */
+    const int p = (LANES - mis) % LANES;                          /* first aligned natural position */
+    return reverse ? (n - p) % LANES : p;
+#endif
+}
+
 /* `reverse` is a literal at each call site, so the tile's traversal order is static.  Runs
- * traversal steps k_lo .. k_hi - 1 (k_lo a multiple of LANES) from the state in fr/fi. */
+ * traversal steps k_lo .. k_hi - 1 (k_lo a multiple of LANES) from the state in fr/fi; the first
+ * `lead` steps (< LANES) run as a partial chunk, so that the whole tiles after them start where
+ * dst's rows are vector-aligned (tile_lead). */
 INLINE int run_rows(__global const REAL *src, __global REAL *dst,
                            __global const REAL *lam, __global const REAL *kap,
                            const int n, const REAL tap, const int accumulate, const int valid,
                            const int reverse, const int k_lo, const int k_hi, const int nt,
                            VT *fr, VT *fi, const int M, __global const int *window,
-                           const int first, const REAL cval)
+                           const int first, const REAL cval, const int lead)
 {
     VT w[LANES];
     VT chk = (VT)(0);
     coef_t c;
     load_coef(&c, lam, kap, n, k_lo);
     int k0 = k_lo;
+    if (lead > 0 && k0 + lead < k_hi) {   /* the partial chunk before the aligned tiles */
+        load_chunk(w, src, n, valid, k0, lead, reverse, M, window, cval);
+#pragma unroll
+        for (int i = 0; i < LANES; ++i) {
+            if (i < lead) {
+#if CHECK
+                chk += RESIDUE(w[i]);
+#endif
+#if !CONSTANT_COEF
+                load_coef(&c, lam, kap, n, k0 + i);
+#endif
+                w[i] = advance(fr, fi, w[i], tap, &c);
+            }
+        }
+#if PHASE != 1
+        store_chunk(w, dst, n, valid, k0, lead, reverse, accumulate, nt, M, first);
+#endif
+        k0 += lead;
+    }
     for (; k0 + LANES <= k_hi; k0 += LANES) {
         load_chunk(w, src, n, valid, k0, LANES, reverse, M, window, cval);   /* read before written */
 #pragma unroll
@@ -638,8 +677,8 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     const long base = r0 * M;
     __global const REAL *s0 = src + src_off + base;
     __global REAL *d0 = dst + dst_off + base;
-    const int nt = stream && !accumulate && PHASE != 1 && M % LANES == 0
-                   && ((ulong)d0 % sizeof(VT)) == 0;
+    /* non-temporal stores where the row's tiles are aligned: tested per store (tile_lead) */
+    const int nt = stream && !accumulate && PHASE != 1 && M % LANES == 0;
     VT fr[SECTIONS], fi[SECTIONS];
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -678,8 +717,10 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     }
 #endif
     const int bad = reverse
-        ? run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 1, k_lo, k_hi, nt, fr, fi, M, window, first, cval)
-        : run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 0, k_lo, k_hi, nt, fr, fi, M, window, first, cval);
+        ? run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 1, k_lo, k_hi, nt, fr, fi, M, window, first, cval,
+                   tile_lead(d0, n, M, 1))
+        : run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 0, k_lo, k_hi, nt, fr, fi, M, window, first, cval,
+                   tile_lead(d0, n, M, 0));
 #if PHASE == 1
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -730,8 +771,8 @@ __kernel void recurse_pair(__global const REAL *src, __global REAL *dst, const l
         fi[s] += omega_c[2 * s + 1] * cval;
     }
     const int bad = reverse
-        ? run_rows(s0, d0, lam, kap, n, tap, 0, valid, 1, 0, n, 0, fr, fi, M, none, 0, cval)
-        : run_rows(s0, d0, lam, kap, n, tap, 0, valid, 0, 0, n, 0, fr, fi, M, none, 0, cval);
+        ? run_rows(s0, d0, lam, kap, n, tap, 0, valid, 1, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1))
+        : run_rows(s0, d0, lam, kap, n, tap, 0, valid, 0, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
         fr[s] = (VT)(0);
@@ -744,9 +785,9 @@ __kernel void recurse_pair(__global const REAL *src, __global REAL *dst, const l
         fi[s] += omega_c2[2 * s + 1] * cval;
     }
     if (reverse2)
-        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 1, 0, n, 0, fr, fi, M, none, 0, cval);
+        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 1, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1));
     else
-        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 0, 0, n, 0, fr, fi, M, none, 0, cval);
+        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 0, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
 #if CHECK
     if (bad)
         atomic_or(flag, 1);
