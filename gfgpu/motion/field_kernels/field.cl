@@ -150,6 +150,43 @@ INLINE REAL16 spline_inside(__global const REAL *corner, const int w, const OFF 
     return wt.s0123012301230123 * wt.s4444555566667777 * (REAL16)(c0, c1, c2, c3);
 }
 
+// index i of a line of n extended by a periodic mode (wrap, reflect, mirror): by one reflection or shift
+// within a period of the line (no division), else extend()
+INLINE int fold(const int i, const int n, const int mode)
+{
+    if ((unsigned)i < (unsigned)n)
+        return i;
+    if (i <= 1 - n || i >= 2 * n - 2)
+        return extend(i, n, mode);
+    if (mode == MODE_WRAP)
+        return i < 0 ? i + n : i - n;
+    if (mode == MODE_REFLECT)
+        return i < 0 ? -1 - i : 2 * n - 1 - i;
+    return i < 0 ? -i : 2 * n - 2 - i;
+}
+
+// the 4 x 4 window of one plane at rows y0 .. y0 + 3 and columns x0 .. x0 + 3 of the image extended by a
+// periodic mode, in spline_inside's lane order: in such a mode a coefficient beyond the border is one
+// coefficient of the image (gfgpu._core.bspline.coef_taps)
+INLINE REAL16 window_periodic(__global const REAL *src, const int h, const int w, const int y0, const int x0,
+                              const int mode)
+{
+    __global const REAL *r0 = src + (long)fold(y0, h, mode) * w, *r1 = src + (long)fold(y0 + 1, h, mode) * w;
+    __global const REAL *r2 = src + (long)fold(y0 + 2, h, mode) * w, *r3 = src + (long)fold(y0 + 3, h, mode) * w;
+    if (w >= 4 && (unsigned)x0 <= (unsigned)(w - 4)) {   // columns inside (a path across the top or bottom)
+        r0 += x0;
+        r1 += x0;
+        r2 += x0;
+        r3 += x0;
+        return (REAL16)(r0[0], r0[1], r0[2], r0[3], r1[0], r1[1], r1[2], r1[3], r2[0], r2[1], r2[2], r2[3], r3[0],
+                        r3[1], r3[2], r3[3]);
+    }
+    const int c0 = fold(x0, w, mode), c1 = fold(x0 + 1, w, mode), c2 = fold(x0 + 2, w, mode),
+              c3 = fold(x0 + 3, w, mode);
+    return (REAL16)(r0[c0], r0[c1], r0[c2], r0[c3], r1[c0], r1[c1], r1[c2], r1[c3], r2[c0], r2[c1], r2[c2], r2[c3],
+                    r3[c0], r3[c1], r3[c2], r3[c3]);
+}
+
 // the sum of a path's 16 lanes (spline_inside) over 36
 INLINE REAL lanes_sum(const REAL16 lanes)
 {
@@ -205,13 +242,20 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
                 lanes += weights[k] * spline_inside(corner + b * hw, w, tnear[k] * ny, tnear[k] * nx);
             acc = lanes_sum(lanes);
         }
-        else {      // a path that leaves the image: its samples with 16 coefficients inside still sample so
+        else {      // a path that leaves the image: its samples with 16 coefficients inside still sample so,
+                    // the others of a periodic mode gather their window's extended indices, the rest extend
             REAL16 lanes = 0;
             for (int k = k0; k < k1; ++k) {
                 const OFF oy = tnear[k] * ny, ox = tnear[k] * nx;
-                const int jy = (int)oy - (oy < (OFF)(int)oy), jx = (int)ox - (ox < (OFF)(int)ox);     // floor
-                if (roomy && (unsigned)(y + jy - 1) <= (unsigned)(h - 4) && (unsigned)(x + jx - 1) <= (unsigned)(w - 4))
+                const OFF fy = FLOOR_REAL(oy), fx = FLOOR_REAL(ox);
+                const int y0 = y + (int)fy - 1, x0 = x + (int)fx - 1;
+                if (roomy && (unsigned)y0 <= (unsigned)(h - 4) && (unsigned)x0 <= (unsigned)(w - 4))
                     lanes += weights[k] * spline_inside(corner + b * hw, w, oy, ox);
+                else if (IS_PERIODIC(mode)) {
+                    const REAL8 wt = weights6(ox - fx, oy - fy);
+                    lanes += weights[k] * (wt.s0123012301230123 * wt.s4444555566667777
+                                           * window_periodic(coef + b * hw, h, w, y0, x0, mode));
+                }
                 else
                     acc += weights[k] * spline2(coef, b * hw, h, w, (POS)y - nodes[k] * vy, (POS)x - nodes[k] * vx,
                                                 mode, mode, cval);
