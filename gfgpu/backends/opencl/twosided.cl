@@ -1,25 +1,14 @@
 /*
- * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference; launcher twosided.py).
- *
- * Up to two inputs X_i and two outputs Y_o along the same lines; output o reads input IN(o).
- * Per input, SECTIONS unit states (F <- lam F + x, kap = 1) run forward, then backward:
- *
+ * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference).  Up to
+ * two inputs X_i and two outputs Y_o along the columns of (B, N, M) arrays, output o reading IN(o):
  *     Y_o[k] = tap_o X[k] + sum_s Re(causal[o,s] F_s[k]) + sum_s Re(anticausal[o,s] G_s[k])
- *
- * with F_s[k] the causal state before sample k and G_s[k] the anticausal one (traversal from the
- * end), both started from the boundary mode's initial state (omega, omega_c of the unit section).
- * One work-item runs both sweeps over its lines: the forward sweep writes the causal part, the
- * backward sweep reads it back (from the cache: the lines a work-item holds are a few hundred KiB)
- * and adds the anticausal part.  So each input is read and each output written once from memory.
- *
- * Defines: REAL (float | double), LANES (16 float, 8 double: a cache line per vector), SECTIONS
- * (poles per input), NIN, NOUT (1 or 2), REAL_POLES (1: every pole and weight real, real states),
- * BAND (most vectors of LANES adjacent columns per work-item: lines along axis 1 of (B, N, M)),
- * CHECK (1: OR flag with 1 if a sample of input 0 is NaN, infinite or beyond the range limit).
- *
- * coef: lam (NIN, S, 2), causal (NOUT, S, 2), anticausal (NOUT, S, 2), tap (NOUT), omega_c
- * (NIN, 2, S, 2); omega: (NIN, 2, S, L, 2) (gfgpu._core.twosided.TwoSidedPlan.packed).
- * Inputs and outputs never overlap.  No fast-math (contraction to fma allowed).
+ * F_s, G_s: the unit states (F <- lam F + x) before sample k, forward and backward, started from the
+ * boundary mode's initial state (omega, omega_c).  A work-item runs a band of columns down (the
+ * causal part written) and up (read back from the cache, the anticausal part added).
+ * Defines: REAL, LANES (a cache line per vector), SECTIONS (poles per input), NIN, NOUT (1 or 2),
+ * REAL_POLES (real poles and weights: real states), BAND (most vectors per work-item), CHECK (OR
+ * flag with 1 if a sample of input 0 is NaN, infinite or beyond the range limit).  coef, omega:
+ * TwoSidedPlan.packed.  No overlaps between arrays.  No fast-math (contraction to fma allowed).
  */
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -30,15 +19,11 @@
 #define CAT_(a, b) a##b
 #define CAT(a, b) CAT_(a, b)
 
-#if LANES == 2 || LANES == 4 || LANES == 8 || LANES == 16
-typedef CAT(REAL, LANES) VT;
+typedef CAT(REAL, LANES) VT;      /* LANES 2, 4, 8 or 16 */
 typedef REAL VTU __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
 #define VLOAD(p) ((VT)(*(__global const VTU *)(p)))
 #define VSTORE(v, p) (*(__global VTU *)(p) = (VTU)(v))
 #define LANE(v, l) ((v)[l])
-#else
-#error "twosided.cl runs on CPU devices: LANES 2, 4, 8 or 16"
-#endif
 
 #if NIN == 2
 #define IN(o) (o)
@@ -107,9 +92,7 @@ INLINE void load_plan(plan_t *p, __global const REAL *c)
     }
 }
 
-/* states: fr, fi [NS * W] (W vectors per state: 1 for rows, the band for columns), state (i, s)
- * of vector v at (i * SECTIONS + s) * W + v */
-
+/* states fr, fi: state (i, s) of vector v at (i * SECTIONS + s) * W + v */
 /* y = sum_s Re(w[o, s] F_(IN(o), s)) for output o, vector v (anti: the anticausal weights) */
 INLINE VT readout(const plan_t *p, const VT *fr, const VT *fi, const int o, const int anti,
                   const int v, const int W)

@@ -1,14 +1,8 @@
-"""Two-sided steps on an OpenCL CPU device: ``twosided.cl`` (spec:
-:func:`gfgpu._core.twosided.run_two_sided_reference`), run by :mod:`gfgpu.filters` for the
-derivative, projection and gradient (and :func:`gfgpu.canny`'s gradient).
-
-One kernel runs a step's causal and anticausal passes down and up a band of columns for up to two
-inputs and two outputs: each input is read once and each output written once from memory, the
-backward sweep reading back what the forward one wrote from the cache (the generic primitive runs
-the passes of a column step one by one, each reading the image and the second the output too).
-CPU devices only (:func:`runs_on`): a work-item runs bands of cache lines; on a GPU the generic
-primitive's block-parallel lines are the right shape.
-"""
+"""Two-sided steps on an OpenCL CPU device (``twosided.cl``; spec
+:func:`gfgpu._core.twosided.run_two_sided_reference`), for :mod:`gfgpu.filters`' derivative,
+projection and gradient: one kernel runs a column step's causal and anticausal passes down and up a
+band of columns, reading each input once and writing each output once from memory (the backward
+sweep reads the forward one's output back from the cache).  CPU devices only (:func:`runs_on`)."""
 
 from __future__ import annotations
 
@@ -55,31 +49,12 @@ def band(plan):
 
 
 def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
-    """Run a two-sided step along ``axis`` of ``(B, N, M)`` arrays.
+    """Run a two-sided step along axis 1 (columns) of C-contiguous ``(B, N, M)`` arrays: ``srcs``
+    and ``dsts``, one per input and output of ``plan`` (outputs overlap nothing), ``cvals`` each
+    input's constant (mode 'constant').  With ``check`` the forward sweep also tests that
+    ``srcs[0]`` is finite and within the range limit, and the result is that bool (a blocking
+    read); else None.  Raises ValueError or TypeError for arrays, axis or plan that do not fit."""
 
-    Parameters
-    ----------
-    be : OpenCLBackend
-        A CPU device (:func:`runs_on`).
-    srcs, dsts : list of pyopencl.array.Array
-        One array per input and per output of ``plan``, C-contiguous ``(B, N, M)`` of one dtype;
-        no output overlaps an input or another output.
-    axis : int
-        1: lines along N (columns).  Rows are the generic primitive's (``recurse_pair`` runs a
-        step's two passes in one kernel there).
-    plan : TwoSidedPlan
-        For lines of ``shape[axis]`` samples.
-    cvals : pair of float
-        Each input's constant of the extension (mode 'constant').
-    check : bool
-        Also test that ``srcs[0]`` is finite and within the range limit (one read: the forward
-        sweep's); then returns that bool (a blocking read of a flag).
-
-    Returns
-    -------
-    bool or None
-        With ``check``: whether every sample of ``srcs[0]`` passed.
-    """
     if not runs_on(be):
         raise ValueError(f"two-sided steps run on OpenCL CPU devices, not on {be!r}")
     if axis != 1:
@@ -88,16 +63,12 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     if len(srcs) != nin or len(dsts) != nout:
         raise ValueError(f"the plan takes {nin} input(s) and {nout} output(s), got {len(srcs)} and {len(dsts)}")
     first = srcs[0]
-    for name, arrays in (("srcs", srcs), ("dsts", dsts)):
-        for a in arrays:
-            if not be.owns(a) or a.ndim != 3 or not a.flags.c_contiguous:
-                raise TypeError(f"{name} must be C-contiguous 3-D pyopencl arrays in the context of {be.device}")
-            if a.shape != first.shape or a.dtype != first.dtype:
-                raise ValueError(f"{name} must match srcs[0]: {a.shape} {a.dtype} vs {first.shape} {first.dtype}")
-    for k, d in enumerate(dsts):
-        for other in list(srcs) + list(dsts[:k]):
-            if be.may_share_memory(d, other):
-                raise ValueError("an output overlaps an input or another output")
+    like = (first.shape, first.dtype)
+    for a in list(srcs) + list(dsts):
+        if not (be.owns(a) and a.flags.c_contiguous and (a.shape, a.dtype) == like and a.ndim == 3):
+            raise TypeError(f"srcs and dsts must be C-contiguous 3-D arrays of {be.device} of one shape and dtype")
+    if any(be.may_share_memory(d, o) for k, d in enumerate(dsts) for o in list(srcs) + list(dsts[:k])):
+        raise ValueError("an output overlaps an input or another output")
     if plan.n != first.shape[axis]:
         raise ValueError(f"plan is for lines of {plan.n} samples, axis {axis} has {first.shape[axis]}")
     dtype = launch.check_dtype(be, first.dtype)
