@@ -300,9 +300,8 @@ class RecurseShape(NamedTuple):
 
 
 def _row_blocks(lines, m, lanes, units):
-    """Blocks per line when few long rows run as rows of blocks (:func:`recurse_launch`), else 0:
-    at least two work-items of full lanes per core, blocks of whole tiles of at least
-    ``_MIN_BLOCK`` steps that divide the line exactly."""
+    """Blocks per line for rows of blocks (:func:`recurse_launch`), else 0: two work-items of full
+    lanes per core, blocks of whole tiles (at least ``_MIN_BLOCK`` steps) dividing the line."""
     least = -(-2 * lanes * units // lines)
     for nb in range(least, 4 * least + 1):
         if m % nb == 0 and (m // nb) % lanes == 0 and m // nb >= _MIN_BLOCK:
@@ -341,12 +340,9 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, const
         work-items); a GPU work-item runs one line.  Lines too few for the device (fewer
         work-items than cores on a CPU, than ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a
         GPU) are cut into blocks of at least ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried
-        exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).  On a CPU, rows too few
-        to fill the lanes of a work-item per core (a 1-D signal, a (4, 4194304) array) put the
-        blocks in the lanes instead (``rows_as_blocks``): each line's ``blocks`` blocks of
-        ``block`` steps are rows of the array viewed as ``(lines * blocks, block)``, run by the
-        row kernel, whose idle lanes would otherwise multiply the work (where ``block`` divides
-        the line; constant coefficients).
+        exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).  CPU rows too few to fill
+        a work-item's lanes per core put each line's blocks in the lanes (``rows_as_blocks``:
+        rows of the ``(lines * blocks, block)`` view; ``block`` divides the line; constant plans).
     """
     b, n, m = (int(x) for x in shape)
     cpu = kind == "cpu"
@@ -447,11 +443,8 @@ class OpenCLBackend(Backend):
         except cl.Error:  # devices without fp64 may reject the query
             fp64 = False
         self.supports_float64 = fp64 or "cl_khr_fp64" in dev.extensions
-        # temporaries (ping-pong buffers, outputs) come from pools: a fresh buffer of a large
-        # image costs a first-touch page fault per page on CPU devices, more than a pass.  A CPU
-        # device's arrays and numpy results live on reused host memory in half-octave classes
-        # (gfgpu._core.hostpool: a new shape near an earlier one reuses its pages); a GPU's
-        # temporaries come from PyOpenCL's pool
+        # temporaries from pools (a fresh page costs a fault at first touch, more than a pass): a
+        # CPU device's arrays and numpy results on reused host memory (gfgpu._core.hostpool), a GPU's
         import pyopencl.tools as cl_tools
         self._pool = cl_tools.MemoryPool(cl_tools.ImmediateAllocator(self.queue))
         self._host_pool = new_pool()
@@ -613,10 +606,8 @@ class OpenCLBackend(Backend):
         shape = (int(shape),) if isinstance(shape, (int, np.integer)) else tuple(int(s) for s in shape)
         dtype = self._check_dtype(dtype)
         if self.kind == "cpu" and int(np.prod(shape, dtype=np.int64)) * dtype.itemsize >= _ZERO_COPY_BYTES:
-            # host memory of the pool, used in place by the CPU device.  No _in_flight entry: the
-            # block returns to this backend's pool only, whose later users are commands of the same
-            # in-order queue or a result read after a blocking map (to_host), both after every
-            # command that may still use it
+            # pooled host memory, used in place; no _in_flight entry: its next user is a command of
+            # this in-order queue or a result read after a blocking map, after every earlier command
             host = self._host_pool.take(shape, dtype)
             buf = self._cl.Buffer(self.context, self._cl.mem_flags.READ_WRITE | self._cl.mem_flags.USE_HOST_PTR,
                                   hostbuf=host)
@@ -881,8 +872,7 @@ class OpenCLBackend(Backend):
         return int(flag[0]) == 0
 
     def _row_view_plan(self, plan, block):
-        """The plan of one block of ``plan`` run as a row of ``block`` steps: its constant
-        coefficients and tap, no initial state (the blocks' states are composed), cached."""
+        """``plan`` for a block run as a row of ``block`` steps (no initial state), cached."""
         key = (id(plan), "rows", block)
         hit = self._plans.get(key)
         if hit is not None and hit[0] is plan:
@@ -897,13 +887,10 @@ class OpenCLBackend(Backend):
         return view
 
     def _recurse_row_blocks(self, src, dst, plan, dtype, cval, accumulate, check, shape):
-        """A row pass over few long lines with their blocks in the lanes (``rows_as_blocks``):
-        (1) every block, a row of the ``(lines * blocks, block)`` view, runs from a zero state to
-        its end state (PHASE 1; the finite check rides here); (2) the line's initial state, the
-        omega terms of its first samples, by the block kernel on the first blocks of the lines
-        alone; (3) ``compose_rows`` turns end states into start states along each line; (4) every
-        block runs again from its start state and writes (PHASE 2).  Equal to the sequential pass
-        within rounding (:func:`gfgpu._core.recursion.run_reference_blocks`, blocks of ``block``)."""
+        """Few long rows with their blocks in the lanes (``rows_as_blocks``): the blocks, rows of a
+        ``(lines * blocks, block)`` view, run from zero (PHASE 1, with the check); the block kernel
+        gives the omega terms of the lines' first blocks; ``compose_rows`` makes the start states;
+        PHASE 2 writes (:func:`gfgpu._core.recursion.run_reference_blocks`)."""
         b, n, m = src.shape
         lines, nb, blen = b * n, shape.blocks, shape.block
         rows = lines * nb
@@ -1045,9 +1032,8 @@ class OpenCLBackend(Backend):
         return int(flag[0]) == 0
 
     def input_finite(self, host, data):
-        # the device tests its copy (on a CPU device the host memory itself): the kernel reads it
-        # once on every core, numpy's max and min twice on one (4096^2 float32 here: 2.8 ms
-        # against 9.3 ms, a copy 4.9 ms); a small array is tested on the host, without a launch
+        # the kernel reads the data once on every core, numpy's max and min twice on one (4096^2
+        # float32: 2.8 vs 9.3 ms); a small array on the host, without a launch
         return host_in_range(host) if host.nbytes < _ZERO_COPY_BYTES else self.all_finite(data)
 
     def _index_array(self, index, size):
@@ -1069,9 +1055,8 @@ class OpenCLBackend(Backend):
                                  f"(sources of at most 2**31 elements)")
             # every negative index means cval: clamping keeps int64 values in int32 range
             idx = np.ascontiguousarray(np.maximum(idx, -1) if idx.dtype.kind == "i" else idx, np.int32)
-            # copied when the buffer is made, not by a command: a blocking write would wait for
-            # every command queued before it (the first pass of a call whose second pass needs a
-            # new shape's index), and even a queued one cost ~1.5 ms of host time here
+            # copied as the buffer is made: a blocking write waited for every queued command (a
+            # call's first pass), a queued one cost ~1.5 ms of host time
             dev = None
             if idx.size:
                 mf = self._cl.mem_flags

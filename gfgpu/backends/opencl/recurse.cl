@@ -127,13 +127,16 @@ INLINE void load_coef(coef_t *c, __global const REAL *lam, __global const REAL *
  * arithmetic: the programs are built without fast-math; a contracted fma(x, R, -z) is 0 too);
  * unlike isfinite() it vectorises on CPU devices */
 #define RANGE_SCALE (sizeof(REAL) == 8 ? (REAL)0x1p512 : (REAL)0x1p64f)
-#define NONFINITE(x) ((((x) * RANGE_SCALE) - ((x) * RANGE_SCALE)) != (REAL)0)
+#define RESIDUE(x) (((x) * RANGE_SCALE) - ((x) * RANGE_SCALE))
+#define NONFINITE(x) (RESIDUE(x) != (REAL)0)
+/* The fused check: a work-item sums the residues of its samples (a NaN or an infinity never
+ * cancels: inf - inf is NaN) and tests the lanes once at its end; a 16-lane reduction per step
+ * made a checked pass ~40 % slower than an unchecked one */
 #if LANES == 1
-#define ANY_NONFINITE(v) NONFINITE(v)
+#define RESIDUE_BAD(acc) ((acc) != (REAL)0)
 #else
-/* a lane out of range makes z - z NaN; summing the lanes keeps the NaN (no any(): a call) */
-#define ANY_NONFINITE(v) lanes_nonfinite(((v) * RANGE_SCALE) - ((v) * RANGE_SCALE))
-INLINE int lanes_nonfinite(const VT z)
+#define RESIDUE_BAD(acc) lanes_nonfinite(acc)
+INLINE int lanes_nonfinite(const VT z)   /* summed, no any(): a call in PoCL */
 {
     REAL t = 0;
 #pragma unroll
@@ -141,18 +144,6 @@ INLINE int lanes_nonfinite(const VT z)
         t += LANE(z, l);
     return t != (REAL)0;
 }
-#endif
-
-/* The fused check's running residue: RESIDUE(x) is +0 for a sample in range and NaN or an
- * infinity otherwise (NONFINITE above); a work-item sums the residues of its samples, in which a
- * NaN or an infinity never cancels to 0 (inf - inf is NaN), and tests the lanes once at its end
- * (RESIDUE_BAD) instead of reducing 16 lanes at every step (measured: the per-step reduction
- * made a checked pass ~40 % slower than an unchecked one) */
-#define RESIDUE(x) (((x) * RANGE_SCALE) - ((x) * RANGE_SCALE))
-#if LANES == 1
-#define RESIDUE_BAD(acc) ((acc) != (REAL)0)
-#else
-#define RESIDUE_BAD(acc) lanes_nonfinite(acc)
 #endif
 
 /* A store of one vector of LANES samples: non-temporal (past the caches, no read for ownership)
@@ -541,11 +532,8 @@ INLINE void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
     }
 }
 
-/* Steps before the first whole tile such that the tiles' stores start on vector-aligned
- * addresses of dst (rows of M samples, M a multiple of LANES: every row shares its alignment):
- * a caller's output= array from numpy starts 16 bytes past a cache line, and a tile grid fixed
- * to the row start then split every vector store (and load of a like-aligned input) over two
- * cache lines.  0 for windowed passes (their tiles follow the window) and LANES = 1. */
+/* Steps before the first whole tile so that the tiles' stores are vector-aligned in dst (a numpy
+ * output= starts 16 bytes into a cache line); rows of M % LANES == 0 share the alignment. */
 INLINE int tile_lead(__global const REAL *d0, const int n, const int M, const int reverse)
 {
 #if LANES == 1 || WINDOW
@@ -830,15 +818,10 @@ __kernel void compose(__global REAL *carry, __global const REAL *partial,
     }
 }
 
-/* ---- compose_rows: the blocks of few long lines laid out as rows --------------------------
- * A CPU pass over fewer lines than a vector has lanes runs each line's nb blocks as rows of the
- * array viewed as (lines * nb, blen): line i's block t (natural order) is row i * nb + t, so the
- * row kernel's lanes hold blocks, not idle lines.  PHASE 1 on that view left each row's end state
- * from a zero start in `carry` at [s][part][row] (rows = count * nb); `partial` holds the omega
- * terms of the line's first `lblocks` blocks in traversal order, as the block kernel stores them
- * (carry_index(0, blk, pblocks, s, part, i, count)).  One work-item per line walks its blocks in
- * traversal order and overwrites each row's end state with its start state, which PHASE 2 on
- * the view runs from.  blockpow: lam^blen per section (constant coefficients only). */
+/* ---- compose_rows: few long lines whose nb blocks are rows (line i's block t: row i*nb + t) ----
+ * carry: each row's end state from a zero start, [s][part][row]; partial: the omega terms of the
+ * line's first lblocks blocks (carry_index layout); overwrites each end state by the row's start
+ * state, walking the blocks in traversal order.  blockpow: lam^blen (constant coefficients). */
 __kernel void compose_rows(__global REAL *carry, __global const REAL *partial,
                            __global const REAL *omega_c, __global const REAL *blockpow, const REAL cval,
                            const int nb, const int lblocks, const int pblocks, const long count,
