@@ -14,7 +14,13 @@ memory.  :class:`HostPool` keeps released blocks and hands them out again:
 - a block goes back to the pool when the last array on it is garbage collected (a result the
   caller dropped, a temporary of a finished call), never while an array uses it;
 - at most ``limit`` bytes are held (least recently released blocks are freed first), so a
-  process that sees many shapes does not accumulate memory.
+  process that sees many shapes does not accumulate memory; a request that no held block
+  serves first frees the oldest held blocks until the fresh block fits beside the rest within
+  the limit, so the pool adds at most ``limit`` bytes to a call's peak memory;
+- the limit is 256 MiB (a 4096² float32 image's result and two working arrays), or the
+  environment variable ``GFGPU_HOST_POOL`` (bytes or ``"512M"``; ``0`` switches reuse off: every
+  block is freed when its last array goes).  What a pool holds stays resident in the process
+  (a Dask worker counts it as used memory).
 
 The pool recycles memory, never results: every block's content is overwritten by the pass
 that takes it.  Device queues: a block is reused by the same backend only (one pool per
@@ -34,7 +40,7 @@ import numpy as np
 __all__ = ["HostPool", "size_class"]
 
 PAGE = 4096                 # bytes: blocks are whole pages, page-aligned
-DEFAULT_LIMIT = 1 << 30     # held bytes at most (1 GiB)
+DEFAULT_LIMIT = 256 << 20   # held bytes at most (256 MiB) unless GFGPU_HOST_POOL says
 
 
 def size_class(nbytes):
@@ -72,7 +78,7 @@ class HostPool:
     Parameters
     ----------
     limit : int, optional
-        Most bytes of released blocks held for reuse (default 1 GiB).
+        Most bytes of released blocks held for reuse (default :data:`DEFAULT_LIMIT`, 256 MiB).
 
     Examples
     --------
@@ -119,6 +125,9 @@ class HostPool:
                 del self._held[key]
                 self._held_bytes -= size
                 self.stats["reused"] += 1
+            else:
+                # a miss: held blocks that would stand beside the fresh one beyond the limit go first
+                self._trim(max(0, self.limit - want))
         if raw is None:
             raw = np.empty(want + PAGE, np.uint8)
             self.stats["fresh"] += 1
@@ -131,9 +140,13 @@ class HostPool:
         with self._lock:
             self._held[id(raw)] = (size, raw)
             self._held_bytes += size
-            while self._held_bytes > self.limit and self._held:
-                _, (old, _) = self._held.popitem(last=False)
-                self._held_bytes -= old
+            self._trim(self.limit)
+
+    def _trim(self, keep):
+        # the lock is held: free the least recently released blocks until at most keep bytes stay
+        while self._held_bytes > keep and self._held:
+            _, (old, _) = self._held.popitem(last=False)
+            self._held_bytes -= old
 
     def clear(self):
         """Free every held block (arrays in use keep theirs)."""
@@ -145,9 +158,28 @@ class HostPool:
 _pools = weakref.WeakSet()
 
 
-def new_pool(limit=DEFAULT_LIMIT):
-    """A :class:`HostPool` that a forked child empties (its parent's blocks are copies there)."""
-    pool = HostPool(limit)
+def default_limit():
+    """The held-bytes limit of a backend's pool: ``GFGPU_HOST_POOL`` (bytes, ``"512M"``; ``0``: no
+    reuse) if set, else :data:`DEFAULT_LIMIT`.
+
+    Raises
+    ------
+    ValueError
+        If ``GFGPU_HOST_POOL`` is not a byte count.
+    """
+    value = os.environ.get("GFGPU_HOST_POOL", "").strip()
+    if not value:
+        return DEFAULT_LIMIT
+    if value == "0":
+        return 0
+    from .strips import parse_bytes
+    return parse_bytes(value, "GFGPU_HOST_POOL")
+
+
+def new_pool(limit=None):
+    """A :class:`HostPool` that a forked child empties (its parent's blocks are copies there);
+    ``limit`` None: :func:`default_limit`."""
+    pool = HostPool(default_limit() if limit is None else limit)
     _pools.add(pool)
     return pool
 

@@ -56,3 +56,31 @@ def test_the_held_bytes_stay_below_the_limit():
     assert pool.held_bytes <= pool.limit
     pool.clear()
     assert pool.held_bytes == 0
+
+
+def test_a_miss_frees_held_blocks_that_would_exceed_the_limit_beside_the_fresh_one():
+    block = size_class(2**22)
+    pool = HostPool(limit=3 * block)
+    a, b = pool.take((2**20,), np.float32), pool.take((2**20,), np.float32)
+    del a, b
+    assert pool.held_bytes == 2 * block
+    big = pool.take((2**21,), np.float32)               # 2 blocks' worth, no held block serves it: one goes
+    assert pool.stats["fresh"] == 3 and pool.held_bytes == block
+    del big                                              # held: the big one and the small one, trimmed to the limit
+    assert pool.held_bytes <= pool.limit
+
+
+def test_the_limit_comes_from_the_environment(monkeypatch):
+    from gfgpu._core import hostpool
+    monkeypatch.setenv("GFGPU_HOST_POOL", "64M")
+    assert hostpool.new_pool().limit == 64 << 20
+    monkeypatch.setenv("GFGPU_HOST_POOL", "0")
+    pool = hostpool.new_pool()
+    a = pool.take((2**20,), np.float32)
+    del a
+    assert pool.limit == 0 and pool.held_bytes == 0      # no reuse: every block freed at release
+    monkeypatch.setenv("GFGPU_HOST_POOL", "lots")
+    with pytest.raises(ValueError, match="GFGPU_HOST_POOL must be a byte count"):
+        hostpool.new_pool()
+    monkeypatch.delenv("GFGPU_HOST_POOL")
+    assert hostpool.new_pool().limit == hostpool.DEFAULT_LIMIT == 256 << 20
