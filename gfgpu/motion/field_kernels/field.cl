@@ -224,12 +224,17 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *field, 
     m += c > (POS)m;
     const int n = IMIN(IMAX(first, m + extra), most);
     const int k0 = length > 0 ? offsets[n - first] : 0, k1 = length > 0 ? offsets[n - first + 1] : 1;
-    const POS ta = length > 0 ? nodes[k0] : 0, tb = length > 0 ? nodes[k1 - 1] : 0;
-    const POS ya = (POS)y - ta * vy, yb = (POS)y - tb * vy, xa = (POS)x - ta * vx, xb = (POS)x - tb * vx;
-    const int inside = fmin(ya, yb) >= (POS)1 && fmax(ya, yb) < (POS)(h - 3) && fmin(xa, xb) >= (POS)1
-                       && fmax(xa, xb) < (POS)(w - 3);
     const int roomy = h >= 4 && w >= 4;
     const OFF ny = -(OFF)vy, nx = -(OFF)vx;     // a node t is at (y, x) + t (ny, nx)
+    // inside: the end nodes' windows (hence all: floor is monotonic along the line) lie in the image, tested
+    // on the offsets the samples take (tnear in the image's type), not on positions in POS: a tiny velocity
+    // at row or column 1 puts y - t vy at 1.0 in POS but its offset's floor at -1 (a window one row or
+    // column before the image, read out of bounds)
+    const int kb = length > 0 ? k1 - 1 : k0;
+    const OFF oya = tnear[k0] * ny, oyb = tnear[kb] * ny, oxa = tnear[k0] * nx, oxb = tnear[kb] * nx;
+    const int inside = length > 0 && y + (int)FLOOR_REAL(fmin(oya, oyb)) >= 1
+                       && y + (int)FLOOR_REAL(fmax(oya, oyb)) <= h - 3 && x + (int)FLOOR_REAL(fmin(oxa, oxb)) >= 1
+                       && x + (int)FLOOR_REAL(fmax(oxa, oxb)) <= w - 3;
     // the window's corner at the pixel, (y - 1, x - 1): the samples inside add only their offset
     __global const REAL *corner = coef + ((long)y - 1) * w + (x - 1);
     for (int b = 0; b < planes; ++b) {
