@@ -179,8 +179,10 @@ def grey_image(image, name):
         raise TypeError(f"{name} must be a real numeric image, got dtype {arr.dtype}")
     integer = arr.dtype.kind in "biu"         # always finite, also as float32
     # int32/uint32/int64/uint64 beyond float32's exact integers (2**24) stay float64 here, so
-    # that no value is lost: _exact_views moves the pair to float32 exactly or keeps float64
-    real = np.float64 if _wide_integers(arr) else np.float32
+    # that no value is lost: _exact_views moves the pair to float32 exactly or keeps float64;
+    # so do float64 images beyond float32's range (cast, they overflowed to inf and were refused
+    # as "NaN or infinite", or flushed to an all-zero image)
+    real = np.float64 if _wide_integers(arr) or _beyond_float32(arr) else np.float32
     if arr.ndim == 3 and arr.shape[-1] in (1, 3, 4):
         if arr.shape[-1] == 4:
             arr = arr[..., :3]     # alpha is not image content
@@ -217,10 +219,22 @@ def _wide_integers(arr):
     return int(arr.max()) >= _FLOAT32_EXACT or int(arr.min()) <= -_FLOAT32_EXACT
 
 
+def _beyond_float32(arr):
+    """Whether ``arr`` is a float image wider than float32 whose largest magnitude float32 cannot
+    hold as a normal number (above its largest finite value, or nonzero below its smallest normal
+    one); such an image keeps float64 (an infinite one too, refused by :func:`grey_image`)."""
+    if arr.dtype.kind != "f" or arr.dtype.itemsize <= 4 or arr.size == 0:
+        return False
+    top = float(np.fmax.reduce(np.abs(arr), axis=None))     # NaN ignored (refused after the cast)
+    info = np.finfo(np.float32)
+    return top > float(info.max) or 0.0 < top < float(info.tiny)
+
+
 def _exact_views(left, right):
     """A pair from :func:`grey_image` in the precision that loses no value: float32 views as they
-    are; wide integers (grey: int64/uint64; colour: float64 luminance) moved by their joint
-    minimum (exact in integer arithmetic), then
+    are; wide integers (grey: int64/uint64; colour: float64 luminance) and float64 images beyond
+    float32's range (:func:`_beyond_float32`) moved by their joint minimum (exact in integer
+    arithmetic), then
     float32 where that holds them exactly (every integer below 2**24: values near 2e9 that differ
     by 3 keep their difference) and float64 otherwise (the census is then taken on the host, in
     float64: :func:`_sgm`)."""
@@ -231,8 +245,15 @@ def _exact_views(left, right):
         low = np.uint64(min(int(left.min()), int(right.min())) % 2**64)
         lft, rgt = ((v.astype(np.uint64) - low).astype(np.float64) for v in (left, right))
     else:
-        low = min(float(left.min()), float(right.min()))
-        lft, rgt = np.asarray(left, np.float64) - low, np.asarray(right, np.float64) - low
+        lft, rgt = np.asarray(left, np.float64), np.asarray(right, np.float64)
+        top = max(float(np.abs(lft).max()), float(np.abs(rgt).max()))
+        if top > 2.0**1000:
+            # float64 images near float64's largest values (_beyond_float32): scaled down by a
+            # power of two first (exact; matching_views scales the views again), so that the
+            # differences from the minimum cannot overflow
+            lft, rgt = np.ldexp(lft, -64), np.ldexp(rgt, -64)
+        low = min(float(lft.min()), float(rgt.min()))
+        lft, rgt = lft - low, rgt - low
     top = max(float(lft.max()), float(rgt.max()))
     if top < _FLOAT32_EXACT and (lft == np.round(lft)).all() and (rgt == np.round(rgt)).all():
         return lft.astype(np.float32), rgt.astype(np.float32)
@@ -615,8 +636,14 @@ def _green_shift(be, image, amount, method, sigma):
 def _sweep(be, left, right, d_min, d_max, step, method, radius, sigma, lr_check, progress):
     h, w = left.shape
     # the sweeps run in float32 on every backend: wide integers moved by the pair's minimum first
-    # (exact below 2**24 of range), then rounded
-    left, right = (np.asarray(v, np.float32) for v in _exact_views(left, right))
+    # (exact below 2**24 of range), then rounded; float64 pairs beyond float32's range
+    # (_beyond_float32) first scaled by a power of two into it (the largest magnitude in [1, 2))
+    views = _exact_views(left, right)
+    top = max(float(np.abs(v).max()) for v in views)
+    info = np.finfo(np.float32)
+    if top > float(info.max) or 0.0 < top < float(info.tiny):
+        views = tuple(np.ldexp(v, _scale_exponent(*views)) for v in views)
+    left, right = (np.asarray(v, np.float32) for v in views)
     lft, rgt = be.asarray(left), be.asarray(right)
     init = np.full((SWEEP_PLANES, h, w), np.nan, np.float32)
     init[[0, 5, 6, 7]] = np.inf         # best, second, older, the right view's best
