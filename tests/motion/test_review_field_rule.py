@@ -64,3 +64,17 @@ def test_tiny_velocities_everywhere_match_the_spec(backend, mode):
                 got = motion_blur(x, field.astype(dtype), psf=psf, mode=mode, cval=0.5, backend=backend)
                 tol = 2e-5 if dtype == np.float32 else 1e-10
                 assert np.abs(got - ref).max() <= tol * max(1.0, np.abs(ref).max()), (shape, psf, dtype)
+
+
+def test_tiny_velocities_in_gpu_launch_shapes(gpu_shaped):
+    """The same tiny velocities through the GPU launch shapes (work-groups of 16 x 16 pixels)."""
+    rng = np.random.default_rng(5)
+    coef = rng.standard_normal((2, 9, 11)).astype(np.float32)
+    field = np.sign(rng.standard_normal((2, 9, 11))) * 10.0 ** rng.uniform(-30, -6, (2, 9, 11))
+    field = field.astype(np.float32)
+    for psf in range(4):
+        out = gpu_shaped.empty(coef.shape, np.float32)
+        kernels.field_rule(gpu_shaped, gpu_shaped.asarray(coef), gpu_shaped.asarray(field), out, psf, "mirror", 0.0)
+        ref = spec.field_rule_reference(coef, field, psf, "mirror", 0.0)
+        got = gpu_shaped.to_host(out).reshape(ref.shape)
+        assert np.abs(got - ref).max() <= 2e-5 * max(1.0, np.abs(ref).max()), psf
