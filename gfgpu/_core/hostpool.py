@@ -24,7 +24,11 @@ memory.  :class:`HostPool` keeps released blocks and hands them out again:
 
 The pool recycles memory, never results: every block's content is overwritten by the pass
 that takes it.  Device queues: a block is reused by the same backend only (one pool per
-backend instance, whose in-order queue orders the reuse after every earlier command).
+backend instance, whose in-order queue orders the reuse after every earlier command).  Freeing
+is not ordered by a queue: a block whose array Python dropped may still be written by a queued
+kernel (an OpenCL device buffer on host memory), so a pool made with a ``fence`` (the queue's
+``finish``) calls it before it frees any block, and frees only in :meth:`HostPool.take` and
+:meth:`HostPool.clear`, never from the garbage collector's release.
 """
 
 from __future__ import annotations
@@ -79,6 +83,10 @@ class HostPool:
     ----------
     limit : int, optional
         Most bytes of released blocks held for reuse (default :data:`DEFAULT_LIMIT`, 256 MiB).
+    fence : callable, optional
+        Called (no arguments) before held blocks are freed: it must return once no queued device
+        command uses them (an in-order queue's ``finish``).  With a fence, blocks released beyond
+        the limit stay held until the next :meth:`take` or :meth:`clear`.
 
     Examples
     --------
@@ -91,8 +99,9 @@ class HostPool:
     (True, 1)
     """
 
-    def __init__(self, limit=DEFAULT_LIMIT):
+    def __init__(self, limit=DEFAULT_LIMIT, fence=None):
         self.limit = int(limit)
+        self._fence = fence
         self._lock = threading.Lock()
         self._held = OrderedDict()      # id(raw) -> (class bytes, raw), oldest release first
         self._held_bytes = 0
@@ -112,6 +121,7 @@ class HostPool:
         nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
         want = size_class(nbytes)
         raw = None
+        doomed = []
         with self._lock:
             best = None
             for key, (size, block) in self._held.items():
@@ -125,9 +135,11 @@ class HostPool:
                 del self._held[key]
                 self._held_bytes -= size
                 self.stats["reused"] += 1
+                doomed = self._trim(self.limit)     # blocks released beyond the limit meanwhile
             else:
                 # a miss: held blocks that would stand beside the fresh one beyond the limit go first
-                self._trim(max(0, self.limit - want))
+                doomed = self._trim(max(0, self.limit - want))
+        self._free(doomed)
         if raw is None:
             raw = np.empty(want + PAGE, np.uint8)
             self.stats["fresh"] += 1
@@ -137,22 +149,34 @@ class HostPool:
         return np.asarray(lease)
 
     def _release(self, raw, size):
+        # runs in the garbage collector: with a fence, nothing is freed here (the fence may
+        # block on a queue, and a finaliser may run inside a call on that queue)
         with self._lock:
             self._held[id(raw)] = (size, raw)
             self._held_bytes += size
-            self._trim(self.limit)
+            doomed = [] if self._fence is not None else self._trim(self.limit)
+        del doomed              # no fence: no queue writes to host memory after its array is gone
 
     def _trim(self, keep):
-        # the lock is held: free the least recently released blocks until at most keep bytes stay
+        # the lock is held: the least recently released blocks, taken out until at most keep bytes
+        # stay; the caller frees them (after the fence)
+        doomed = []
         while self._held_bytes > keep and self._held:
-            _, (old, _) = self._held.popitem(last=False)
+            _, (old, raw) = self._held.popitem(last=False)
             self._held_bytes -= old
+            doomed.append(raw)
+        return doomed
+
+    def _free(self, doomed):
+        if doomed and self._fence is not None:
+            self._fence()       # no queued command may write a block after it is freed
+        doomed.clear()
 
     def clear(self):
-        """Free every held block (arrays in use keep theirs)."""
+        """Free every held block (arrays in use keep theirs), after the fence if there is one."""
         with self._lock:
-            self._held.clear()
-            self._held_bytes = 0
+            doomed = self._trim(0)
+        self._free(doomed)
 
 
 _pools = weakref.WeakSet()
@@ -176,17 +200,21 @@ def default_limit():
     return parse_bytes(value, "GFGPU_HOST_POOL")
 
 
-def new_pool(limit=None):
+def new_pool(limit=None, fence=None):
     """A :class:`HostPool` that a forked child empties (its parent's blocks are copies there);
-    ``limit`` None: :func:`default_limit`."""
-    pool = HostPool(default_limit() if limit is None else limit)
+    ``limit`` None: :func:`default_limit`; ``fence`` as in :class:`HostPool`."""
+    pool = HostPool(default_limit() if limit is None else limit, fence)
     _pools.add(pool)
     return pool
 
 
 def _clear_in_child():
+    # no fence in a child (its parent's queues are not its own) and no lock a parent's thread
+    # may have held at the fork: the child starts with empty pools
     for pool in list(_pools):
-        pool.clear()
+        pool._lock = threading.Lock()
+        pool._held = OrderedDict()
+        pool._held_bytes = 0
 
 
 os.register_at_fork(after_in_child=_clear_in_child)

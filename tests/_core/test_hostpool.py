@@ -84,3 +84,35 @@ def test_the_limit_comes_from_the_environment(monkeypatch):
         hostpool.new_pool()
     monkeypatch.delenv("GFGPU_HOST_POOL")
     assert hostpool.new_pool().limit == hostpool.DEFAULT_LIMIT == 256 << 20
+
+
+def test_with_a_fence_blocks_are_freed_only_after_it_and_never_on_release():
+    calls = []
+    pool = HostPool(limit=0, fence=lambda: calls.append(len(pool._held)))
+    a = pool.take((2**18,), np.float32)
+    del a
+    gc.collect()
+    # released (a queued kernel may still write it): held, not freed, and no fence from the collector
+    assert pool.held_bytes == size_class(2**20) and calls == []
+    b = pool.take((2**16,), np.float32)                 # another class: the held block goes, after the fence
+    assert calls == [0] and pool.held_bytes == 0
+    del b
+    pool.clear()
+    assert calls == [0, 0] and pool.held_bytes == 0
+    pool.clear()                                        # nothing held: no fence
+    assert len(calls) == 2
+
+
+def test_a_forked_child_starts_with_empty_pools_without_calling_the_fence():
+    import os
+    if not hasattr(os, "fork"):
+        pytest.skip("no fork on this platform")
+    from gfgpu._core import hostpool
+    pool = hostpool.new_pool(limit=2**30, fence=lambda: os._exit(3))
+    a = pool.take((2**18,), np.float32)
+    del a
+    pid = os.fork()
+    if pid == 0:
+        os._exit(0 if pool.held_bytes == 0 else 1)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0

@@ -447,7 +447,8 @@ class OpenCLBackend(Backend):
         # CPU device's arrays and numpy results on reused host memory (gfgpu._core.hostpool), a GPU's
         import pyopencl.tools as cl_tools
         self._pool = cl_tools.MemoryPool(cl_tools.ImmediateAllocator(self.queue))
-        self._host_pool = new_pool()
+        # queued kernels may still write a block whose array Python dropped: frees wait on the queue
+        self._host_pool = new_pool(fence=self.queue.finish)
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
         self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
         self._in_flight = []           # host arrays wrapped for the device, kept until the queue drains
