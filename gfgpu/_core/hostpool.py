@@ -194,10 +194,14 @@ def default_limit():
     value = os.environ.get("GFGPU_HOST_POOL", "").strip()
     if not value:
         return DEFAULT_LIMIT
-    if value == "0":
-        return 0
     from .strips import parse_bytes
-    return parse_bytes(value, "GFGPU_HOST_POOL")
+    if value.rstrip("0.") == "" and "0" in value:     # 0, 0.0: no reuse
+        return 0
+    try:
+        return parse_bytes(value, "GFGPU_HOST_POOL")
+    except ValueError:
+        raise ValueError(f"the environment variable GFGPU_HOST_POOL must be 0 (no reuse) or a positive byte "
+                         f"count such as 268435456, '256M' or '1G'; got {value!r}") from None
 
 
 def new_pool(limit=None, fence=None):

@@ -25,7 +25,7 @@ import threading
 from dataclasses import dataclass
 from functools import cache, lru_cache
 
-from .._core import arrays
+from .._core import arrays, hostpool
 from . import opencl, warp
 from .base import Backend, BackendUnavailable
 from .numpy import NumpyBackend
@@ -99,6 +99,7 @@ def get_backend(name, device=None) -> Backend:
                         f"got {device!r}")
     if isinstance(device, str) and device.isdigit():
         device = int(device)
+    hostpool.default_limit()    # a bad GFGPU_HOST_POOL is the user's error, not an unavailable backend
     try:
         return _make(name, _device_key(device), device)
     except BackendUnavailable:
@@ -116,6 +117,7 @@ def _parse_spec(spec):
 
 @lru_cache(maxsize=1)
 def _automatic():
+    hostpool.default_limit()    # raised here, not taken for a broken driver below
     reasons = []
     for name, want in (("warp", "cuda"), ("opencl", "gpu"), ("opencl", "cpu"), ("warp", "cpu")):
         try:

@@ -80,7 +80,7 @@ def test_the_limit_comes_from_the_environment(monkeypatch):
     del a
     assert pool.limit == 0 and pool.held_bytes == 0      # no reuse: every block freed at release
     monkeypatch.setenv("GFGPU_HOST_POOL", "lots")
-    with pytest.raises(ValueError, match="GFGPU_HOST_POOL must be a byte count"):
+    with pytest.raises(ValueError, match="GFGPU_HOST_POOL must be 0 .no reuse. or a positive byte count"):
         hostpool.new_pool()
     monkeypatch.delenv("GFGPU_HOST_POOL")
     assert hostpool.new_pool().limit == hostpool.DEFAULT_LIMIT == 256 << 20
@@ -116,3 +116,28 @@ def test_a_forked_child_starts_with_empty_pools_without_calling_the_fence():
         os._exit(0 if pool.held_bytes == 0 else 1)
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
+
+
+@pytest.mark.parametrize("value", ["abc", "-5", "1e9", "0M", "nan"])
+def test_a_bad_limit_in_the_environment_is_an_error_not_an_unavailable_backend(monkeypatch, value):
+    # automatic selection used to take the error for a broken driver and fall back to numpy
+    import subprocess
+    import sys
+
+    from gfgpu import backends
+    monkeypatch.setenv("GFGPU_HOST_POOL", value)
+    backends._automatic.cache_clear()
+    for call in (lambda: backends.resolve_backend(), lambda: backends.get_backend("numpy")):
+        with pytest.raises(ValueError, match=r"GFGPU_HOST_POOL must be 0 \(no reuse\) or a positive byte count"):
+            call()
+    backends._automatic.cache_clear()
+    run = subprocess.run([sys.executable, "-m", "gfgpu", "shift", "--example", "camera", "--dx", "2", "-o",
+                          "never-written.png"], capture_output=True, text=True, timeout=300)
+    assert run.returncode == 2 and "GFGPU_HOST_POOL" in run.stderr and "Traceback" not in run.stderr
+
+
+@pytest.mark.parametrize("value, limit", [("0", 0), ("0.0", 0), ("64M", 64 << 20), (" 2G ", 2 << 30)])
+def test_a_good_limit_in_the_environment(monkeypatch, value, limit):
+    from gfgpu._core import hostpool
+    monkeypatch.setenv("GFGPU_HOST_POOL", value)
+    assert hostpool.default_limit() == limit
