@@ -632,15 +632,30 @@ def save_png(path, image):
 
 def save_gif(path, frames, fps):
     """Write 8-bit frames ``(n, H, W)`` or ``(n, H, W, 3)`` as an endlessly looping animated GIF at
-    ``fps`` frames per second, atomically (Pillow's palette per frame)."""
+    ``fps`` frames per second, atomically.  Grey frames are written exactly, every frame in palette
+    mode with the grey ramp as its palette; colour frames get Pillow's palette per frame."""
     from PIL import Image
+
+    grey = bytes(np.repeat(np.arange(256, dtype=np.uint8), 3))
+
+    def image(f):
+        f = np.ascontiguousarray(f)
+        if f.ndim == 3:
+            return Image.fromarray(f)
+        # one mode and one grey palette for every frame: Pillow wrote the first as L and later
+        # ones as P, which imageio (Pillow 13) cannot read back ("No packer found from P to L")
+        im = Image.frombytes("P", (f.shape[1], f.shape[0]), f.tobytes())
+        im.putpalette(grey)
+        return im
 
     def write(tmp):
         import io as _io
-        images = [Image.fromarray(np.ascontiguousarray(f)) for f in frames]
+        images = [image(f) for f in frames]
         buffer = _io.BytesIO()
+        # optimize=False: a later frame's palette trimmed to its levels is no grey ramp, and
+        # readers then switch that frame's mode (L to P) mid-file
         images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:], duration=1000.0 / fps,
-                       loop=0)
+                       loop=0, optimize=False)
         _write_bytes(tmp, buffer.getbuffer())
     write_atomic(path, write)
 

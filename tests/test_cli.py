@@ -480,3 +480,17 @@ def test_a_missing_input_is_a_usage_error_before_the_backend_starts(tmp_path, ca
     assert "backend" not in captured.out, captured.out
     assert captured.err.strip() == f"gfgpu {argv[0]}: give an IMAGE path or --example camera"
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("argv, command, pattern", [
+    (["depth", "--example", "camera"], "depth",
+     r"unrecognized arguments: --example .*no bundled example"),
+    (["shift", "--example", "camera", "--dx", "1", "--bogus"], "shift", r"unrecognized arguments: --bogus"),
+    (["batch", "canny", "x.png", "-o", "out", "--bogus", "1"], "batch canny", r"unrecognized arguments: --bogus 1"),
+])
+def test_unknown_options_are_reported_by_the_command(tmp_path, capsys, argv, command, pattern):
+    # argparse's top level used to say "gfgpu: unrecognized arguments" for any command
+    with pytest.raises(SystemExit) as info:
+        cli([*argv, "-o", str(tmp_path / "out.png")] if command != "batch canny" else argv)
+    one_line_error(capsys, info.value.code, 2, command, pattern)
+    assert not (tmp_path / "out.png").exists()

@@ -412,3 +412,25 @@ def test_stale_temporaries_of_killed_runs_are_removed(tmp_path):
     assert sorted(removed) == sorted([str(tmp_path / left), str(legacy_old)])
     assert mine.exists() and legacy_new.exists() and all(p.exists() for p in others)
     assert io.remove_stale_temporaries(tmp_path / "nowhere") == []
+
+
+@pytest.mark.parametrize("colour", [False, True])
+def test_animated_gif_reads_back_frame_by_frame(tmp_path, colour):
+    # grey frames that differ a lot: Pillow wrote the first as L and the rest as P, and
+    # imageio.v3 could not read the file ("No packer found from P to L")
+    from gfgpu.io import save_gif
+    # later frames with fewer grey levels than the first (a fade, a blur) are where it broke
+    ramp = np.tile(np.arange(256, dtype=np.uint8), (8, 1))
+    frames = np.stack([ramp // (k + 1) for k in range(5)])
+    if colour:
+        frames = np.stack([frames, 255 - frames, frames // 2], axis=-1)
+    save_gif(tmp_path / "a.gif", frames, fps=10)
+    back = iio.imread(tmp_path / "a.gif", index=None)
+    assert len(list(iio.imiter(tmp_path / "a.gif"))) == 5
+    if colour:
+        assert back.shape == frames.shape
+    else:
+        if back.ndim == 4:                        # a reader may expand the grey palette to RGB
+            assert (back == back[..., :1]).all()
+            back = back[..., 0]
+        assert np.array_equal(back, frames)       # grey: every level kept exactly

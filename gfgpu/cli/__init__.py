@@ -74,8 +74,12 @@ def main(argv=None):
     try:
         # inside the try: a Ctrl-C while the commands are imported is an interruption like any other
         from .common import check_source
-        args = build_parser().parse_args(argv)
+        parser = build_parser()
+        args, extra = parser.parse_known_args(argv)
         name = args.command if getattr(args, "op", None) is None else f"{args.command} {args.op}"
+        if extra:
+            # the command's parser reports them (argparse's top level would say "gfgpu: ...")
+            _command_parser(parser, args).error(f"unrecognized arguments: {' '.join(extra)}" + _hint(args, extra))
         check_source(args)
         return args.func(args)
     except KeyboardInterrupt:
@@ -86,6 +90,24 @@ def main(argv=None):
         if status is None:
             raise
         return status
+
+
+def _command_parser(parser, args):
+    """The parser of the command (and sub-command, ``gfgpu batch canny``) that ``args`` ran."""
+    import argparse
+    for key in ("command", "op"):
+        actions = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        if not actions or getattr(args, key, None) is None:
+            break
+        parser = actions[0].choices[getattr(args, key)]
+    return parser
+
+
+def _hint(args, extra):
+    if "--example" in extra or any(e.startswith("--example=") for e in extra):
+        return (" (gfgpu depth needs a shading image of your own: there is no bundled example)"
+                if args.command == "depth" else "")
+    return ""
 
 
 def _report(exc, name, args):
