@@ -7,6 +7,7 @@ memory-bound) for, on a SIZE x SIZE float32 image:
   primitive on device-resident arrays (``backend.recurse``) and the public
   ``green_filter`` call (which also checks the input is finite);
 * ``gfgpu.shift`` by (1.5, 2.5) (two passes) and ``gfgpu.gradient`` (u = 1, 8 passes);
+* ``gfgpu.canny`` (u = 1, numpy in and out) beside OpenCV's GaussianBlur + Canny (uint8);
 * the public ``gfgpu.shift`` by (3.25, -7.5), numpy in and numpy out, with the Green and the
   cubic fractional part, beside ``scipy.ndimage.shift`` (order 1 and 3);
 * host in/out of one pass: ``gfgpu.shift(img, (0, 3))`` (an integer translation, one pass),
@@ -110,6 +111,8 @@ def bench_backend(be, img, repeat, record):
         "public call: finite check + pass + result on the host")
     record(f"{tag}: shift (0, 3), numpy in/out, new array", best_time(
         lambda: gfgpu.shift(img, (0, 3), backend=be), repeat), "as above, into a new array (compare img.copy())")
+    record(f"{tag}: canny u=1, numpy in/out", best_time(lambda: gfgpu.canny(img, 1.0, backend=be), repeat),
+           "gradient + NMS on the device, hysteresis on the host (compare cv2 GaussianBlur + Canny)")
     for interp in ("green", "cubic"):
         record(f"{tag}: shift (3.25, -7.5), {interp}, numpy in/out", best_time(
             lambda interp=interp: gfgpu.shift(img, SHIFT, interpolation=interp, output=host_out, backend=be),
@@ -256,6 +259,10 @@ def main(argv=None):
         record("cv2.filter2D, rows", best_time(lambda: cv2.filter2D(img, -1, k2), args.repeat),
                f"{len(taps)} taps, {cv2.getNumThreads()} threads")
         record("cv2.filter2D, columns", best_time(lambda: cv2.filter2D(img, -1, k2.T), args.repeat))
+        img8 = img.astype(np.uint8)        # cv2.Canny takes 8-bit images only
+        record("cv2.GaussianBlur (sigma 1) + cv2.Canny", best_time(
+            lambda: cv2.Canny(cv2.GaussianBlur(img8, (0, 0), 1.0), 50, 100), args.repeat),
+            "uint8, the peer of gfgpu's canny rows")
     except ImportError:
         pass
     from skimage.filters import sobel

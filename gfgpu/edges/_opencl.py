@@ -32,11 +32,14 @@ def launch_nms(be, gy, gx, out):
     res = out if out.offset == 0 and out.flags.c_contiguous else be.empty(out.shape, dtype)
     defines = {"GFGPU_DOUBLE": 1} if dtype == np.float64 else {}
     defines["TIE_RTOL"] = repr(float(TIE_RTOL))
-    knl = ocl.kernel(be, __package__, "edges.cl", "suppress_nonmaxima", dtype, **defines)
     group = min(ocl.GPU_GROUP, be.cl_device.max_work_group_size)   # PoCL vectorises a group on CPUs
-    gsize = (-(-w // group) * group, h)
-    ocl.launch(be, knl, gsize, (group, 1), [gy, gx], [res],
-                 (gy.data, gx.data, res.data, np.int32(h), np.int32(w)))
+    if h > 2 and w > 2:     # the interior; the border below
+        knl = ocl.kernel(be, __package__, "edges.cl", "suppress_nonmaxima", dtype, **defines)
+        ocl.launch(be, knl, (-(-(w - 2) // group) * group, h - 2), (group, 1), [gy, gx], [res],
+                   (gy.data, gx.data, res.data, np.int32(h), np.int32(w)))
+    knl = ocl.kernel(be, __package__, "edges.cl", "zero_border", dtype, **defines)
+    ocl.launch(be, knl, (-(-max(h, w) // group) * group,), (group,), [], [res],
+               (res.data, np.int32(h), np.int32(w)))
     if res is not out:
         out.set(res.get(queue=be.queue), queue=be.queue)
     return out

@@ -11,7 +11,8 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-from scipy import ndimage
+from scipy import ndimage, sparse
+from scipy.sparse import csgraph
 
 from .._core import strips
 from .._core.boundary import filter_mode
@@ -39,24 +40,103 @@ def hysteresis(suppressed, low, high):
     ``>= high``.  ``high`` may be a sequence: the labelling is shared and one edge map is
     returned per value (used to scan thresholds cheaply).
 
+    Parameters
+    ----------
+    suppressed : (H, W) array_like
+        Suppressed gradient magnitude (0 off the crests).
+    low : float
+        Lower threshold: the pixels that may be edges.
+    high : float or sequence of float
+        Upper threshold(s): a component is kept when it holds a pixel at or above it.
+
     Returns
     -------
-    edges : bool ndarray, or a list of them when ``high`` is a sequence
+    edges : (H, W) bool ndarray, or a list of them when ``high`` is a sequence
     """
-    candidates = suppressed >= low
-    candidates &= suppressed > 0
-    labels, count = ndimage.label(candidates, np.ones((3, 3), bool))
-    highs = np.atleast_1d(high)
-    maps = []
-    for h in highs:
-        if count == 0:
-            maps.append(candidates.copy())
-            continue
-        keep = np.zeros(count + 1, bool)
-        keep[labels[candidates & (suppressed >= h)]] = True      # (repeated labels: no sort needed)
-        keep[0] = False
-        maps.append(keep[labels])
+    suppressed = np.asarray(suppressed)
+    if suppressed.ndim != 2:
+        raise ValueError(f"suppressed must be 2-D (H, W), got shape {suppressed.shape}")
+    weak = suppressed >= low
+    weak &= suppressed > 0
+    index = np.flatnonzero(weak)
+    values = suppressed.reshape(-1)[index]
+    label, count = _components(weak, index)
+    maps = [_kept(index, label, count, values >= h, weak.shape) for h in np.atleast_1d(high)]
     return maps if np.ndim(high) else maps[0]
+
+
+#: above this fraction of candidate pixels ``scipy.ndimage.label`` (which visits every pixel)
+#: is faster than linking runs (whose cost grows with the runs): the two cross near 7 % at
+#: 512² and 2048² on noise and on the camera image with low thresholds
+_DENSE_FRACTION = 1 / 16
+
+
+def _components(weak, index):
+    """8-connected components of the 2-D bool ``weak``, whose set pixels are at the flat ``index``.
+
+    Returns the component of each pixel of ``index`` and an upper bound on the labels.  Sparse
+    masks (edge candidates, typically 1-5 % of the pixels) are linked as runs along the rows
+    (:func:`_link_runs`); dense ones by ``scipy.ndimage.label``.  Both give the same components.
+    """
+    if index.size > _DENSE_FRACTION * weak.size:
+        labels, count = ndimage.label(weak, np.ones((3, 3), bool))
+        return labels.reshape(-1)[index], count + 1
+    run, component = _link_runs(index, weak.shape[1])
+    return component[run], component.size
+
+
+def _link_runs(index, width):
+    """8-connected components of the pixels at the sorted flat ``index`` of a (H, ``width``) image.
+
+    The pixels form runs along the rows; a run touches a run of the row above when their column
+    ranges, widened by one, overlap (8-connectivity), and those runs are found by a binary
+    search, so the cost is that of the candidate pixels, not of the image (``ndimage.label``
+    visits every pixel and writes an int32 label image).
+
+    Returns
+    -------
+    run : int ndarray
+        The run of each pixel of ``index``.
+    component : int ndarray
+        The component of each run.
+    """
+    count = index.size
+    if count == 0:
+        return np.zeros(0, np.intp), np.zeros(0, np.intp)
+    row, col = np.divmod(index, width)
+    first = np.empty(count, bool)          # the first pixel of each run
+    first[0] = True
+    np.not_equal(np.diff(index), 1, out=first[1:])
+    first[1:] |= col[1:] == 0               # a run never wraps onto the next row
+    starts = np.flatnonzero(first)
+    ends = np.append(starts[1:], count) - 1
+    # keys row * (width + 2) + column: a search widened by one column stays within its row
+    stride = width + 2
+    base = row[starts] * stride
+    start_key = base + col[starts]
+    end_key = base + col[ends]
+    above = base - stride
+    lo = np.searchsorted(end_key, above + col[starts] - 1, "left")
+    hi = np.searchsorted(start_key, above + col[ends] + 1, "right")
+    links = np.maximum(hi - lo, 0)
+    total = int(links.sum())
+    run = np.cumsum(first) - 1
+    if total == 0:
+        return run, np.arange(starts.size)
+    source = np.repeat(np.arange(starts.size), links)
+    target = np.arange(total) - np.repeat(np.cumsum(links) - links - lo, links)
+    graph = sparse.csr_matrix((np.ones(total, np.int8), (source, target)), shape=(starts.size, starts.size))
+    return run, csgraph.connected_components(graph, directed=False)[1]
+
+
+def _kept(index, label, count, strong, shape):
+    """Edge map: the pixels at ``index`` whose component (``label`` < ``count``) holds a pixel
+    where ``strong`` (both per pixel of ``index``)."""
+    keep = np.zeros(count, bool)
+    keep[label[strong]] = True
+    edges = np.zeros(shape, bool)
+    edges.reshape(-1)[index[keep[label]]] = True
+    return edges
 
 
 def _threshold(value, name, use_quantiles, default):
@@ -97,6 +177,17 @@ def _host_image(job, image):
     if raw.dtype.kind in "iu":
         return (raw.astype(np.float64) / np.iinfo(raw.dtype).max).astype(job.dtype)
     return np.asarray(raw, dtype=job.dtype)     # never written: the scaling below makes a new array
+
+
+def _scale_pow2(img, exponent, dtype):
+    """``img * 2**exponent`` in ``dtype``, as ``np.ldexp``: a product with a power of two is exact,
+    or rounded once where it is subnormal, as ldexp rounds; a multiplication streams at memory
+    speed where ldexp calls libm per element (20 ms at 2048²).  Factors outside the dtype's
+    normal range (images of subnormal or near-overflowing peak) take ldexp."""
+    info = np.finfo(dtype)
+    if info.minexp <= exponent < info.maxexp:
+        return np.multiply(img, np.dtype(dtype).type(2.0 ** exponent), dtype=dtype)
+    return np.ldexp(img, exponent).astype(dtype, copy=False)
 
 
 def _fill_outside(img, mask):
@@ -218,10 +309,13 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     Non-maximum suppression interpolates the magnitude linearly along the gradient direction
     (as skimage's bilinear variant does) and runs on the backend; hysteresis keeps the
     8-connected components of ``magnitude >= low`` (after suppression) that contain a pixel
-    ``>= high``, computed on the host with ``scipy.ndimage.label`` (one pass; faster end to
-    end than an iterative device flood fill for the image sizes measured in
-    ``benchmarks/edges_fom.py``).  Magnitudes within 64 ulps of the image's largest value are
-    rounding noise and never edges.
+    ``>= high``, computed on the host from the candidate pixels only: their runs along the rows,
+    linked to the touching runs of the row above by a binary search, and the components of
+    that graph (``scipy.sparse.csgraph``), which costs the few candidates rather than the
+    image (about 3x faster than ``scipy.ndimage.label`` for the 2 % of candidates of a 2048²
+    photograph; candidates denser than 1/16 of the pixels take ``ndimage.label``, the same
+    components).  Magnitudes within 64 ulps of the image's largest value are rounding noise
+    and never edges.
 
     References
     ----------
@@ -267,7 +361,7 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     # sum can overflow or underflow (|g| <= sqrt(2) max|image| for this one-signed D)
     exponent = int(np.frexp(peak)[1])
     if exponent:
-        img = np.ldexp(img, -exponent).astype(job.dtype, copy=False)
+        img = _scale_pow2(img, -exponent, job.dtype)
     cval = float(np.ldexp(cval, -exponent))
     # read in place by a CPU device (a copy elsewhere); img is never written: a scaled or converted
     # image is a new array, and the caller's own array is only read
@@ -280,19 +374,31 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     # a gradient within the recursions' rounding of the image's values is zero: without this
     # floor a flat image has "edges" made of rounding noise that differ by backend and dtype
     floor = _NOISE_ULPS * float(np.finfo(job.dtype).eps) * float(np.ldexp(peak, -exponent))
-    nms[nms <= floor] = 0
     if return_gradient or low_q or high_q:
         hy, hx = be.to_host(gy), be.to_host(gx)
         magnitude = np.hypot(hy, hx)
-    # thresholds in the normalised image's units
-    low = float(np.ldexp(low, -exponent)) if not low_q else float(np.percentile(magnitude, 100.0 * low))
-    high = float(np.ldexp(high, -exponent)) if not high_q else float(np.percentile(magnitude, 100.0 * high))
+    # thresholds in the normalised image's units; quantiles partition one scratch copy in place
+    # (the second partition starts from the first's order), one scalar q at a time: a q array
+    # would interpolate in float64, not in the magnitude's dtype
+    if low_q or high_q:
+        scratch = magnitude.reshape(-1) if not return_gradient else magnitude.ravel().copy()
+    low = float(np.percentile(scratch, 100.0 * low, overwrite_input=True)) if low_q else float(np.ldexp(low, -exponent))
+    high = (float(np.percentile(scratch, 100.0 * high, overwrite_input=True)) if high_q
+            else float(np.ldexp(high, -exponent)))
     if high < low:     # only where one threshold is a quantile and the other the absolute default
         raise ValueError(f"low_threshold ({low_threshold!r}: {np.ldexp(low, exponent):.6g} per pixel) must not "
                          f"exceed high_threshold ({high_threshold!r}: {np.ldexp(high, exponent):.6g} per pixel)")
-    if mask is not None:
-        nms = np.where(ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0), nms, 0)
-    edges = hysteresis(nms, max(low, floor), max(high, floor))
+    # candidates: above the floor and >= low, in one comparison (either bound implies the other;
+    # decided on the bounds as the comparisons round them, to the dtype), inside the eroded mask;
+    # seeds: candidates >= high
+    with np.errstate(over="ignore"):    # a threshold beyond the dtype's range compares as inf
+        low_t, floor_t = nms.dtype.type(low), nms.dtype.type(floor)
+        weak = nms > floor_t if low_t <= floor_t else nms >= low_t
+        if mask is not None:
+            weak &= ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0)
+        index = np.flatnonzero(weak)
+        strong = nms.reshape(-1)[index] >= high
+    edges = _kept(index, *_components(weak, index), strong, job.shape)
     if return_gradient:
         with np.errstate(over="ignore"):    # only a magnitude beyond the dtype's range: inf
             mag = np.ldexp(magnitude, exponent).astype(job.dtype, copy=False)
