@@ -68,7 +68,9 @@ def _blocked(lines, plan, cval, steps_last=False):
     thread, since a multi-threaded BLAS spins and slows several-fold when the cores are
     shared (measured 5x on 2 busy cores).
     """
-    with _blas_controller().limit(limits=1, user_api="blas"):
+    # errstate: a non-finite sample is refused by the finite check that reads this pass's
+    # input or result; numpy's RuntimeWarning would come before that one error
+    with _blas_controller().limit(limits=1, user_api="blas"), np.errstate(invalid="ignore", over="ignore"):
         if steps_last:
             return _blocked_products(lines.T, plan, cval, transposed=True).T
         return _blocked_products(lines, plan, cval)
