@@ -34,6 +34,7 @@ _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
 _SHEAR_VECS = 4            # vectors of adjacent steps per work-item of the shallow shears (recurse_lines.cl)
 _BAND = 64                 # most vectors (cache lines) of adjacent columns per CPU work-item
+_DRAM_BAND = 16            # ... when the pass runs from memory on rows of whole cache lines (recurse_launch)
 _STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU)
 _MIN_BLOCK = 1024          # shortest block of a block-parallel line on a CPU (steps)
 _MIN_GPU_BLOCK = 64        # ... and on a GPU
@@ -309,7 +310,7 @@ def _row_blocks(lines, m, lanes, units):
     return 0
 
 
-def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, constant=True):
+def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, constant=True, cache=0):
     """The launch of one recursion pass over a ``(B, N, M)`` array along ``axis`` (1 or 2).
 
     Parameters
@@ -331,13 +332,16 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, const
         are never cut into blocks.
     constant : bool, optional
         The pass has constant coefficients (rows of blocks need them).
+    cache : int, optional
+        Bytes of the device's memory cache (``global_mem_cache_size``; 0: none known).
 
     Returns
     -------
     RecurseShape
         A CPU work-item runs ``LANES = 64 / itemsize`` lines in vector lanes (one cache line per
         step), columns in bands of up to ``_BAND`` vectors (every core still gets two
-        work-items); a GPU work-item runs one line.  Lines too few for the device (fewer
+        work-items; ``_DRAM_BAND`` when rows are whole cache lines and the input and output
+        together exceed ``cache``); a GPU work-item runs one line.  Lines too few for the device (fewer
         work-items than cores on a CPU, than ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a
         GPU) are cut into blocks of at least ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried
         exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).  CPU rows too few to fill
@@ -354,7 +358,12 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, const
             return RecurseShape(lanes, 1, m // nb, nb, (items, 1), (1, 1), True)
     if axis == 1:   # columns: B*M lines, LANES x nv adjacent ones per work-item
         vecs = -(-m // lanes)
-        nv = max(1, min(_BAND, (b * vecs) // (2 * units))) if cpu else 1
+        # PoCL, 2 cores, A/B of the kernel: from memory, bands of 16 vectors ran 6-30 % faster
+        # than 64 (8, 32: less); within the cache 7-29 % slower; rows not of whole cache lines share
+        # a line at each band's edges, and narrower bands (more edges) ran 14-22 % slower
+        dram = m % lanes == 0 and 2 * b * n * m * itemsize > cache
+        widest = _DRAM_BAND if dram else _BAND
+        nv = max(1, min(widest, (b * vecs) // (2 * units))) if cpu else 1
         items, outer = -(-vecs // nv), b
     else:           # rows: B*N lines, LANES per work-item
         nv, items, outer = 1, -(-(b * n) // lanes), 1
@@ -770,8 +779,9 @@ class OpenCLBackend(Backend):
     def recurse_shape(self, shape, axis, dtype, length=None, constant=True):
         """How :meth:`recurse` runs lines of a ``(B, N, M)`` array along ``axis``
         (:func:`recurse_launch` for this device)."""
-        return recurse_launch(shape, axis, np.dtype(dtype).itemsize, int(self._device.max_compute_units),
-                              self.kind, launch.group_size(self), length, constant)
+        dev = self._device
+        return recurse_launch(shape, axis, np.dtype(dtype).itemsize, int(dev.max_compute_units),
+                              self.kind, launch.group_size(self), length, constant, int(dev.global_mem_cache_size))
 
     #: :meth:`recurse` takes ``window=``: an integer translation fused into the pass
     recurses_windows = True
