@@ -632,16 +632,17 @@ def save_png(path, image):
 
 def save_gif(path, frames, fps):
     """Write 8-bit frames ``(n, H, W)`` or ``(n, H, W, 3)`` as an endlessly looping animated GIF at
-    ``fps`` frames per second, atomically.  Grey frames are written exactly, every frame in palette
-    mode with the grey ramp as its palette; colour frames get Pillow's palette per frame."""
-    from PIL import Image
+    ``fps`` frames per second, atomically.  Every frame is written whole, so a reader gets ``n``
+    frames back.  Grey frames are written exactly, in palette mode with the grey ramp as their
+    palette; colour frames get Pillow's adaptive palette per frame."""
+    from PIL import GifImagePlugin, Image
 
     grey = bytes(np.repeat(np.arange(256, dtype=np.uint8), 3))
 
     def image(f):
         f = np.ascontiguousarray(f)
         if f.ndim == 3:
-            return Image.fromarray(f)
+            return Image.fromarray(f).convert("P", palette=Image.Palette.ADAPTIVE)   # as Pillow's GIF writer
         # one mode and one grey palette for every frame: Pillow wrote the first as L and later
         # ones as P, which imageio (Pillow 13) cannot read back ("No packer found from P to L")
         im = Image.frombytes("P", (f.shape[1], f.shape[0]), f.tobytes())
@@ -649,14 +650,16 @@ def save_gif(path, frames, fps):
         return im
 
     def write(tmp):
-        import io as _io
         images = [image(f) for f in frames]
-        buffer = _io.BytesIO()
-        # optimize=False: a later frame's palette trimmed to its levels is no grey ramp, and
-        # readers then switch that frame's mode (L to P) mid-file
-        images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:], duration=1000.0 / fps,
-                       loop=0, optimize=False)
-        _write_bytes(tmp, buffer.getbuffer())
+        # frame by frame, not Pillow's save_all: that drops a frame equal to the one before it
+        # (adding its duration to that one), so a still stretch read back fewer frames than
+        # written; optimize=False: a palette trimmed to a frame's levels is no grey ramp
+        header, _ = GifImagePlugin.getheader(images[0].copy(), info={"loop": 0, "optimize": False})
+        parts = list(header)
+        for im in images:
+            parts += GifImagePlugin.getdata(im, duration=1000.0 / fps, include_color_table=True)
+        parts.append(b";")
+        _write_bytes(tmp, b"".join(parts))
     write_atomic(path, write)
 
 

@@ -37,7 +37,7 @@ import math
 import os
 import threading
 import weakref
-from collections import OrderedDict
+from collections import OrderedDict, deque
 
 import numpy as np
 
@@ -105,13 +105,19 @@ class HostPool:
         self._lock = threading.Lock()
         self._held = OrderedDict()      # id(raw) -> (class bytes, raw), oldest release first
         self._held_bytes = 0
+        # blocks released by the collector, moved into _held under the lock by the next take,
+        # clear or held_bytes: a finaliser may run inside take's locked section (a collection
+        # triggered by any allocation there), where taking the lock would deadlock
+        self._returned = deque()
         #: counters: "fresh" blocks allocated, "reused" requests served from held blocks
         self.stats = {"fresh": 0, "reused": 0}
 
     @property
     def held_bytes(self):
         """Bytes of released blocks held for reuse."""
-        return self._held_bytes
+        with self._lock:
+            self._settle()
+            return self._held_bytes
 
     def take(self, shape, dtype):
         """An uninitialised C-contiguous array of ``shape`` and ``dtype`` whose data start on a
@@ -123,6 +129,7 @@ class HostPool:
         raw = None
         doomed = []
         with self._lock:
+            self._settle()
             best = None
             for key, (size, block) in self._held.items():
                 # the request's class, else the least held block up to the next class
@@ -149,13 +156,25 @@ class HostPool:
         return np.asarray(lease)
 
     def _release(self, raw, size):
-        # runs in the garbage collector: with a fence, nothing is freed here (the fence may
-        # block on a queue, and a finaliser may run inside a call on that queue)
-        with self._lock:
+        # runs in the garbage collector, possibly inside this pool's locked section: never waits
+        # for the lock.  With a fence nothing is freed here (the fence may block on a queue, and
+        # a finaliser may run inside a call on that queue); without one, blocks beyond the limit
+        # are freed now if the lock is free, else by the next take
+        self._returned.append((size, raw))
+        if self._fence is None and self._lock.acquire(blocking=False):
+            try:
+                self._settle()
+                doomed = self._trim(self.limit)
+            finally:
+                self._lock.release()
+            del doomed          # no fence: no queue writes to host memory after its array is gone
+
+    def _settle(self):
+        # the lock is held: released blocks join the held ones, oldest release first
+        while self._returned:
+            size, raw = self._returned.popleft()
             self._held[id(raw)] = (size, raw)
             self._held_bytes += size
-            doomed = [] if self._fence is not None else self._trim(self.limit)
-        del doomed              # no fence: no queue writes to host memory after its array is gone
 
     def _trim(self, keep):
         # the lock is held: the least recently released blocks, taken out until at most keep bytes
@@ -175,6 +194,7 @@ class HostPool:
     def clear(self):
         """Free every held block (arrays in use keep theirs), after the fence if there is one."""
         with self._lock:
+            self._settle()
             doomed = self._trim(0)
         self._free(doomed)
 
@@ -216,9 +236,11 @@ def _clear_in_child():
     # no fence in a child (its parent's queues are not its own) and no lock a parent's thread
     # may have held at the fork: the child starts with empty pools
     for pool in list(_pools):
+        pool._fence = None
         pool._lock = threading.Lock()
         pool._held = OrderedDict()
         pool._held_bytes = 0
+        pool._returned = deque()
 
 
 os.register_at_fork(after_in_child=_clear_in_child)
