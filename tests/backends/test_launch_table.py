@@ -49,8 +49,9 @@ def test_doc_states_the_launch_sizes():
 
 
 def test_column_bands_narrow_only_from_memory_on_whole_lines():
-    """Bands of ``_DRAM_BAND`` vectors only when rows are whole cache lines and input and output
-    exceed the cache; otherwise up to ``_BAND``; always two work-items per core at least."""
+    """Bands of ``_DRAM_BAND`` vectors only when input and output exceed the cache and rows are
+    whole cache lines or the pass streams (8 MiB of input); otherwise up to ``_BAND``; always two
+    work-items per core at least."""
     from gfgpu.backends.opencl.backend import _BAND, _DRAM_BAND
 
     def band(h, w, itemsize=4, cache=CPU_CACHE, b=1):
@@ -59,5 +60,7 @@ def test_column_bands_narrow_only_from_memory_on_whole_lines():
     assert band(4096, 4096) == band(2048, 2048, 8) == band(3584, 3584) == _DRAM_BAND
     assert band(2048, 2048) == 32 and band(1024, 1024, b=4) == _BAND   # input and output fit the cache
     assert band(4096, 4096, cache=1 << 30) == _BAND
-    assert band(4095, 4095) == _BAND and band(3000, 3000) == 47          # rows end inside a cache line
+    # rows that end inside a cache line: narrow where the pass streams its stores (>= 8 MiB in)
+    assert band(4095, 4095) == band(3000, 3000) == band(3000, 3001, 8) == _DRAM_BAND
+    assert band(3000, 3000, cache=1 << 30) == 47 and band(1400, 1400, cache=0) == 22   # no streaming below 8 MiB
     assert band(8192, 256) == 4                                          # two bands per core

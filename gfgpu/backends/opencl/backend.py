@@ -340,11 +340,12 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, const
     RecurseShape
         A CPU work-item runs ``LANES = 64 / itemsize`` lines in vector lanes (one cache line per
         step), columns in bands of up to ``_BAND`` vectors (every core still gets two
-        work-items; ``_DRAM_BAND`` when rows are whole cache lines and the input and output
-        together exceed ``cache``); a GPU work-item runs one line.  Lines too few for the device (fewer
-        work-items than cores on a CPU, than ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a
-        GPU) are cut into blocks of at least ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried
-        exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).  CPU rows too few to fill
+        work-items; ``_DRAM_BAND`` when the input and output together exceed ``cache`` and
+        either rows are whole cache lines or the pass streams its stores); a GPU work-item runs
+        one line.  Lines too few for the device (fewer work-items than cores on a CPU, than
+        ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a GPU) are cut into blocks of at least
+        ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried exactly
+        (:func:`gfgpu._core.recursion.run_reference_blocks`).  CPU rows too few to fill
         a work-item's lanes per core put each line's blocks in the lanes (``rows_as_blocks``:
         rows of the ``(lines * blocks, block)`` view; ``block`` divides the line; constant plans).
     """
@@ -359,9 +360,11 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, const
     if axis == 1:   # columns: B*M lines, LANES x nv adjacent ones per work-item
         vecs = -(-m // lanes)
         # PoCL, 2 cores, A/B of the kernel: from memory, bands of 16 vectors ran 6-30 % faster
-        # than 64 (8, 32: less); within the cache 7-29 % slower; rows not of whole cache lines share
-        # a line at each band's edges, and narrower bands (more edges) ran 14-22 % slower
-        dram = m % lanes == 0 and 2 * b * n * m * itemsize > cache
+        # than 64 (8, 32: less); within the cache 7-29 % slower.  Rows not of whole cache lines
+        # share a line at each band's edges: with plain stores narrower bands (more edges) ran
+        # 14-22 % slower, with the streamed row interiors (arrays of _STREAM_BYTES; recurse.cl,
+        # store_row_nt) 16 vectors ran 14-25 % faster than 47 at 3000^2 float32
+        dram = 2 * b * n * m * itemsize > cache and (m % lanes == 0 or b * n * m * itemsize >= _STREAM_BYTES)
         widest = _DRAM_BAND if dram else _BAND
         nv = max(1, min(widest, (b * vecs) // (2 * units))) if cpu else 1
         items, outer = -(-vecs // nv), b

@@ -245,6 +245,27 @@ INLINE void store_cols(__global REAL *p, const VT y, const int valid, const int 
         p[l] = accumulate ? p[l] + LANE(y, l) : LANE(y, l);
 }
 
+/* STAGED (CPU bands, STREAM): a row's cols outputs at y (private) stored to q: the cache lines
+ * wholly inside [q, q + cols) non-temporally, the partial lines at the two ends (shared with the
+ * neighbouring bands) sample by sample.  q is aligned to a sample, not to a vector. */
+#if STREAM && LANES > 1 && BAND > 1
+#define STAGED 1
+typedef REAL VTP __attribute__((ext_vector_type(LANES), aligned(sizeof(REAL))));
+INLINE void store_row_nt(__global REAL *q, const REAL *y, const int cols)
+{
+    const int head = IMIN(cols, (int)((LANES - ((ulong)q / sizeof(REAL)) % LANES) % LANES));
+    int i = 0;
+    for (; i < head; ++i)
+        q[i] = y[i];
+    for (; i + LANES <= cols; i += LANES)
+        __builtin_nontemporal_store((VT)(*(const VTP *)(y + i)), (__global VT *)(q + i));
+    for (; i < cols; ++i)
+        q[i] = y[i];
+}
+#else
+#define STAGED 0
+#endif
+
 /* Work-item (g, b, blk): columns m0 = g * nv * LANES .. of image b, steps of block blk (PHASE 1/2)
  * or of the whole line (PHASE 0). */
 __kernel void recurse(__global const REAL *src, __global REAL *dst, const long src_off,
@@ -271,10 +292,17 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     const long stride = M;
     __global const REAL *s0 = src + src_off + (long)b * N * M + m0;
     __global REAL *d0 = dst + dst_off + (long)b * N * M + m0;
-    /* non-temporal stores need every vector aligned: the band's start, and rows of whole vectors */
-    const int nt = stream && !accumulate && PHASE != 1 && M % LANES == 0
-                   && ((ulong)d0 % sizeof(VT)) == 0;
+    /* non-temporal stores need aligned vectors: where the band's start and every row are aligned
+     * they store the band's vectors directly (nt); else (rows not of whole cache lines: 3000,
+     * 741 columns) each row's outputs are staged in `yb` and its aligned interior is streamed
+     * (staged, store_row_nt) */
+    const int streams = stream && !accumulate && PHASE != 1;
+    const int nt = streams && M % LANES == 0 && ((ulong)d0 % sizeof(VT)) == 0;
+    const int staged = STAGED && streams && !nt;
     VT fr[SECTIONS][BAND], fi[SECTIONS][BAND];
+#if STAGED
+    VT yb[BAND];
+#endif
     for (int v = 0; v < vecs; ++v) {
 #pragma unroll
         for (int s = 0; s < SECTIONS; ++s) {
@@ -399,10 +427,19 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
             for (int s = 0; s < SECTIONS; ++s)
                 ADVANCE(fr[s][v], fi[s][v], c, s, x);
 #if PHASE != 1
+#if STAGED
+            if (staged)
+                yb[v] = y;
+            else
+#endif
             if (keep)
                 store_cols(q + v * LANES, y, valid, accumulate, nt);
 #endif
         }
+#if STAGED && PHASE != 1
+        if (staged && keep)
+            store_row_nt(q, (const REAL *)yb, cols);
+#endif
     }
 #undef ROW_AT
 #undef POS_AT
@@ -418,7 +455,7 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
         }
     }
 #endif
-    STREAM_FENCE(nt);
+    STREAM_FENCE(nt || staged);
 #if CHECK
     if (RESIDUE_BAD(chk))
         atomic_or(flag, 1);
