@@ -21,7 +21,16 @@ from tqdm import tqdm
 
 from .. import io
 from ..motion import motion_blur
-from .common import IMAGE_OUTPUT, announce_backend, check_image_output, check_outputs, join_alpha, note, size_text
+from .common import (
+    IMAGE_OUTPUT,
+    announce_backend,
+    check_image_output,
+    check_outputs,
+    duration_text,
+    join_alpha,
+    note,
+    size_text,
+)
 from .motion_args import CLI_TERMS, check_motion, motion_args, motion_input
 
 __all__ = ["CLI_TERMS", "add_parser", "run"]
@@ -51,6 +60,5 @@ def run(args):
     io.save_image(args.output, join_alpha(out, image, alpha), image)
     note(args, conversion)
     print(f"{label}: {size_text(img.shape)} -> {args.output} ({kw['kind']}, psf {kw['psf']}, "
-          f"{elapsed * 1e3:.0f} ms "
-          f"including device start-up)")
+          f"{duration_text(elapsed)} including device start-up)")
     return 0

@@ -29,6 +29,7 @@ from .common import (
     backend_args,
     check_outputs,
     drop_alpha,
+    duration_text,
     image_args,
     positive_float,
     read_input,
@@ -96,5 +97,5 @@ def run(args):
     elapsed = time.perf_counter() - t0
     io.write_image(args.output, edges.astype(np.uint8) * np.uint8(255))
     print(f"{label}: {size_text(img.shape)} -> {args.output}: {int(edges.sum())} edge pixels "
-          f"({elapsed * 1e3:.0f} ms including device start-up)")
+          f"({duration_text(elapsed)} including device start-up)")
     return 0

@@ -114,6 +114,20 @@ def size_text(shape):
     return f"{shape[0]} x {shape[1]} (rows x cols)"
 
 
+def duration_text(seconds):
+    """A wall time as every command prints it: milliseconds below a second, else seconds
+    (``"840 ms"``, ``"2.5 s"``, ``"116 s"``).
+
+    Examples
+    --------
+    >>> duration_text(0.8404), duration_text(2.54), duration_text(115.9)
+    ('840 ms', '2.5 s', '116 s')
+    """
+    if seconds < 1:
+        return f"{seconds * 1e3:.0f} ms"
+    return f"{seconds:.1f} s" if seconds < 100 else f"{seconds:.0f} s"
+
+
 def check_image_output(option, path, image):
     """Before any work: refuse an output format that would lose the input's depth or alpha
     (:func:`gfgpu.io.check_keeps`, a CommandError naming ``option``); returns the one-line note of

@@ -24,6 +24,7 @@ from .common import (
     announce_backend,
     backend_args,
     check_outputs,
+    duration_text,
     finite_float,
     positive_float,
     size_text,
@@ -132,5 +133,5 @@ def run(args):
         bar.update(1)
     written = ", ".join(p for p in (args.output, args.relief, args.npy) if p)
     print(f"{args.image}: {size_text(img.shape)} -> {written} ({args.method}, "
-          f"{(time.perf_counter() - t0) * 1e3:.0f} ms)")
+          f"{duration_text(time.perf_counter() - t0)} including device start-up)")
     return 0

@@ -25,6 +25,7 @@ from .common import (
     announce_backend,
     backend_args,
     check_outputs,
+    duration_text,
     finite_float,
     positive_int,
     size_text,
@@ -181,5 +182,5 @@ def run(args):
         n = io.write_ply(args.ply, pts, colours[..., :3] if colours.ndim == 3 else colours)
         print(f"{n} points -> {args.ply}")
     print(f"{label}: {size_text(disp.shape)}, disparities {args.min_disparity}..{d_max} -> {args.output} "
-          f"({np.isnan(raw).mean():.1%} rejected, {elapsed:.2f} s including device start-up)")
+          f"({np.isnan(raw).mean():.1%} rejected, {duration_text(elapsed)} including device start-up)")
     return 0

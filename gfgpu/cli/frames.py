@@ -29,6 +29,7 @@ from .common import (
     announce_backend,
     check_image_output,
     check_outputs,
+    duration_text,
     join_alpha,
     note,
     positive_float,
@@ -95,7 +96,7 @@ def run(args):
         print(f"removed {len(stale)} frame(s) of an earlier run from {folder} ({', '.join(stale[:3])}"
               f"{', ...' if len(stale) > 3 else ''})")
     print(f"{label}: {args.frames} frames {size_text(img.shape)} -> {folder}/frame_*.png and {gif} "
-          f"({time.perf_counter() - t0:.1f} s)")
+          f"({duration_text(time.perf_counter() - t0)} including device start-up)")
     return 0
 
 

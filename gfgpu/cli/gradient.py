@@ -23,6 +23,7 @@ from .common import (
     backend_args,
     check_outputs,
     drop_alpha,
+    duration_text,
     image_args,
     positive_float,
     read_input,
@@ -59,6 +60,6 @@ def run(args):
     io.write_image(args.output, io.gradient_to_rgb(gy, gx))
     if args.npy:
         io.save_npy(args.npy, np.stack([gy, gx]))
-    print(f"{label}: {size_text(img.shape)} -> {args.output} ({elapsed * 1e3:.0f} ms including "
+    print(f"{label}: {size_text(img.shape)} -> {args.output} ({duration_text(elapsed)} including "
           f"device start-up)")
     return 0

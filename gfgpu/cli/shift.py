@@ -26,6 +26,7 @@ from .common import (
     backend_args,
     check_image_output,
     check_outputs,
+    duration_text,
     finite_float,
     image_args,
     join_alpha,
@@ -72,6 +73,6 @@ def run(args):
     note(args, conversion)
     if args.npy:
         io.save_npy(args.npy, raw)
-    print(f"{label}: {size_text(work.shape)} -> {args.output} ({elapsed * 1e3:.0f} ms including "
+    print(f"{label}: {size_text(work.shape)} -> {args.output} ({duration_text(elapsed)} including "
           f"device start-up)")
     return 0
