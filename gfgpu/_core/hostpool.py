@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import threading
 import weakref
 from collections import OrderedDict, deque
@@ -215,9 +216,9 @@ def default_limit():
     if not value:
         return DEFAULT_LIMIT
     from .strips import parse_bytes
-    if value.rstrip("0.") == "" and "0" in value:     # 0, 0.0: no reuse
-        return 0
     try:
+        if re.fullmatch(r"0+(\.0*)?|\.0+", value):     # 0, 0.0, .0: no reuse
+            return 0
         return parse_bytes(value, "GFGPU_HOST_POOL")
     except ValueError:
         raise ValueError(f"the environment variable GFGPU_HOST_POOL must be 0 (no reuse) or a positive byte "

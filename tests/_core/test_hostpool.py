@@ -118,7 +118,7 @@ def test_a_forked_child_starts_with_empty_pools_without_calling_the_fence():
     assert os.waitstatus_to_exitcode(status) == 0
 
 
-@pytest.mark.parametrize("value", ["abc", "-5", "1e9", "0M", "nan"])
+@pytest.mark.parametrize("value", ["abc", "-5", "1e9", "0M", "nan", "0.0.0"])
 def test_a_bad_limit_in_the_environment_is_an_error_not_an_unavailable_backend(monkeypatch, value):
     # automatic selection used to take the error for a broken driver and fall back to numpy
     import subprocess
