@@ -42,7 +42,10 @@ OPERATORS = {
     "disparity": ["gfgpu.backends.warp.recurse", "gfgpu.stereo._warp"],
     "motion_blur, uniform or oblique, green PSF": ["gfgpu.backends.warp.recurse"],
     "motion_blur, box PSF": ["gfgpu.backends.warp.recurse", "gfgpu.motion._warp"],
-    "motion_blur, velocity field": ["gfgpu.backends.warp.recurse", "gfgpu.motion.field_kernels._warp"],
+    "motion_blur, velocity field (Gauss rule, paths within its tables)": [
+        "gfgpu.backends.warp.recurse", "gfgpu.motion.field_kernels._warp"],
+    "motion_blur, velocity field, quadrature='exact' or longer paths": [
+        "gfgpu.backends.warp.recurse", "gfgpu.motion.field_kernels._warp_exact"],
     "motion_blur, rotation or zoom": ["gfgpu.backends.warp.recurse", "gfgpu.motion.polar_kernels._warp"],
 }
 
