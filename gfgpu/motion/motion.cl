@@ -337,15 +337,6 @@ INLINE void coef_steps(VT *w, __global const REAL *src, const long start, const 
 }
 #endif
 
-INLINE VT vcell(__global const REAL *src, const long start, const long step, const long ls, const int n,
-                       const int j, const int mode, const REAL cval)
-{
-    return (vcoef_at(src, start, step, ls, n, j - 1, mode, cval)
-            + (REAL)11 * vcoef_at(src, start, step, ls, n, j, mode, cval)
-            + (REAL)11 * vcoef_at(src, start, step, ls, n, j + 1, mode, cval)
-            + vcoef_at(src, start, step, ls, n, j + 2, mode, cval)) / (REAL)24;
-}
-
 static inline VT vcells(__global const REAL *src, const long start, const long step, const long ls, const int n,
                         const int a, const int b, const int mode, const REAL cval)
 {
@@ -357,8 +348,29 @@ static inline VT vcells(__global const REAL *src, const long start, const long s
               + vcoef_at(src, start, step, ls, n, b + 1, mode, cval)) / (REAL)24;
 }
 
+// c[i - 1 .. i + 2] of a lane group in w[0 .. 3]: what the cell i and the partial cell [i, i + f)
+// read (box_vec keeps one such window at each end of its box and slides it along)
+INLINE void vwindow(VT *w, __global const REAL *src, const long start, const long step, const long ls, const int n,
+                    const int i, const int mode, const REAL cval)
+{
+#pragma unroll
+    for (int q = 0; q < 4; ++q)
+        w[q] = vcoef_at(src, start, step, ls, n, i + q - 1, mode, cval);
+}
+
+// the window of i + 1 from that of i: one new coefficient, c[i + 3]
+INLINE void vslide(VT *w, __global const REAL *src, const long start, const long step, const long ls, const int n,
+                   const int i, const int mode, const REAL cval)
+{
+    w[0] = w[1]; w[1] = w[2]; w[2] = w[3];
+    w[3] = vcoef_at(src, start, step, ls, n, i + 3, mode, cval);
+}
+
 // n samples per line, lines `step` apart along them; cols: m = M (groups = M / LANES per plane),
-// rows: m = M too (groups = B N / LANES, one plane)
+// rows: m = M too (groups = B N / LANES, one plane).  Each end of the box keeps the four coefficients
+// that its cell and its partial cell read in registers (vwindow) and slides them as the end moves on
+// (vslide: one load per cell crossed; every step read the cells crossed and both partial cells afresh,
+// sixteen loads, before): the same values in the same expressions, so the same results bit for bit.
 __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long dst_off, const int n, const int m,
                       const int groups, const POS a0, const POS a1, const POS b0, const POS b1, const int mode,
                       const REAL cval, const int total, __global const REAL *less, const long less_off)
@@ -369,20 +381,26 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
     LANE_GROUP(t, n, m, groups, LANES);
     int ia = (int)FLOOR_POS(a0), ib = (int)FLOOR_POS(b0);
     VT sum = vcells(src, start, step, ls, n, ia, ib, mode, cval), comp = 0;
+    VT wa[4], wb[4];
+    vwindow(wa, src, start, step, ls, n, ia, mode, cval);
+    vwindow(wb, src, start, step, ls, n, ib, mode, cval);
     for (int k = 0; k < n; ++k) {
         const POS a = a0 + a1 * (POS)k, e = b0 + b1 * (POS)k;
         const int na = (int)FLOOR_POS(a), nb = (int)FLOOR_POS(e);
         for (; ib < nb; ++ib) {
-            const VT y = vcell(src, start, step, ls, n, ib, mode, cval) - comp;
+            // the cell ib's integral, from the window
+            const VT y = (wb[0] + (REAL)11 * wb[1] + (REAL)11 * wb[2] + wb[3]) / (REAL)24 - comp;
             const VT s = sum + y;
             comp = (s - sum) - y;
             sum = s;
+            vslide(wb, src, start, step, ls, n, ib, mode, cval);
         }
         for (; ia < na; ++ia) {
-            const VT y = -vcell(src, start, step, ls, n, ia, mode, cval) - comp;
+            const VT y = -((wa[0] + (REAL)11 * wa[1] + (REAL)11 * wa[2] + wa[3]) / (REAL)24) - comp;
             const VT s = sum + y;
             comp = (s - sum) - y;
             sum = s;
+            vslide(wa, src, start, step, ls, n, ia, mode, cval);
         }
         __global REAL *o = dst + dst_off + start + (long)k * step;
         const POS width = e - a;
@@ -398,9 +416,9 @@ __kernel void box_vec(__global const REAL *src, __global REAL *dst, const long d
         }
         const REAL fa = (REAL)(a - (POS)ia), fb = (REAL)(e - (POS)ib);
         VT part = 0;
+#pragma unroll
         for (int p = 0; p < 4; ++p)
-            part += bintegral(fb, p) * vcoef_at(src, start, step, ls, n, ib + p - 1, mode, cval)
-                    - bintegral(fa, p) * vcoef_at(src, start, step, ls, n, ia + p - 1, mode, cval);
+            part += bintegral(fb, p) * wb[p] - bintegral(fa, p) * wa[p];
         VPUT(((sum - comp) + part) / (VT)((REAL)width) - VLESS_AT(less + less_off + start + (long)k * step, ls), o, ls);
     }
 }

@@ -195,9 +195,14 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
             work.append(be.empty((most,), dtype))
         return be.reshape(work[k][:math.prod(part_shape)], part_shape)
 
-    tmp = carve(0, planes) if math.prod(planes) <= most else None
-    coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval, tmp=tmp)
-    del tmp
+    fits = math.prod(planes) <= most
+    tmp = carve(0, planes) if fits else None
+    # one band (the zooms): the image's coefficients are read only by its to_polar, so they take the
+    # workspace's second array, which the blur's scratch reuses after it (one image-sized block fewer
+    # to allocate: on a new shape each new page costs about 1 ms per MB on the shared 2-core VM)
+    out = carve(1, planes) if fits and len(bands) == 1 else None
+    coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval, tmp=tmp, out=out)
+    del tmp, out
     result = job.result_buffer()
     out, base = be.reshape(result, planes), data
     keep = min(abs(rate) / _KEEP_LENGTH, _KEEP_SLOPE)

@@ -68,3 +68,19 @@ def test_quadrature_keeps_each_psf_mean():
         t, w = refs.time_cells(psf, 30.0)
         assert len(t) >= 512 and abs(w.sum() - 1) < 1e-12
         assert abs((t * w).sum() - mean) < 1e-4
+
+
+def test_a_bound_above_the_copy_is_noted_and_its_verdict_kept():
+    # issue 27's 1.5 x cv2 box bound at (2, 7) exceeds what a copy of the image reaches: the row says so
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("motion_benchmark", SCRIPT)    # tests/motion is a package too
+    bench = sys.modules[spec.name] = importlib.util.module_from_spec(spec)    # its dataclasses look it up
+    spec.loader.exec_module(bench)
+    copy = bench.Row("s", "4096²", "numpy.copyto", timing=bench.Timing(4096 * 4096, 4096 * 4096 / 2000e6, 3))
+    above = bench.Row("s", "(2, 7)", "gfgpu", met=False, timing=bench.Timing(4096 * 4096, 0.08, 3))
+    below = bench.Row("s", "(7, 25)", "gfgpu", met=True, timing=bench.Timing(4096 * 4096, 0.08, 3))
+    bench.note_copy_bound([(above, 2400.0), (below, 246.0)], copy)
+    assert "above the copy (2000 Mpix/s" in above.note and above.met is False
+    assert below.note == "" and below.met is True
+    bench.note_copy_bound([(below, 1e9)], bench.Row("s", "x", "numpy.copyto", error="failed"))   # no copy figure
+    assert below.note == ""

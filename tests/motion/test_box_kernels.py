@@ -18,9 +18,13 @@ TOL64 = 1e-11
 
 #: windows [a0 + a1 k, b0 + b1 k]: trailing, leading and centred boxes (box_shift), windows wholly
 #: beyond the left or the right end and one longer than the lines (tiles outside the line), a
-#: growing window (box_vec) and a narrow one (the spline's value)
+#: growing window (box_vec) and a narrow one (the spline's value); box_vec slides four coefficients
+#: at each end in registers: the zoom-in's window [k / 1.1, k] (narrower than NARROW at first, the
+#: spline's value, while its ends slide on), a zoom-out's [k, 1.25 k] and ends that cross up to
+#: three cells per step from beyond the line's start
 WINDOWS = [(-5.3, 1.0, 0.0, 1.0), (0.0, 1.0, 7.25, 1.0), (-2.5, 1.0, 2.5, 1.0), (-40.5, 1.0, -30.0, 1.0),
-           (30.25, 1.0, 61.0, 1.0), (-60.5, 1.0, 60.5, 1.0), (-1.0, 0.9, 2.0, 1.1), (0.3, 1.0, 0.3, 1.0)]
+           (30.25, 1.0, 61.0, 1.0), (-60.5, 1.0, 60.5, 1.0), (-1.0, 0.9, 2.0, 1.1), (0.3, 1.0, 0.3, 1.0),
+           (0.0, 1 / 1.1, 0.0, 1.0), (0.0, 1.0, 0.0, 1.25), (-40.0, 1.7, -5.0, 2.3)]
 
 
 def _dtypes(be):

@@ -409,12 +409,13 @@ __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *ba
         ring = select(select(ring, (GRIDV)0, ring < (GRID)0), (GRIDV)(n_r - 1), ring > (GRID)(n_r - 1));
         REALV weight = (REALV)1;
         if (weighted) {
+            // each lane's four ring weights: one 4-wide load per lane, transposed (rows4; 32 scalar
+            // loads before, the same values in the same sum)
             const INTV ir = ifloor_v(ring);
-            REALV w0, w1, w2, w3;
+            REALV w0, w1, w2, w3, q0, q1, q2, q3;
             bweights4_v(TO_REALV(ring - TO_GRIDV(ir)), &w0, &w1, &w2, &w3);
-            const INTV i1 = ir + 1, i2 = ir + 2, i3 = ir + 3;
-            weight = w0 * GATHER8(wcoef, ir) + w1 * GATHER8(wcoef, i1) + w2 * GATHER8(wcoef, i2)
-                     + w3 * GATHER8(wcoef, i3);
+            rows4(wcoef, ir, &q0, &q1, &q2, &q3);
+            weight = w0 * q0 + w1 * q1 + w2 * q2 + w3 * q3;
         }
         for (int b = 0; b < planes; ++b) {
             const long pix = ((long)b * h + y) * w + x;
