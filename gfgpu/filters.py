@@ -547,8 +547,9 @@ def derivative(input, u, *, axis=None, axes=None, channel_axis=None, output=None
     D is applied as one causal and one anticausal pass of two 2-pole sections (one per
     scale); taps are the point samples of eq. 25-26 normalised so that ``-Σ m D[m] = 1``.
     P = ∫D, the integral of D from -∞, is even; it is sampled and normalised to unit sum.
-    On an OpenCL CPU device each axis is one kernel that runs both passes over the lines it
-    holds, reading the image once (:func:`run_line_program`).
+    On an OpenCL CPU device a step along columns runs its causal and anticausal passes as a
+    backward sweep, then blocks that restart it and run the forward one (the result written
+    once), and a step along rows as one fused pair (:func:`run_line_program`).
 
     References
     ----------
@@ -745,7 +746,8 @@ def run_line_program(job, program, mode, cval):
     """Run a :class:`~gfgpu._core.program.Program` of axis steps on ``job``, as
     :func:`~gfgpu._core.job.apply_program` does (same result to rounding, same checks), with each
     step's passes as one two-sided kernel where the backend has it (OpenCL CPU devices: the
-    step's input read once, its causal and anticausal passes in one sweep pair).
+    step's causal and anticausal passes in one two-sided step: the input read twice, the
+    result written once).
 
     Used by :func:`derivative` and :func:`projection`; any other program, backend, or a host image
     streamed in strips runs through :func:`~gfgpu._core.job.apply_program`.
@@ -783,13 +785,14 @@ def job_gradient(job, d_passes, p_passes, axes, mode, cval):
     job's result (numpy in, numpy out).
 
     For two axes ``(y, x)`` (an image, y the columns' axis) on a device with two-sided steps, the
-    passes along y share their states: one kernel reads the image once and gives ``C = P_y I``
-    and ``E = D_y I``; then ``d/dy = P_x E`` and ``d/dx = D_x C`` along the rows, each step's
-    passes one fused pair where the backend fuses them (three reads of an image and four writes
-    in all, against eight passes).  P has unit sum and D zero sum, so the constant
-    extension of ``C`` is ``cval`` and that of ``E`` is 0: the result equals each derivative's
-    own program (P along the other axis first) up to rounding.  Otherwise each derivative is its
-    own program (:func:`run_line_program`) on the same input, uploaded and checked once.
+    passes along y share their states: one two-sided step gives ``C = P_y I`` and ``E = D_y I``
+    (the image read twice, C and E written once); then ``d/dy = P_x E`` and
+    ``d/dx = D_x C`` along the rows, each step's passes one fused pair where the backend fuses
+    them (four reads of an image and four writes in all, against eight passes).  P has unit sum
+    and D zero sum, so the constant extension of ``C`` is ``cval`` and that of ``E`` is 0: the
+    result equals each derivative's own program (P along the other axis first) up to rounding.
+    Otherwise each derivative is its own program (:func:`run_line_program`) on the same input,
+    uploaded and checked once.
     """
     from ._core import strips
     d_passes, p_passes = tuple(d_passes), tuple(p_passes)

@@ -14,9 +14,10 @@ is linear in its ``kap``, every such section is the *unit* section ``F[x+1] = la
   mode, exactly as :func:`gfgpu._core.recursion.plan_pass` folds it), ``d = 0`` causal (``j``
   from the start of the line), ``d = 1`` anticausal (``j`` from its end).
 
-So one kernel reads each input once, runs its causal sweep and then its anticausal sweep over the
-same lines (the second from the cache), and writes each output once: the gradient's two row
-passes (P and D of the same image) are one sweep pair.  :func:`run_two_sided_reference` is the
+So one step reads each input and writes each output for both passes (on an OpenCL CPU device
+one kernel: a backward sweep storing its states every few rows, then blocks that restart it and
+run the forward sweep, each output written once): the gradient's two column passes (P and D of
+the same image) are one step.  :func:`run_two_sided_reference` is the
 executable specification; it equals the sum of the passes by
 :func:`~gfgpu._core.recursion.run_reference` up to rounding.
 """

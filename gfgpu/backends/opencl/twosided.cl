@@ -3,8 +3,9 @@
  * two inputs X_i and two outputs Y_o along the columns of (B, N, M) arrays, output o reading IN(o):
  *     Y_o[k] = tap_o X[k] + sum_s Re(causal[o,s] F_s[k]) + sum_s Re(anticausal[o,s] G_s[k])
  * F_s, G_s: the unit states (F <- lam F + x) before sample k, forward and backward, started from the
- * boundary mode's initial state (omega, omega_c).  A work-item runs a band of columns down (the
- * causal part written) and up (read back from the cache, the anticausal part added).
+ * boundary mode's initial state (omega, omega_c).  A work-item runs a band of columns, in two
+ * phases so that each output is written once (one sweep down and up wrote it twice and read it
+ * back from memory: a band of 4096 rows is beyond the caches): phases 0 and 1 below.
  * Defines: REAL, LANES (a cache line per vector), SECTIONS (poles per input), NIN, NOUT (1 or 2),
  * REAL_POLES (real poles and weights: real states), BAND (most vectors per work-item), CHECK (OR
  * flag with 1 if a sample of input 0 is NaN, infinite or beyond the range limit).  coef, omega:
@@ -189,38 +190,6 @@ INLINE void store_cols(__global REAL *p, const VT y, const int valid, const int 
         p[l] = LANE(y, l);
 }
 
-/* one row of the band: forward (d = 0, outputs written) or backward (d = 1, added to them) */
-INLINE void column_step(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
-                        __global REAL *const *dst, const long row, const int vecs, const int last,
-                        const int d, const int nt, VT *chk)
-{
-#pragma unroll
-    for (int v = 0; v < BAND; ++v) {
-        if (v < vecs) {
-            const int valid = v == vecs - 1 ? last : LANES;
-            VT x[NIN];
-#pragma unroll
-            for (int i = 0; i < NIN; ++i)
-                x[i] = load_cols(src[i] + row + v * LANES, valid);
-#if CHECK
-            if (!d)
-                *chk += RESIDUE(x[0]);
-#endif
-#pragma unroll
-            for (int o = 0; o < NOUT; ++o) {
-                __global REAL *q = dst[o] + row + v * LANES;
-                if (d)
-                    store_cols(q, load_cols(q, valid) + readout(p, fr, fi, o, 1, v, BAND), valid, nt);
-                else
-                    store_cols(q, p->tap[o] * x[IN(o)] + readout(p, fr, fi, o, 0, v, BAND), valid, 0);
-            }
-#pragma unroll
-            for (int i = 0; i < NIN; ++i)
-                advance(p, fr, fi, i, x[i], v, BAND);
-        }
-    }
-}
-
 INLINE void initial_cols(const plan_t *p, VT *fr, VT *fi, __global const REAL *const *src,
                          __global const REAL *omega, const int L, const int d, const int N,
                          const int M, const int vecs, const int last, const REAL cval0, const REAL cval1)
@@ -242,44 +211,144 @@ INLINE void initial_cols(const plan_t *p, VT *fr, VT *fi, __global const REAL *c
     }
 }
 
+#define BAND_LOOP(v) _Pragma("unroll") for (int v = 0; v < BAND; ++v) if (v < vecs)
+#define VALID(v) ((v) == vecs - 1 ? last : LANES)
+/* the next block's rows are prefetched during a block's forward sweep (no hardware prefetcher
+ * follows a few cache lines a row, a row apart) */
+#if defined(__clang__)
+#define PREFETCH(p) __builtin_prefetch((p), 0, 3)
+#else
+#define PREFETCH(p) do { } while (0)
+#endif
+/* vectors of a work-item's scratch in phase 1 */
+#define SCRATCH_VECS(K) (NS * 2 * BAND + (K) * BAND * NOUT)
+#define STATES_TO(t) _Pragma("unroll") for (int q = 0; q < NS * BAND; ++q) { t[2 * q] = fr[q]; t[2 * q + 1] = fi[q]; }
+#define STATES_FROM(t) _Pragma("unroll") for (int q = 0; q < NS * BAND; ++q) { fr[q] = t[2 * q]; fi[q] = t[2 * q + 1]; }
+
+/* carries: the backward states at the last row of each block, (B, NB, NS, 2 (re, im), M) */
+#define CARRY(blk, q) (carry + (((long)b * NB + (blk)) * NS + (q)) * 2L * M + m0)
+
+/* One work-item runs both phases on its band (phase 1 reads the band back from the cache).
+ * Phase 0: the band's backward sweep, bottom to top, reading every input once (with the finite
+ * check); the state before the last row of each block of K rows is stored as its carry, where
+ * phase 1 restarts it (the same sweep: phase 1's states are bit for bit the same).
+ * Phase 1: the band top to bottom, a block at a time: the block's backward sweep
+ * from its carry (the inputs read into the nearer cache), its anticausal parts kept in this
+ * work-item's scratch (reused by every block: it stays in the cache), then the forward sweep (the
+ * inputs from the cache), each output written once as (tap_o X[k] + causal) + anticausal, the
+ * order of the sum of the single sweep pair this replaced. */
 __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
                         __global REAL *dst1, const long src0_off, const long src1_off,
                         const long dst0_off, const long dst1_off, __global const REAL *coef,
                         __global const REAL *omega, const int L, const REAL cval0, const REAL cval1,
-                        const int B, const int N, const int M, const int nv, const int stream,
+                        const int B, const int N, const int M, const int nv, const int K,
+                        const int stream, __global REAL *carry, __global VT *scratch,
                         __global int *flag)
 {
-    const int m0 = (int)get_global_id(0) * nv * LANES;
-    const int b = (int)get_global_id(1);
+    const int m0 = (int)get_global_id(0) * nv * LANES, b = (int)get_global_id(1);
     if (m0 >= M || b >= B)
         return;
-    const int cols = IMIN(nv * LANES, M - m0);
-    const int vecs = (cols + LANES - 1) / LANES;
-    const int last = cols - (vecs - 1) * LANES;
+    const int cols = IMIN(nv * LANES, M - m0), vecs = (cols + LANES - 1) / LANES;
+    const int last = cols - (vecs - 1) * LANES, NB = (N + K - 1) / K;
     const long base = (long)b * N * M + m0;
     __global const REAL *src[2] = {src0 + src0_off + base, src1 + src1_off + base};
     __global REAL *dst[2] = {dst0 + dst0_off + base, dst1 + dst1_off + base};
     plan_t p;
     load_plan(&p, coef);
     VT fr[NS * BAND], fi[NS * BAND];
-    VT chk = (VT)(0);
+    {   /* phase 0 */
+        VT chk = (VT)(0);
+        initial_cols(&p, fr, fi, src, omega, L, 1, N, M, vecs, last, cval0, cval1);
+        for (int k = N - 1; k >= 0; --k) {
+            const long row = (long)k * M;
+            if (k % K == K - 1 || k == N - 1) {
+#pragma unroll
+                for (int q = 0; q < NS; ++q) {
+                    __global REAL *c = CARRY(k / K, q);
+                    BAND_LOOP(v) {
+                        store_cols(c + v * LANES, fr[q * BAND + v], VALID(v), 0);
+#if !REAL_POLES
+                        store_cols(c + M + v * LANES, fi[q * BAND + v], VALID(v), 0);
+#endif
+                    }
+                }
+            }
+            BAND_LOOP(v) {
+#pragma unroll
+                for (int i = 0; i < NIN; ++i) {
+                    const VT x = load_cols(src[i] + row + v * LANES, VALID(v));
+#if CHECK
+                    if (i == 0)
+                        chk += RESIDUE(x);
+#endif
+                    advance(&p, fr, fi, i, x, v, BAND);
+                }
+            }
+        }
+#if CHECK
+        if (lanes_nonzero(chk))
+            atomic_or(flag, 1);
+#endif
+    }
+    /* the scratch: the forward states between blocks (NS * 2 * BAND vectors), then the block's
+     * anticausal parts (K * BAND * NOUT); one set of states in registers, the backward ones then
+     * the forward ones (two sets spill more than the forward ones' wait in the scratch) */
+    __global VT *fsave = scratch + ((long)b * get_global_size(0) + get_global_id(0)) * SCRATCH_VECS(K);
+    __global VT *anti = fsave + NS * 2 * BAND;
     initial_cols(&p, fr, fi, src, omega, L, 0, N, M, vecs, last, cval0, cval1);
-    for (int k = 0; k < N; ++k)
-        column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 0, 0, &chk);
-    initial_cols(&p, fr, fi, src, omega, L, 1, N, M, vecs, last, cval0, cval1);
-    /* non-temporal final stores: whole aligned vectors */
+    STATES_TO(fsave)
+    /* non-temporal stores: whole aligned vectors */
     int nt = stream && M % LANES == 0;
 #pragma unroll
     for (int o = 0; o < NOUT; ++o)
         nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
-    for (int k = N - 1; k >= 0; --k)
-        column_step(&p, fr, fi, src, dst, (long)k * M, vecs, last, 1, nt, &chk);
+    for (int blk = 0; blk < NB; ++blk) {
+        const int k0 = blk * K, k1 = IMIN(N, k0 + K);
+#pragma unroll
+        for (int q = 0; q < NS; ++q) {
+            __global const REAL *c = CARRY(blk, q);
+            BAND_LOOP(v) {
+                fr[q * BAND + v] = load_cols(c + v * LANES, VALID(v));
+#if !REAL_POLES
+                fi[q * BAND + v] = load_cols(c + M + v * LANES, VALID(v));
+#endif
+            }
+        }
+        for (int k = k1 - 1; k >= k0; --k) {
+            __global VT *a = anti + (long)(k - k0) * BAND * NOUT;
+            BAND_LOOP(v) {
+#pragma unroll
+                for (int o = 0; o < NOUT; ++o)
+                    a[v * NOUT + o] = readout(&p, fr, fi, o, 1, v, BAND);
+#pragma unroll
+                for (int i = 0; i < NIN; ++i)
+                    advance(&p, fr, fi, i, load_cols(src[i] + (long)k * M + v * LANES, VALID(v)), v, BAND);
+            }
+        }
+        STATES_FROM(fsave)
+        for (int k = k0; k < k1; ++k) {
+            const long row = (long)k * M;
+            __global const VT *a = anti + (long)(k - k0) * BAND * NOUT;
+            BAND_LOOP(v) {
+                VT x[NIN];
+#pragma unroll
+                for (int i = 0; i < NIN; ++i) {
+                    if (2 * k1 - 1 - k < N)    /* the next block's rows, bottom first */
+                        PREFETCH(src[i] + (long)(2 * k1 - 1 - k) * M + v * LANES);
+                    x[i] = load_cols(src[i] + row + v * LANES, VALID(v));
+                }
+#pragma unroll
+                for (int o = 0; o < NOUT; ++o)
+                    store_cols(dst[o] + row + v * LANES,
+                               (p.tap[o] * x[IN(o)] + readout(&p, fr, fi, o, 0, v, BAND)) + a[v * NOUT + o],
+                               VALID(v), nt);
+#pragma unroll
+                for (int i = 0; i < NIN; ++i)
+                    advance(&p, fr, fi, i, x[i], v, BAND);
+            }
+        }
+        STATES_TO(fsave)
+    }
     if (nt)
         STREAM_FENCE();
-#if CHECK
-    if (lanes_nonzero(chk))
-        atomic_or(flag, 1);
-#else
-    (void)chk;
-#endif
 }

@@ -1,8 +1,10 @@
 """Two-sided steps on an OpenCL CPU device (``twosided.cl``; spec
 :func:`gfgpu._core.twosided.run_two_sided_reference`), for :mod:`gfgpu.filters`' derivative,
-projection and gradient: one kernel runs a column step's causal and anticausal passes down and up a
-band of columns, reading each input once and writing each output once from memory (the backward
-sweep reads the forward one's output back from the cache).  CPU devices only (:func:`runs_on`)."""
+projection and gradient: a column step's causal and anticausal passes over bands of columns in one
+kernel, a backward sweep that stores its states every :data:`BLOCK_ROWS` rows, then blocks that
+restart it from them and run the forward sweep, so that the inputs are read twice (the second time
+from the cache) and each output is written once (the earlier sweep down then up the whole band
+wrote each output twice and read it back from memory).  CPU devices only (:func:`runs_on`)."""
 
 from __future__ import annotations
 
@@ -18,6 +20,9 @@ __all__ = ["runs_on", "run_two_sided"]
 _CACHE_LINE = 64
 _STREAM_BYTES = 1 << 23    # outputs from this size are written with non-temporal stores
 _PLAN_CACHE = 32
+#: rows of a block: phase 1 restarts each block's backward sweep from its carry and keeps the
+#: block's anticausal parts in a scratch of BLOCK_ROWS x BAND vectors per output (in the cache)
+BLOCK_ROWS = 32
 _uploads = weakref.WeakKeyDictionary()    # backend -> OrderedDict((id(plan), dtype) -> (plan, buffers))
 
 
@@ -51,7 +56,7 @@ def band(plan):
 def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     """Run a two-sided step along axis 1 (columns) of C-contiguous ``(B, N, M)`` arrays: ``srcs``
     and ``dsts``, one per input and output of ``plan`` (outputs overlap nothing), ``cvals`` each
-    input's constant (mode 'constant').  With ``check`` the forward sweep also tests that
+    input's constant (mode 'constant').  With ``check`` the first (backward) sweep also tests that
     ``srcs[0]`` is finite and within the range limit, and the result is that bool (a blocking
     read); else None.  Raises ValueError or TypeError for arrays, axis or plan that do not fit."""
 
@@ -84,21 +89,24 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     nv = max(1, min(width, (b * vecs) // (2 * units)))     # every core gets two bands at least
     gsize, lsize = (-(-vecs // nv), b), (1, 1)
     knl = launch.kernel(be, __package__, "twosided.cl", "two_sided", dtype, LANES=lanes, SECTIONS=plan.sections,
-                        NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), BAND=width,
-                        CHECK=int(bool(check)))
+                        NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), BAND=width, CHECK=int(bool(check)))
     coef, omega = _buffers(be, plan, dtype)
+    k = BLOCK_ROWS
+    carries = be.empty((b, -(-n // k), nin * plan.sections, 2, m), dtype)
+    per_item = nin * plan.sections * 2 * width + k * width * nout     # SCRATCH_VECS of twosided.cl
+    scratch = be.empty((gsize[0] * b, per_item, lanes), dtype)
     flag = be.asarray(np.zeros(1, np.int32))
     s0, s1 = srcs[0], srcs[-1]
     d0, d1 = dsts[0], dsts[-1]
     item = dtype.itemsize
     real = dtype.type
     stream = int(first.nbytes >= _STREAM_BYTES)
-    args = (s0.base_data, s1.base_data, d0.base_data, d1.base_data,
-            np.int64(s0.offset // item), np.int64(s1.offset // item), np.int64(d0.offset // item),
-            np.int64(d1.offset // item), coef.data, omega.data, np.int32(plan.omega.shape[-1]),
-            real(cvals[0]), real(cvals[-1] if nin == 2 else 0.0), np.int32(b), np.int32(n), np.int32(m),
-            np.int32(nv), np.int32(stream), flag.data)
-    launch.launch(be, knl, gsize, lsize, list(srcs), list(dsts) + ([flag] if check else []), args)
+    args = (s0.base_data, s1.base_data, d0.base_data, d1.base_data, np.int64(s0.offset // item),
+            np.int64(s1.offset // item), np.int64(d0.offset // item), np.int64(d1.offset // item), coef.data,
+            omega.data, np.int32(plan.omega.shape[-1]), real(cvals[0]), real(cvals[-1] if nin == 2 else 0.0),
+            np.int32(b), np.int32(n), np.int32(m), np.int32(nv), np.int32(k), np.int32(stream), carries.data,
+            scratch.data, flag.data)
+    launch.launch(be, knl, gsize, lsize, list(srcs), list(dsts) + [carries, scratch] + ([flag] if check else []), args)
     if not check:
         return None
     return int(be.to_host(flag)[0]) == 0      # waits for the kernel (the flag holds its event)
