@@ -5,6 +5,8 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from ..backends.opencl import launch as ocl
@@ -119,21 +121,43 @@ def launch_planes(be, right, out, steps):
         knl = _build(be, "shift_planes", SHIFT_PLANES=1)
         scratch = be.empty((h, w), np.float64)
         group = ocl.group_size(be)
-        for f, jobs in enumerate(specs.subpixel_jobs(steps), start=1):
-            # per job b0, b1, b2, a1, a2, zi0, zi1, n, reverse (stereo.cl's shift_row)
+        for f, (jobs, coef_d) in enumerate(_plane_coefficients(be, steps), start=1):
+            items = -(-h // _SHIFT_ROWS)      # stereo.cl's SHIFT_ROWS rows per work-item
+            ocl.launch(be, knl, (-(-items // group) * group,), (group,), [right, coef_d], [out, scratch],
+                       (right.data, out.data, scratch.data, coef_d.data, np.int32(h), np.int32(w), np.int32(f),
+                        np.int32(len(jobs))))
+    elif right.size:
+        ocl.copy_bytes(be, out, right, right.nbytes)
+    return out
+
+
+#: rows per work-item of stereo.cl's shift_planes (its SHIFT_ROWS)
+_SHIFT_ROWS = 4
+
+
+def _plane_coefficients(be, steps):
+    """Per sub-pixel plane 1 .. steps - 1: its jobs and their recursions' coefficients on the
+    device, (2, 9) float64, per job b0, b1, b2, a1, a2, zi0, zi1, n, reverse (stereo.cl's
+    shift_row).  Constants of ``steps``: uploaded once per backend (each upload was a blocking
+    write that waited for the queue)."""
+    key = (be.context, int(steps))
+    if key not in _PLANE_COEFFICIENTS:
+        planes = []
+        for jobs in specs.subpixel_jobs(steps):
             coef = np.zeros((2, 9))
             for q, job in enumerate(jobs):
                 b, a, zi, n, reverse = specs.shift_recursion(*job)
                 if n < 0:       # (no sub-pixel job has one: shifts by 0 .. 1 px, offsets 0 and 1)
                     raise ValueError(f"shift_planes extends rows at their start only, got n = {n}")
                 coef[q] = (*b, a[1], a[2], *zi, n, reverse)
-            coef_d = be.asarray(coef)
-            ocl.launch(be, knl, (-(-h // group) * group,), (group,), [right, coef_d], [out, scratch],
-                       (right.data, out.data, scratch.data, coef_d.data, np.int32(h), np.int32(w), np.int32(f),
-                        np.int32(len(jobs))))
-    elif right.size:
-        ocl.copy_bytes(be, out, right, right.nbytes)
-    return out
+            planes.append((jobs, be.asarray(coef)))
+        _PLANE_COEFFICIENTS[key] = planes
+    return _PLANE_COEFFICIENTS[key]
+
+
+#: (context, steps) -> [(jobs, device coefficients)] of :func:`_plane_coefficients`, uploaded once
+_PLANE_COEFFICIENTS = {}
+os.register_at_fork(after_in_child=_PLANE_COEFFICIENTS.clear)      # a forked child has contexts of its own
 
 
 def launch_cost(be, census_left, census_right, out, first_step, steps, block):
@@ -159,9 +183,19 @@ def _interleave(be, cr, h, w, steps, n, workspace=None, bucket=None, row0=0, row
         ri = _empty(be, workspace, "interleaved", (rows, w * steps), np.uint64)
     knl = _stereo_kernel(be, "census_interleave", n) if bucket is None else _bucket_kernel(be, "census_interleave",
                                                                                           bucket)
-    ocl.launch(be, knl, (w, rows), None, [cr], [ri],
+    gsize, lsize = _row_grid(be, w, rows)
+    ocl.launch(be, knl, gsize, lsize, [cr], [ri],
                (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps), np.int32(row0)))
     return ri
+
+
+def _row_grid(be, w, rows):
+    """Global and local size of the kernels that loop over a row's columns in steps of the
+    global size 0 (census_interleave, left_right): a work-item per row on CPUs, per pixel on
+    GPUs."""
+    if be.kind == "cpu":
+        return (1, rows), (1, 1)
+    return (w, rows), None
 
 
 def _cost_splits(be, w):
@@ -487,7 +521,8 @@ def launch_left_right(be, disp, disp_right, margin, steps, tol):
         margin.set(m)
         return disp, margin
     knl = _build(be, "left_right", LEFT_RIGHT=1)
-    ocl.launch(be, knl, (w, h), None, [disp_right], [disp, margin],
+    gsize, lsize = _row_grid(be, w, h)
+    ocl.launch(be, knl, gsize, lsize, [disp_right], [disp, margin],
                (disp.data, disp_right.data, margin.data, np.int32(h), np.int32(w), np.int32(steps),
                 np.float64(tol)))
     return disp, margin

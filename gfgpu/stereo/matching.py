@@ -411,9 +411,24 @@ def _scale2(image, exp):
     """``np.ldexp(image, exp)`` in float32: one multiplication by the power of two where it is a
     normal float32 (the same correctly rounded values, bit for bit; ldexp took 14 ms per view at
     1000x1500, the product 1-2 ms)."""
+    out = _page_aligned(image.shape, np.float32)
     if -126 <= exp <= 126:
-        return image * np.float32(2.0**exp)
-    return np.ldexp(image, exp, dtype=np.float32)
+        return np.multiply(image, np.float32(2.0**exp), out=out)
+    return np.ldexp(image, exp, out=out, dtype=np.float32)
+
+
+def _page_aligned(shape, dtype):
+    """An uninitialised C-contiguous array starting on a page boundary: a CPU OpenCL device
+    reads such a view in place (``host_view``: no copy and no blocking upload; an array at an
+    offset within its buffer would be copied by the kernels' launchers)."""
+    dtype = np.dtype(dtype)
+    nbytes = int(np.prod(shape, dtype=np.int64)) * dtype.itemsize
+    raw = np.empty(nbytes + _PAGE, np.uint8)
+    start = -raw.ctypes.data % _PAGE
+    return raw[start:start + nbytes].view(dtype).reshape(shape)
+
+
+_PAGE = 4096
 
 
 def _green_shift_rows(rows, amount, offset=0):
@@ -566,11 +581,18 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
          lr_check, progress, buffers=None, workspace=None):
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
+    one_shot = buffers is None
+    if one_shot:
+        # disparity()'s own call: the buffers of the last call of this size and range where they
+        # were small (_KEPT_BYTES), else new ones
+        kept_key = (h, w, n_disp, steps, block, paths)
+        buffers = workspace = _kept_buffers(be, kept_key)
     views = _exact_views(left, right)
     if _planes_on_device(be, views[0].dtype, steps):
         lft, rgt = _scaled_views(*views)
         planes = _empty(be, buffers, "planes", (steps, h, w), np.float32)
-        kernels.planes(be, be.asarray(rgt), planes, steps)
+        # host_view: a CPU device reads the (page-aligned) host view in place, no blocking upload
+        kernels.planes(be, be.host_view(rgt), planes, steps)
         del rgt
     else:
         lft, planes = matching_views(*views, steps)
@@ -582,17 +604,21 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         cen_r = be.asarray(np.stack([specs.census_transform_reference(p, census_radius) for p in planes]))
     else:
         cen_l = _empty(be, buffers, "census_left", (1, h, w), np.uint64)
-        kernels.census(be, be.asarray(lft), cen_l, 0, census_radius)
+        kernels.census(be, be.host_view(lft), cen_l, 0, census_radius)
         cen_r = _empty(be, buffers, "census_right", (steps, h, w), np.uint64)
         for f in range(steps):
-            kernels.census(be, planes[f] if on_device else be.asarray(planes[f]), cen_r, f, census_radius)
+            kernels.census(be, planes[f] if on_device else be.host_view(planes[f]), cen_r, f, census_radius)
     # the views are not read again: released before the matcher's buffers are allocated (the
     # process's peak memory)
     del lft, planes
     progress(1)
-    disp = _empty(be, buffers, "disp", (h, w), np.float32)
+    # one-shot results: arrays that to_host returns without a copy where the device shares the
+    # host's memory (a StereoMatcher's buffers are kept and copied out instead)
+    result = (lambda name, dt: be.host_result((h, w), dt)) if one_shot else \
+        (lambda name, dt: _empty(be, buffers, name, (h, w), dt))
+    disp = result("disp", np.float32)
     right_steps = _empty(be, buffers, "disp_right", (h, w), np.int32)
-    margin = _empty(be, buffers, "margin", (h, w), np.float32)
+    margin = result("margin", np.float32)
     # cost, aggregation and selection in one fused kernel: on CPUs it streams bands of rows
     # (memory O(band x W x D)), on GPUs it holds (H, W, D) volumes
     budget = _budget(be)
@@ -605,9 +631,40 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         # both views agree exactly, 1/2 at the tolerance)
         kernels.left_right(be, disp, right_steps, margin, steps, LR_TOLERANCE)
     progress(1)
-    if buffers is not None:      # the next frame writes these buffers again: the results are copies
+    if not one_shot:      # the next frame writes these buffers again: the results are copies
         return np.array(be.to_host(disp), copy=True), np.array(be.to_host(margin), copy=True)
-    return be.to_host(disp), be.to_host(margin)
+    out = be.to_host(disp), be.to_host(margin)     # (the queue is in order: every kernel is done)
+    _keep_buffers(be, kept_key, buffers)
+    return out
+
+
+#: disparity() keeps the device buffers of its last call on each backend (census codes, the band
+#: matcher's volumes and states) for the next call of the same size and range where they take at
+#: most this many bytes: their ~15 allocations cost 1-2 ms of a 20 ms call at 384 x 288
+_KEPT_BYTES = 64 * 2**20
+
+_KEPT = {}          # backend -> (key, {buffers}): taken by one call at a time
+os.register_at_fork(after_in_child=_KEPT.clear)     # a forked child has devices of its own
+
+
+def _kept_buffers(be, key):
+    """The buffers :func:`_keep_buffers` kept on ``be`` under ``key``, taken (a concurrent
+    call finds none and makes its own), or a new empty dict."""
+    kept = _KEPT.pop(be, None)
+    return kept[1] if kept is not None and kept[0] == key else {}
+
+
+def _keep_buffers(be, key, buffers):
+    """Keep ``buffers`` (a finished call's) for the next call with ``key`` where they are small
+    (:data:`_KEPT_BYTES`); they replace what was kept."""
+    if sum(_nbytes(b) for b in buffers.values()) <= _KEPT_BYTES:
+        _KEPT[be] = (key, buffers)
+
+
+def _nbytes(array):
+    """Bytes of a backend's array (Warp arrays give them as ``capacity``)."""
+    n = getattr(array, "nbytes", None)
+    return int(array.capacity if n is None else n)
 
 
 def _green_shift(be, image, amount, method, sigma):

@@ -94,29 +94,40 @@ def small_regions(disp, max_size, max_diff):
     from scipy.sparse.csgraph import connected_components
     d = np.asarray(disp, np.float64)     # float32 differences round; float64 ones of float32 values do not
     h, w = d.shape
-    small = np.zeros((h, w), bool)
     if d.size == 0:
-        return small
-    valid = np.isfinite(d)
+        return np.zeros((h, w), bool)
     right, down = _joins(d, max_diff)
     start = np.ones((h, w), bool)
     start[:, 1:] = ~right                   # a run starts where the pixel is not joined to its left
     starts = np.flatnonzero(start)
     length = np.diff(starts, append=h * w)
-    # short runs of valid pixels are the graph's nodes 0 .. m - 1, every long run node m
-    short = valid.ravel()[starts] & (length <= max_size)
+    # short runs of valid pixels are the graph's nodes 0 .. m - 1, every long run node m (a run
+    # of more than one pixel is valid throughout: NaN joins nothing)
+    short = np.isfinite(d.ravel()[starts]) & (length <= max_size)
     m = int(np.count_nonzero(short))
     if m == 0:
-        return small
-    node = np.full(starts.size, m, np.int64)
-    node[short] = np.arange(m)
-    rest = np.repeat(short, length).reshape(h, w)
+        return np.zeros((h, w), bool)
+    node = np.full(starts.size, m, np.int32 if m < 2**31 - 1 else np.int64)
+    node[short] = np.arange(m, dtype=node.dtype)
+    # each pixel's node, read at the joins' two ends (was a binary search of the run starts per
+    # join: 2.2 of 6.7 ms on the 741 x 500 motorcycle map)
+    pix = np.repeat(node, length)
+    rest = (pix < m).reshape(h, w)
     # vertical joins with a short run at either end (joins between two long runs change nothing)
     at = np.flatnonzero(down & (rest[:-1] | rest[1:]))
-    src = node[np.searchsorted(starts, at, side="right") - 1]
-    dst = node[np.searchsorted(starts, at + w, side="right") - 1]
+    src, dst = pix[at], pix[at + w]
+    # the joins of one pair of runs lie next to each other along the row: one edge for them
+    # (a short run joins its neighbour row at up to max_size places)
+    if src.size > 1:
+        new_pair = np.empty(src.size, bool)
+        new_pair[0] = True
+        np.not_equal(src[1:], src[:-1], out=new_pair[1:])
+        new_pair[1:] |= dst[1:] != dst[:-1]
+        src, dst = src[new_pair], dst[new_pair]
     graph = coo_matrix((np.ones(src.size, np.int8), (src, dst)), shape=(m + 1, m + 1))
-    _, comp = connected_components(graph, directed=False)
+    # the weak components of the directed graph are the undirected graph's, without the
+    # symmetrised copy that directed=False builds
+    _, comp = connected_components(graph, directed=True, connection="weak")
     size = np.bincount(comp[:m], weights=length[short], minlength=comp.max() + 1)
     small_run = np.zeros(starts.size, bool)
     small_run[short] = (comp[:m] != comp[m]) & (size[comp[:m]] <= max_size)

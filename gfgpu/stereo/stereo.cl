@@ -243,17 +243,22 @@ typedef short cost_t;
 // Right census codes interleaved along the row with the sub-pixel planes in reverse order,
 // out[y - row0][x*steps + steps-1-f] = cr[f][y][x]: the right pixel of disparity sample t = n*steps + f
 // at left column x is then index x*steps + steps-1 - t, consecutive (decreasing) in t.  Rows
-// row0 .. row0 + global size(1) - 1 (the CPU matcher's coarse bands: a band's rows, not the image's)
+// row0 .. row0 + global size(1) - 1 (the CPU matcher's coarse bands: a band's rows, not the image's).
+// Columns x = global id 0 in steps of global size 0: a work-item per row on CPUs (global size 0
+// of 1; a work-item per pixel took 3-5x as long on PoCL: 4.6 against 0.8 ms at 741 x 500), a
+// work-item per pixel on GPUs.
 __kernel void census_interleave(__global const ulong *cr, __global ulong *out, const int h, const int w,
                                 const int steps, const int row0)
 {
-    const int x = get_global_id(0), y = row0 + (int)get_global_id(1);
-    if (x >= w || y >= h)
+    const int y = row0 + (int)get_global_id(1);
+    if (y >= h)
         return;
     const size_t plane = (size_t)h * w;
-    __global ulong *dst = out + ((size_t)(y - row0) * w + x) * steps + steps - 1;
-    for (int f = 0; f < steps; ++f)
-        dst[-f] = cr[f * plane + (size_t)y * w + x];
+    for (int x = get_global_id(0); x < w; x += get_global_size(0)) {
+        __global ulong *dst = out + ((size_t)(y - row0) * w + x) * steps + steps - 1;
+        for (int f = 0; f < steps; ++f)
+            dst[-f] = cr[f * plane + (size_t)y * w + x];
+    }
 }
 
 // Hamming distances of the census codes, ham[i][x][k] = popcount(L[y][x] ^ R_f[y][x - n]) for the
@@ -1117,7 +1122,7 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
 }
 
 // The right view's sub-pixel planes (gfgpu.stereo.spec.subpixel_planes_reference; built with
-// -D SHIFT_PLANES, float64 as the specification): one work-item per row of plane `plane`, the mean
+// -D SHIFT_PLANES, float64 as the specification): one work-item per 4 rows of plane `plane`, the mean
 // of `jobs` (1 or 2) Green shifts of the row, each a second-order recursion (spec.shift_recursion:
 // `coef` holds per job b0, b1, b2, a1, a2, zi0, zi1, n >= 0, reverse), in lfilter's operations and order
 // with no contraction into fused multiply-adds, so the values are the host's bit for bit; rounded to
@@ -1126,53 +1131,67 @@ __kernel void sweep_update(__global float *state, __global const float *ls, __gl
 #ifdef SHIFT_PLANES
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 
-// x = 0 .. w - 1 of the shifted row of job `c`; mode 0: scratch[x] = value, 1: plane[x] = value,
-// 2: plane[x] = (scratch[x] + value) * 0.5 (then rounded and flushed)
-static void shift_row(__global const float *row, const int w, __global const double *c, const int mode,
-                      __global double *scratch, __global float *plane)
+// Rows y0 .. y0 + 3 (those below h) of the shifted rows of job `c`, one row per lane of double4
+// recursions (each lane the scalar recursion's operations, so its values; 4 independent chains:
+// one row per work-item left the float64 latency chain z0 -> y -> z0 idle most of the time);
+// mode 0: scratch[x] = value, 1: plane[x] = value, 2: plane[x] = (scratch[x] + value) * 0.5
+// (then rounded and flushed)
+#define SHIFT_ROWS 4
+static void shift_rows(__global const float *right, const int y0, const int h, const int w,
+                       __global const double *c, const int mode, __global double *scratch, __global float *plane)
 {
     #pragma OPENCL FP_CONTRACT OFF
     const double b0 = c[0], b1 = c[1], b2 = c[2], a1 = c[3], a2 = c[4];
     const int n = (int)c[7], reverse = c[8] != 0.0;
-    const int len = w + n;                        // the row extended by n >= 0 copies of its first value
+    const int len = w + n;                        // a row extended by n >= 0 copies of its first value
+    const int rows = IMIN(SHIFT_ROWS, h - y0);    // lanes past the image repeat its last row, unwritten
+    __global const float *r0 = right + (size_t)y0 * w;
+    __global const float *r1 = right + (size_t)IMIN(y0 + 1, h - 1) * w;
+    __global const float *r2 = right + (size_t)IMIN(y0 + 2, h - 1) * w;
+    __global const float *r3 = right + (size_t)IMIN(y0 + 3, h - 1) * w;
     // src[i] = row[max(i - n, 0)]; the recursion runs over src, reversed if `reverse`; its value
     // at step i is moved[s], s = i or len - 1 - i, the output at column s (s < w)
-    const double first = reverse ? (double)row[w - 1] : (double)row[0];
-    double z0 = c[5] * first, z1 = c[6] * first;
+    const int f = reverse ? w - 1 : 0;
+    const double4 first = (double4)((double)r0[f], (double)r1[f], (double)r2[f], (double)r3[f]);
+    double4 z0 = c[5] * first, z1 = c[6] * first;
     for (int i = 0; i < len; ++i) {
         const int s = reverse ? len - 1 - i : i;
-        const double x = (double)row[s - n > 0 ? s - n : 0];
-        const double bx0 = x * b0, bx1 = x * b1, bx2 = x * b2;
-        const double y = bx0 + z0;
-        const double t = z1 + bx1;
+        const int k = s - n > 0 ? s - n : 0;
+        const double4 x = (double4)((double)r0[k], (double)r1[k], (double)r2[k], (double)r3[k]);
+        const double4 bx0 = x * b0, bx1 = x * b1, bx2 = x * b2;
+        const double4 y = bx0 + z0;
+        const double4 t = z1 + bx1;
         z0 = t - y * a1;
         z1 = bx2 - y * a2;
         if (s >= w)
             continue;
-        if (mode == 0) {
-            scratch[s] = y;
-        } else {
-            const float v = (float)(mode == 2 ? (scratch[s] + y) * 0.5 : y);
-            plane[s] = (as_uint(v) & 0x7F800000u) == 0 ? 0.0f : v;
+        const double yq[SHIFT_ROWS] = {y.s0, y.s1, y.s2, y.s3};
+        for (int q = 0; q < rows; ++q) {
+            const size_t p = (size_t)(y0 + q) * w + s;
+            if (mode == 0) {
+                scratch[p] = yq[q];
+            } else {
+                const float v = (float)(mode == 2 ? (scratch[p] + yq[q]) * 0.5 : yq[q]);
+                plane[p] = (as_uint(v) & 0x7F800000u) == 0 ? 0.0f : v;
+            }
         }
     }
 }
 
+// one work-item per SHIFT_ROWS rows of plane `plane`
 __kernel void shift_planes(__global const float *right, __global float *planes, __global double *scratch,
                            __global const double *coef, const int h, const int w, const int plane,
                            const int jobs)
 {
-    const int y = get_global_id(0);
-    if (y >= h)
+    const int y0 = SHIFT_ROWS * (int)get_global_id(0);
+    if (y0 >= h)
         return;
-    __global const float *row = right + (size_t)y * w;
-    __global float *out = planes + ((size_t)plane * h + y) * w;
-    __global double *tmp = scratch + (size_t)y * w;
+    __global float *out = planes + (size_t)plane * h * w;
     if (jobs == 1) {
-        shift_row(row, w, coef, 1, tmp, out);
+        shift_rows(right, y0, h, w, coef, 1, scratch, out);
     } else {
-        shift_row(row, w, coef, 0, tmp, out);
-        shift_row(row, w, coef + 9, 2, tmp, out);
+        shift_rows(right, y0, h, w, coef, 0, scratch, out);
+        shift_rows(right, y0, h, w, coef + 9, 2, scratch, out);
     }
 }
 #endif  // SHIFT_PLANES
@@ -1190,31 +1209,35 @@ __kernel void shift_planes(__global const float *right, __global float *planes, 
 #define RINT_D(v) rint(v)
 #define FABS_D(v) fabs(v)
 #endif
+// Columns x = global id 0 in steps of global size 0: a work-item per row on CPUs, per pixel on
+// GPUs (as census_interleave)
 __kernel void left_right(__global float *disp, __global const int *right, __global float *margin,
                          const int h, const int w, const int steps, const double tol)
 {
-    const int x = get_global_id(0), y = get_global_id(1);
-    if (x >= w || y >= h)
+    const int y = get_global_id(1);
+    if (y >= h)
         return;
-    const size_t p = (size_t)y * w + x;
-    const float d = disp[p];
-    int ok = 0;
-    double diff = 0.0;
-    if (d == d) {                           // not NaN
-        const double xr = RINT_D((double)x - (double)d);
-        if (xr >= 0.0 && xr <= (double)(w - 1)) {
-            const int back = right[(size_t)y * w + (int)xr];
-            if (back != NO_MATCH) {
-                diff = FABS_D((double)back / (double)steps - (double)d);
-                ok = diff <= tol;
+    for (int x = get_global_id(0); x < w; x += get_global_size(0)) {
+        const size_t p = (size_t)y * w + x;
+        const float d = disp[p];
+        int ok = 0;
+        double diff = 0.0;
+        if (d == d) {                           // not NaN
+            const double xr = RINT_D((double)x - (double)d);
+            if (xr >= 0.0 && xr <= (double)(w - 1)) {
+                const int back = right[(size_t)y * w + (int)xr];
+                if (back != NO_MATCH) {
+                    diff = FABS_D((double)back / (double)steps - (double)d);
+                    ok = diff <= tol;
+                }
             }
         }
-    }
-    if (ok) {
-        margin[p] = (float)((double)margin[p] * (1.0 - diff / (2.0 * tol)));
-    } else {
-        disp[p] = NAN;
-        margin[p] = 0.0f;
+        if (ok) {
+            margin[p] = (float)((double)margin[p] * (1.0 - diff / (2.0 * tol)));
+        } else {
+            disp[p] = NAN;
+            margin[p] = 0.0f;
+        }
     }
 }
 #endif  // LEFT_RIGHT
