@@ -1,4 +1,4 @@
-"""Accuracy of the velocity fields' Gauss rule (the default) against the exact cells and a rendering.
+"""Accuracy of the velocity fields' default rule against the exact cells and a rendering.
 
 For each image (Gaussian-filtered noise sigma = 2 px, band-limited noise cut 0.25 and 0.1
 cycles/px, the camera photograph) and each field (the benchmark's smooth field scaled to a peak
@@ -19,13 +19,19 @@ process, best of ``--repeat`` wall and CPU times, with the load average: the A/B
 machine allows.
 
 With ``--candidates``: rules the specification does not define, measured in float64 numpy beside
-today's (docs/motion.md, "Counting the Euclidean length"): the node count from the Euclidean length
-|v| instead of the dominant component, other spacings, G_u cut later and with cells graded along
-``t``, a capped cell count; the rel. L2 against the rendering of the σ = 2 noise and the photograph
-under the smooth and the split field at |v| <= 30, and the samples per pixel on the benchmark field.
+today's: the box's node count from the Euclidean length |v| instead of the dominant component and
+other spacings; G_u's previous rule (3-node Gauss-Legendre cells, 2 px per node) and variants of it
+(Euclidean count, wider cells, cut later, cells graded along ``t``, a capped count); the rel. L2
+against the rendering of the σ = 2 noise and the photograph under the smooth and the split field at
+|v| <= 30 (mode wrap), and the samples per pixel on the benchmark field.
+
+With ``--validate``: the default rule on inputs it was not chosen on (docs/motion.md): noise of
+another seed, band-limited noise, six photographs of skimage.data, and rotation, zoom, shear and
+random smooth fields besides the benchmark's two, mode reflect (no seam at the crops' borders).
 
 Usage:  python benchmarks/field_rule.py [--side 128] [--copies 512] [--backend numpy] [--peaks 0.3,1,3,10,30]
         python benchmarks/field_rule.py --candidates [--side 128] [--copies 512]
+        python benchmarks/field_rule.py --validate [--side 128] [--copies 512] [--mode reflect]
         python benchmarks/field_rule.py --speed 2048 [--repeat 3] [--backend opencl] [--compare REV]
 """
 
@@ -66,6 +72,40 @@ def photograph(n):
     y0, x0 = (cam.shape[0] - n) // 2, (cam.shape[1] - n) // 2
     crop = cam[y0:y0 + n, x0:x0 + n]
     return (crop - crop.mean()) / crop.std()
+
+
+#: photographs of skimage's data set (none used to choose the rule: the camera was)
+PHOTOS = ("astronaut", "coffee", "chelsea", "rocket", "brick", "grass")
+
+
+def skimage_photo(name, n):
+    """The central n x n crop of skimage.data's ``name``, grey, zero mean and unit variance."""
+    from skimage import data
+    img = np.asarray(getattr(data, name)(), np.float64)
+    if img.ndim == 3:
+        img = img[..., :3].mean(-1)
+    y0, x0 = (img.shape[0] - n) // 2, (img.shape[1] - n) // 2
+    crop = img[y0:y0 + n, x0:x0 + n]
+    return (crop - crop.mean()) / crop.std()
+
+
+def shaped_field(kind, n, vmax, seed=11):
+    """Fields of other shapes, peak |v| = vmax: a rotation and a zoom about the centre, a shear
+    (rows moving sideways in proportion to their height, plus a third of it across), and a random
+    smooth field (Gaussian-filtered noise, sigma n/10)."""
+    from scipy import ndimage
+    yy, xx = np.mgrid[:n, :n].astype(np.float64) - (n - 1) / 2
+    if kind == "rotation":
+        field = np.stack([xx, -yy])
+    elif kind == "zoom":
+        field = np.stack([yy, xx])
+    elif kind == "shear":
+        field = np.stack([yy[::-1] / 3, yy])
+    else:
+        rng = np.random.default_rng(seed)
+        field = np.stack([ndimage.gaussian_filter(rng.standard_normal((n, n)), n / 10, mode="wrap")
+                          for _ in range(2)])
+    return field * (vmax / np.hypot(field[0], field[1]).max())
 
 
 def split_field(n, vmax):
@@ -196,10 +236,21 @@ def candidate_box(spacing, euclid=True):
     return count, rule
 
 
+def candidate_spec(psf):
+    """The specification's own rule (spec.rule_count, spec.gauss_rule): the default of today."""
+    from gfgpu.motion import spec
+    code = spec.PSF_CODES[psf, True]
+
+    def count(vy, vx):
+        return spec.rule_count(code, spec.rule_length(code, vy, vx))
+    return count, lambda n: spec.gauss_rule(code, n)
+
+
 CANDIDATES = {
-    "box": {"ceil(L/2) + 1 (now)": candidate_box(2.0, euclid=False), "ceil(|v|/2) + 1": candidate_box(2.0),
+    "box": {"ceil(L/2) + 1 (now)": candidate_spec("box"), "ceil(|v|/2) + 1": candidate_box(2.0),
             "ceil(|v|/2.5) + 1": candidate_box(2.5), "ceil(|v|/3) + 1": candidate_box(3.0)},
-    "green": {"max(8, ceil(L)) cells (now)": candidate_green(6.0, 6.0, euclid=False),
+    "green": {"graded trapezoid, 2.25-5 px, by |v| (now)": candidate_spec("green"),
+              "max(8, ceil(L)) cells (the rule before)": candidate_green(6.0, 6.0, euclid=False),
               "max(8, ceil(|v|)) cells": candidate_green(6.0, 6.0),
               "cells of 7.5 px of |v|": candidate_green(6.0, 7.5), "cells of 9 px of |v|": candidate_green(6.0, 9.0),
               "cut at 9, cells of 9 px": candidate_green(9.0, 9.0),
@@ -249,6 +300,31 @@ def candidates(n, copies):
             print(f"| {psf} | {name} | {samples:.1f} | {noise} | {photo} |", flush=True)
 
 
+def validate(n, copies, backend, mode):
+    """Rel. L2 of the default rule against the rendering on inputs the rule was not chosen on
+    (Markdown rows): images x fields at peak |v| = 30, each PSF, the worst and best per image."""
+    images = {"noise sigma 2 (seed 3)": refs.texture((n, n), seed=3),
+              "noise sigma 2 (seed 7)": refs.texture((n, n), seed=7),
+              "band-limited 0.25": bandlimited(n, 0.25, 1), "band-limited 0.1": bandlimited(n, 0.1, 2),
+              "camera": photograph(n), **{name: skimage_photo(name, n) for name in PHOTOS}}
+    kinds = ("smooth", "split", "rotation", "zoom", "shear", "random")
+    fields = {k: (refs.velocity_field((n, n), 30.0).astype(np.float64) if k == "smooth" else
+                  split_field(n, 30.0) if k == "split" else shaped_field(k, n, 30.0)) for k in kinds}
+    print(f"{n}², mode {mode}, {MARGIN}-px margin, peak |v| = 30, {backend} float64; rel. L2 against "
+          f">= {copies} warped copies")
+    print("| image | psf | " + " | ".join(kinds) + " | worst / best |")
+    print("|---|---|" + "---:|" * (len(kinds) + 1))
+    for name, img in images.items():
+        for psf in ("box", "green"):
+            cells = refs.time_cells(psf, 30.0, copies)
+            errs = []
+            for field in fields.values():
+                ref = refs.render(img, lambda yy, xx, t, f=field: (yy - t * f[0], xx - t * f[1]), cells, mode)
+                errs.append(100 * errors(motion_blur(img, field, psf=psf, mode=mode, backend=backend), ref)[0])
+            print(f"| {name} | {psf} | " + " | ".join(f"{e:.2f} %" for e in errs)
+                  + f" | {max(errs):.2f} / {min(errs):.2f} % |", flush=True)
+
+
 def errors(out, ref):
     d, r = (out - ref)[MARGIN:-MARGIN, MARGIN:-MARGIN], ref[MARGIN:-MARGIN, MARGIN:-MARGIN]
     return float(np.linalg.norm(d) / np.linalg.norm(r)), float(np.abs(d).max())
@@ -264,9 +340,14 @@ def main(argv=None):
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--compare", metavar="REV", help="with --speed: the Gauss rule as of git revision REV and now")
     ap.add_argument("--candidates", action="store_true", help="rules the specification does not define, measured")
+    ap.add_argument("--validate", action="store_true",
+                    help="the default rule on photographs, noise and field shapes it was not chosen on")
+    ap.add_argument("--mode", default="reflect", help="with --validate: the boundary mode (reflect: no seam)")
     opts = ap.parse_args(argv)
     if opts.candidates:
         return candidates(opts.side, opts.copies)
+    if opts.validate:
+        return validate(opts.side, opts.copies, opts.backend, opts.mode)
     if opts.speed and opts.compare:
         return compare(opts.speed, opts.backend, opts.repeat, opts.compare)
     if opts.speed:

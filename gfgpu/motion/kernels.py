@@ -34,14 +34,14 @@ box_lines = register("motion.box_lines", specs.box_lines_reference, **_launchers
 #: ``field_blur(be, coef, field, out, psf, density, mode, cval, most=0)``: ``out = field_blur_reference(coef,
 #: field, psf, density, mode, cval, most)`` (``coef``, ``out`` (B, H, W); ``field`` (2, H, W), same dtype)
 #: (device code of its own, ``field_kernels/``: a field call builds only field code; on Warp a module
-#: apart from the Gauss rule's too, ``_warp_exact``, since Warp builds a module whole)
+#: apart from the default rule's too, ``_warp_exact``, since Warp builds a module whole)
 field_blur = register("motion.field_blur", specs.field_blur_reference,
                       **{**_launchers("field_blur", f"{__package__}.field_kernels"),
                          "warp": f"{__package__}.field_kernels._warp_exact:launch_field_blur"})
 
 #: ``field_rule(be, coef, field, out, psf, mode, cval, most=None)``: ``out = field_rule_reference(coef, field, psf,
-#: mode, cval, most)``: the fields' default Gauss rule (same shapes as ``field_blur``; the launchers read the
-#: rule tables of ``spec.rule_table``)
+#: mode, cval, most)``: the fields' default rule, ``quadrature="gauss"`` (same shapes as ``field_blur``; the
+#: launchers read the rule tables of ``spec.rule_table``)
 field_rule = register("motion.field_rule", specs.field_rule_reference,
                       **_launchers("field_rule", f"{__package__}.field_kernels"))
 

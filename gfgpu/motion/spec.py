@@ -46,7 +46,8 @@ from .._core.bspline import (
 __all__ = ["MODE_CODES", "PSF_CODES", "GREEN_TAIL", "NARROW", "SPLINE_POLE", "NEAREST_EDGE", "GAUSS_NODES",
            "GAUSS_WEIGHTS", "PSF_MIN_CELLS", "extend_index", "coef_taps", "psf_support", "psf_cdf", "psf_density",
            "psf_cells", "spline_sample", "box_lines_reference", "field_blur_reference", "BOX_SPACING", "BOX_NODES",
-           "RULE_END", "GREEN_CELL_PX", "GREEN_RULE_CELLS", "rule_support", "rule_limits", "rule_count",
+           "RULE_END", "GREEN_NODE_PX", "GREEN_GRADE", "GREEN_RULE_INTERVALS", "rule_support", "green_spacing",
+           "green_index", "green_index_inverse", "rule_limits", "EUCLIDEAN_RULES", "rule_length", "rule_count",
            "gauss_rule", "rule_table", "field_rule_reference", "to_polar_reference",
            "from_polar_reference", "add_rows_reference"]
 
@@ -301,7 +302,7 @@ def field_blur_reference(coef, field, psf, density, mode, cval, most=0):
 
 
 # --------------------------------------------------------------------------------------
-# the per-pixel Gauss rules of the velocity fields (the default rule, gfgpu.motion.field)
+# the per-pixel rules of the velocity fields (the default rule, gfgpu.motion.field)
 # --------------------------------------------------------------------------------------
 #: box: pixels of path per Gauss-Legendre node (the rule has ``ceil(L / BOX_SPACING) + 1`` nodes on
 #: the whole support): Gauss-Legendre is spectrally accurate on a band-limited path, and one node
@@ -311,37 +312,93 @@ BOX_SPACING = 2.0
 #: most nodes of a box path (at most 126 px at BOX_SPACING; longer paths take the exact cells)
 BOX_NODES = 64
 
-#: G_u's Gauss rule cuts the support at ``t = RULE_END`` velocities (the tail beyond holds
-#: ``e^-6 |sin 6 + cos 6| < 2e-3`` of the mass, given to the end cells)
+#: G_u's rule cuts the support at ``t = RULE_END`` velocities (the tail beyond holds
+#: ``e^-6 |sin 6 + cos 6| < 2e-3`` of the mass, given to the end nodes: the gain is 1)
 RULE_END = 6.0
 
-#: pixels of path per cell of G_u's rule (3 Gauss-Legendre nodes each: 2 px per node)
-GREEN_CELL_PX = 6.0
+#: G_u's rule: pixels of path between nodes where G_u holds its mass (t up to GREEN_GRADE[0]
+#: velocities): the nodes' aliases fall at 1 / 2.25 cycles/px along the path, beyond most of what
+#: photographs and Gaussian-filtered noise hold there
+GREEN_NODE_PX = 2.25
 
-#: fewest and most cells of G_u's rule per PSF code 1 (causal) and 3 (centred, whose shape varies
-#: on half a velocity): the cells must also resolve the PSF's shape, whatever the path's length
-GREEN_RULE_CELLS = {1: (8, 128), 3: (16, 128)}
+#: ``(t1, alpha, widest)``: beyond ``t1`` velocities the spacing grows as ``e^{alpha (t - t1)}`` (G_u
+#: falls as ``e^-t``, and a node's error is its weight times the alias it samples), up to ``widest`` px
+GREEN_GRADE = (1.5, 0.5, 5.0)
+
+#: fewest and most intervals of G_u's rule per PSF code 1 (causal) and 3 (centred): at least 12 (24
+#: centred, whose shape varies on half a velocity) resolve the PSF's own shape however short the path
+#: (6 left 1-2 % at |v| = 3 on a photograph); the most are those of a 128-px path
+GREEN_RULE_INTERVALS = {1: (12, 223), 3: (24, 223)}
 
 
 def rule_support(code):
-    """``(t0, t1)`` of the Gauss rule of PSF ``code``: the box's support, G_u's cut at RULE_END."""
+    """``(t0, t1)`` of the rule of PSF ``code``: the box's support, G_u's cut at RULE_END."""
     return ((0.0, 1.0), (0.0, RULE_END), (-0.5, 0.5), (-RULE_END / 2, RULE_END / 2))[code]
 
 
+def green_spacing(tau):
+    """Pixels of path per node of G_u's rule at ``tau`` velocities from the start of its decay
+    (``tau = t`` causal, ``2 |t|`` centred), per pixel of ``|v|``: :data:`GREEN_NODE_PX` up to
+    ``t1``, then growing as ``e^{alpha (tau - t1)}`` up to the widest (:data:`GREEN_GRADE`)."""
+    t1, alpha, widest = GREEN_GRADE
+    tau = np.asarray(tau, np.float64)
+    return np.minimum(widest, GREEN_NODE_PX * np.exp(alpha * np.maximum(tau - t1, 0.0)))
+
+
+def _green_grade():
+    t1, alpha, widest = GREEN_GRADE
+    t2 = t1 + math.log(widest / GREEN_NODE_PX) / alpha          # where the spacing stops growing
+    p1 = t1 / GREEN_NODE_PX
+    p2 = p1 + (1.0 - GREEN_NODE_PX / widest) / (alpha * GREEN_NODE_PX)
+    return t1, alpha, widest, t2, p1, p2
+
+
+def green_index(tau):
+    """``∫_0^tau dt / green_spacing(t)`` in closed form: the nodes per pixel of ``|v|`` up to ``tau``."""
+    t1, alpha, widest, t2, p1, p2 = _green_grade()
+    tau = np.asarray(tau, np.float64)
+    grow = (1.0 - np.exp(-alpha * (np.clip(tau, t1, t2) - t1))) / (alpha * GREEN_NODE_PX)
+    return np.minimum(tau, t1) / GREEN_NODE_PX + grow + np.maximum(tau - t2, 0.0) / widest
+
+
+def green_index_inverse(p):
+    """The ``tau`` whose :func:`green_index` is ``p`` (0 <= p <= green_index(RULE_END))."""
+    t1, alpha, widest, t2, p1, p2 = _green_grade()
+    p = np.asarray(p, np.float64)
+    grow = t1 - np.log(np.maximum(1.0 - alpha * GREEN_NODE_PX * (np.clip(p, p1, p2) - p1), 1e-300)) / alpha
+    return np.where(p <= p1, p * GREEN_NODE_PX, np.where(p <= p2, grow, t2 + (p - p2) * widest))
+
+
 def rule_limits(code):
-    """``(first, most, per_px, extra)``: the rule of a moving pixel of dominant component ``L`` has
-    ``n = max(first, ceil(L per_px - 1e-9) + extra)`` nodes (box) or cells (G_u), at most ``most``."""
+    """``(first, most, per_px, extra)``: the rule of a moving pixel of length ``L``
+    (:func:`rule_length`) has ``n = max(first, ceil(L per_px - 1e-9) + extra)`` nodes (box) or
+    intervals (G_u), at most ``most``."""
     if code in (0, 2):
         return 1, BOX_NODES, 1.0 / BOX_SPACING, 1
-    first, most = GREEN_RULE_CELLS[code]
-    t0, t1 = rule_support(code)
-    return first, most, (t1 - t0) / GREEN_CELL_PX, 0
+    first, most = GREEN_RULE_INTERVALS[code]
+    return first, most, float(green_index(RULE_END)), 0
+
+
+#: PSF codes whose rule is sized by the Euclidean length of the velocity (:func:`rule_length`)
+EUCLIDEAN_RULES = (1, 3)
+
+
+def rule_length(code, vy, vx):
+    """The length that sizes a path's rule (float64): the dominant component ``max(|vy|, |vx|)``
+    for the box, the Euclidean ``sqrt(vy^2 + vx^2)`` for G_u (its nodes are spaced along the path,
+    so a diagonal path is sampled as finely as one along an axis).  ``vy``, ``vx`` as the kernels
+    receive them (float32 values square exactly in float64; the sum rounds once, the square root
+    is correctly rounded: the same count on every backend)."""
+    vy, vx = np.asarray(vy, np.float64), np.asarray(vx, np.float64)
+    if code not in EUCLIDEAN_RULES:
+        return np.maximum(np.abs(vy), np.abs(vx))
+    return np.sqrt(vy * vy + vx * vx)
 
 
 def rule_count(code, length, most=None):
-    """Nodes (box) or cells (G_u) of the Gauss rule of paths of ``length`` px (the dominant
-    component; 0 for a still pixel, which takes the spline at the pixel itself), at most ``most``
-    (default: the rule's own limit, :func:`rule_limits`)."""
+    """Nodes (box) or intervals (G_u) of the rule of paths of ``length`` px (:func:`rule_length`;
+    0 for a still pixel, which takes the spline at the pixel itself), at most ``most`` (default: the
+    rule's own limit, :func:`rule_limits`)."""
     first, top, per_px, extra = rule_limits(code)
     most = top if most is None else min(max(int(most), first), top)
     length = np.asarray(length, np.float64)
@@ -350,35 +407,55 @@ def rule_count(code, length, most=None):
 
 
 def gauss_rule(code, n):
-    """``(t, w)`` (float64): the ``n``-point rule of PSF ``code`` in ``t`` (fraction of the velocity).
+    """``(t, w)`` (float64): the rule of PSF ``code`` and size ``n`` in ``t`` (fraction of the velocity).
 
     Box: the ``n`` Gauss-Legendre nodes of the support and their weights, normalised to a sum of
-    exactly 1 (rounding).  G_u: the support ``[t0, t1]`` of :func:`rule_support` cut into ``n``
-    equal cells, each with its 3 Gauss-Legendre nodes, weighted as the exact cells are
-    (:func:`field_blur_reference`: quadrature of the density, the cell's PSF mass restored), the
-    masses taken from the cumulative with ``0`` at ``t0`` and ``1`` at ``t1``: the part of the PSF
-    beyond the cut (< 2e-3) goes to the end cells, and the gain is 1.
+    exactly 1 (rounding).  G_u: the trapezoidal rule of ``n`` intervals in the node index ``u``
+    (:func:`green_index` of ``tau = t``, causal, or of ``tau = 2|t|``, centred, scaled to [0, 1]):
+    nodes spaced :func:`green_spacing` pixels along the path for a path of ``n / per_px`` px,
+    ``n + 1`` of them from the support's start to ``RULE_END``; weights the density times
+    ``dt/du`` (the end nodes halved).  A smooth weight sampled at uniform steps aliases only at the
+    steps' own frequency (where Gauss-Legendre cells of 3 nodes alias at a third of it).  The causal
+    density has a kink at ``t = 0`` (``psf'(0) = 2``): the node at ``t = 0`` takes the
+    Euler-Maclaurin correction ``(dt/du)^2 psf'(0) / (12 n^2)`` instead of its zero weight.  The
+    weights are scaled to the PSF's mass inside the cut, and the mass beyond it (< 2e-3) goes to the
+    end node(s) at the cut: the gain is 1.
     """
     t0, t1 = rule_support(code)
     if code in (0, 2):
         x, g = np.polynomial.legendre.leggauss(n)
         return t0 + (t1 - t0) * 0.5 * (x + 1.0), g / g.sum()
-    edges = t0 + (t1 - t0) * np.arange(n + 1) / n
-    cum = psf_cdf(code, edges)
-    cum[0], cum[-1] = 0.0, 1.0
-    mass = np.diff(cum)
-    a, width = edges[:-1, None], np.diff(edges)[:, None]
-    u, g = np.asarray(GAUSS_NODES)[None, :], np.asarray(GAUSS_WEIGHTS)[None, :]
-    t = a + width * u
-    quad = width * g * psf_density(code, t)
-    w = quad + g * (mass[:, None] - quad.sum(axis=1, keepdims=True))
-    return t.ravel(), w.ravel()
+    total = float(green_index(RULE_END))
+    u = np.arange(n + 1) / n
+    if code == 1:
+        t = green_index_inverse(u * total)
+        t[0], t[-1] = 0.0, RULE_END
+        dtdu = total * green_spacing(t)
+        w = psf_density(code, t) * dtdu / n
+        w[-1] *= 0.5
+        w[0] = 2.0 * dtdu[0] ** 2 / (12.0 * n * n)         # psf'(0) = 2
+        inner = float(psf_cdf(code, t1))
+        w *= inner / w.sum()
+        w[-1] += 1.0 - inner
+    else:
+        half = (2.0 * u - 1.0) * total / 2.0        # signed: each half is the causal index of tau = 2|t|
+        t = np.sign(half) * green_index_inverse(2.0 * np.abs(half)) / 2.0
+        t[0], t[-1] = t0, t1
+        dtdu = total * green_spacing(2.0 * np.abs(t))
+        w = psf_density(code, t) * dtdu / n
+        w[0] *= 0.5
+        w[-1] *= 0.5
+        inner = float(psf_cdf(code, t1) - psf_cdf(code, t0))
+        w *= inner / w.sum()
+        w[0] += (1.0 - inner) / 2
+        w[-1] += (1.0 - inner) / 2
+    return t, w / w.sum()
 
 
 def rule_table(code):
     """``(first, offsets, t, w)``: every rule of PSF ``code`` from ``first`` to the most nodes or
-    cells, concatenated (float64); rule ``n``'s nodes are ``t[offsets[n - first]:offsets[n - first + 1]]``.
-    What the device kernels read (cached per code)."""
+    intervals, concatenated (float64); rule ``n``'s nodes are ``t[offsets[n - first]:offsets[n - first + 1]]``,
+    ascending.  What the device kernels read (cached per code)."""
     if code not in _RULE_TABLES:
         first, most, _, _ = rule_limits(code)
         rules = [gauss_rule(code, n) for n in range(first, most + 1)]
@@ -392,7 +469,7 @@ _RULE_TABLES = {}
 
 
 def field_rule_reference(coef, field, psf, mode, cval, most=None):
-    """Per-pixel motion blur by a fixed Gauss rule per path: the default rule of the fields.
+    """Per-pixel motion blur by a fixed rule per path: the default rule of the fields.
 
     Parameters
     ----------
@@ -405,20 +482,20 @@ def field_rule_reference(coef, field, psf, mode, cval, most=None):
     mode, cval
         Extension of the image beyond its border.
     most : int, optional
-        Nodes (box) or cells (G_u) of a path at most (default and largest: the rule's own,
+        Nodes (box) or intervals (G_u) of a path at most (default and largest: the rule's own,
         :func:`rule_limits`; clipped to its fewest and most); a path that needs more takes the
-        ``most``-point rule.
+        ``most`` rule.
 
     Returns
     -------
     ndarray (B, H, W), ``coef``'s dtype
-        ``Σ_k w_k S(x - t_k v)`` with the rule :func:`gauss_rule` of ``n = rule_count(L)`` nodes or
-        cells, ``L = max(|vy|, |vx|)``; a still pixel (``L = 0``) is ``S(x)``.
+        ``Σ_k w_k S(x - t_k v)`` with the rule :func:`gauss_rule` of size ``n = rule_count(L)``,
+        ``L = rule_length(vy, vx)``; a still pixel (``L = 0``) is ``S(x)``.
     """
     coef = np.asarray(coef)
     b, h, w = coef.shape
     vy, vx = (np.asarray(field[i], np.float64) for i in (0, 1))
-    n = rule_count(psf, np.maximum(np.abs(vy), np.abs(vx)), most)
+    n = rule_count(psf, rule_length(psf, vy, vx), most)
     yy, xx = np.mgrid[:h, :w].astype(np.float64)
     out = np.zeros((b, h, w))
     for count in np.unique(n):

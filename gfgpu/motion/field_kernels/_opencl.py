@@ -9,7 +9,16 @@ import numpy as np
 
 from ..._core import boundary
 from ...backends.opencl import launch as ocl
-from ..spec import GAUSS_NODES, GAUSS_WEIGHTS, GREEN_TAIL, PSF_CODES, PSF_MIN_CELLS, rule_limits, rule_table
+from ..spec import (
+    EUCLIDEAN_RULES,
+    GAUSS_NODES,
+    GAUSS_WEIGHTS,
+    GREEN_TAIL,
+    PSF_CODES,
+    PSF_MIN_CELLS,
+    rule_limits,
+    rule_table,
+)
 
 
 def _constants():
@@ -57,6 +66,20 @@ def _tables(be, psf, dtype, pos):
 #: work-group of the rule kernel on a GPU: 16 x 16 pixels, whose paths read neighbouring coefficients
 GPU_TILE = (16, 16)
 
+#: the rule kernel samples from the coefficients' rows in pairs (``pair_rows`` in ``field.cl``: twice their
+#: memory, a window in two loads instead of four) when the coefficients take at most this many bytes
+#: (4096^2 float32); larger images read the four rows apart
+PAIRED_BYTES = 64 << 20
+
+
+def _paired(be, coef, real):
+    """The coefficients' rows side by side in pairs (``pair_rows``), a new device array."""
+    bsz, h, w = (int(s) for s in coef.shape)
+    pairs = be.empty((bsz, h, 2 * w), coef.dtype)
+    knl = ocl.kernel(be, __package__, "field.cl", "pair_rows", coef.dtype, POS=real, GRID=real, **_constants())
+    ocl.launch(be, knl, (w, h, bsz), None, [coef], [pairs], (coef.data, pairs.data, np.int32(h), np.int32(w)))
+    return pairs
+
 
 def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
     coef = ocl.plain(be, coef, "coef")
@@ -73,14 +96,16 @@ def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
     first, top, per_px, extra = rule_limits(psf)
     tables = _tables(be, psf, dtype, pos)
     bsz, h, w = (int(s) for s in coef.shape)
+    pairs = _paired(be, coef, real) if coef.nbytes <= PAIRED_BYTES else coef
     if be.kind == "cpu":
         gsize, lsize = (w, h), None         # PoCL: the driver's groups (rows of work-items in vector lanes)
     else:
         lsize = GPU_TILE
         gsize = tuple(-(-n // g) * g for n, g in zip((w, h), lsize))
-    ocl.launch(be, knl, gsize, lsize, [coef, field] + tables, [out],
-               (coef.data, fbuf, foff, obuf, np.int32(h), np.int32(w), np.int32(bsz), pos(per_px), np.int32(extra),
-                np.int32(first), np.int32(top if most is None else min(max(int(most), first), top)), tables[0].data,
-                tables[1].data, tables[2].data, tables[3].data, np.int32(boundary.MODE_CODES[mode]), dtype.type(cval),
-                ooff))
+    most = top if most is None else min(max(int(most), first), top)
+    ocl.launch(be, knl, gsize, lsize, [coef, pairs, field] + tables, [out],
+               (coef.data, pairs.data, np.int32(pairs is not coef), fbuf, foff, obuf, np.int32(h), np.int32(w),
+                np.int32(bsz), pos(per_px), np.int32(extra), np.int32(first), np.int32(most),
+                np.int32(psf in EUCLIDEAN_RULES), tables[0].data, tables[1].data, tables[2].data, tables[3].data,
+                np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
     return out

@@ -1,4 +1,4 @@
-"""Warp kernel of per-pixel velocity fields' default Gauss rule (gfgpu.motion.spec.field_rule_reference):
+"""Warp kernel of per-pixel velocity fields' default rule (gfgpu.motion.spec.field_rule_reference):
 a Warp module of its own, so the first field call compiles only field code (the ``"exact"`` rule's
 kernel is in ``_warp_exact.py``, a module of its own too: Warp builds a module whole at its first
 launch).  The OpenCL twin is ``field.cl`` beside this module; :mod:`gfgpu.motion.kernels` registers
@@ -13,16 +13,17 @@ import warp as wp
 from ..._core.boundary import MODE_CODES
 from ...backends.warp import launch as wpl
 from ...backends.warp.bspline import spline_at
-from ..spec import rule_limits, rule_table
+from ..spec import EUCLIDEAN_RULES, rule_limits, rule_table
 
 wp.set_module_options({"enable_backward": False})
 
 
 @wp.kernel
 def field_rule(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
-               per_px: wp.float64, extra: int, first: int, most: int, offsets: wp.array(dtype=wp.int32),
+               per_px: wp.float64, extra: int, first: int, most: int, euclid: int, offsets: wp.array(dtype=wp.int32),
                nodes: wp.array(dtype=wp.float64), weights: wp.array(dtype=Any), mode: int, cval: Any):
-    """One thread per output pixel: the Gauss rule of its path from the tables (field_rule_reference)."""
+    """One thread per output pixel: the rule of its path from the tables (field_rule_reference), sized by
+    the Euclidean length (``euclid``, G_u) or the dominant component (box): spec.rule_length."""
     t = wp.tid()
     plane = t / (h * w)
     pix = t - plane * h * w
@@ -31,6 +32,8 @@ def field_rule(coef: wp.array(dtype=Any), field: wp.array(dtype=Any), out: wp.ar
     vy = wp.float64(field[pix])
     vx = wp.float64(field[h * w + pix])
     length = wp.max(wp.abs(vy), wp.abs(vx))
+    if euclid != 0:
+        length = wp.sqrt(vy * vy + vx * vx)
     n = wp.min(wp.max(first, int(wp.ceil(length * per_px - wp.float64(1e-9))) + extra), most)
     base = plane * h * w
     acc = coef.dtype(0.0)
@@ -61,6 +64,7 @@ def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
     tables = [be.asarray(offsets), be.asarray(nodes), be.asarray(weights.astype(be.dtype_of(coef)))]
     wpl.launch(be, field_rule, dim=bsz * h * w,
                inputs=[_flat(be, coef), _flat(be, field), _flat(be, out), h, w, wp.float64(per_px), int(extra),
-                       int(first), int(top if most is None else min(max(int(most), first), top)), *tables,
+                       int(first), int(top if most is None else min(max(int(most), first), top)),
+                       int(psf in EUCLIDEAN_RULES), *tables,
                        MODE_CODES[mode], real(cval)])
     return out
