@@ -29,6 +29,7 @@ Usage::
     python benchmarks/stereo.py --stream teddy [--frames 20]          # StereoMatcher vs disparity()
     python benchmarks/stereo.py --windows 1 3 5 7 9 11 13 15 --scenes tsukuba venus teddy cones motorcycle
     python benchmarks/stereo.py --compare REV --scenes teddy synth-1500 [--repeat 7]  # REV and now, one process
+    python benchmarks/stereo.py --compare REV --kernels synth-1500 [--repeat 5]    # per kernel, REV and now
 """
 
 from __future__ import annotations
@@ -203,15 +204,19 @@ def stage_times(scene_images, d_max, backend, repeat, steps=2, paths=4):
     return times
 
 
-def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4):
+def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4, package=None):
     """Seconds per OpenCL kernel and per host step of one steady ``disparity`` call (the best of
     ``repeat`` after a warm-up): every launch is waited for and timed by its kernel's name (so the
     kernels do not overlap, as they do not in the band matcher's queue), and the host's
     grey conversion, view preparation (scaling, Green-shifted planes) and read-back are timed around
-    their functions.  Returns ({name: seconds}, whole call seconds)."""
-    from gfgpu import stereo
-    from gfgpu.backends.opencl import launch as ocl
-    from gfgpu.stereo import matching
+    their functions.  ``package``: the gfgpu package to profile (default: this one; ``--compare``
+    passes an older revision's).  Returns ({name: seconds}, whole call seconds)."""
+    if package is None:
+        import gfgpu as package
+    import importlib
+    stereo = importlib.import_module(package.__name__ + ".stereo")
+    ocl = importlib.import_module(package.__name__ + ".backends.opencl.launch")
+    matching = importlib.import_module(package.__name__ + ".stereo.matching")
     be_name = "opencl"
     acc = {}
     real_launch, real_views, real_grey = ocl.launch, matching.matching_views, matching.grey_image
@@ -348,6 +353,36 @@ def compare(rev, scenes, backend, repeat):
               flush=True)
 
 
+def compare_kernels(rev, scene, repeat):
+    """:func:`kernel_profile` of the default ``disparity`` (OpenCL) as of git revision ``rev`` and
+    now, alternated in one process for ``repeat`` rounds (each warmed up first): the least seconds
+    of each kernel and host step over the rounds, as a Markdown table."""
+    import sys
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    from oblique import gfgpu_at
+    before, sha = gfgpu_at(rev)
+    import gfgpu
+    left, right, _, _, top = load_scene(scene)
+    d_max = 16 * int(np.ceil((top + 1) / 16)) - 1
+    best = {sha: {}, "now": {}}
+    load0 = os.getloadavg()[0]
+    for _ in range(repeat):
+        for who, pkg in ((sha, before), ("now", gfgpu)):
+            parts, total = kernel_profile((left, right), d_max, 1, package=pkg)
+            parts["whole call"] = total
+            for name, sec in parts.items():
+                best[who][name] = min(best[who].get(name, np.inf), sec)
+    print(f"{scene}, {left.shape[1]}x{left.shape[0]}, d = 0..{d_max}, opencl, as of {sha} and now, one process, "
+          f"least of {repeat} alternated rounds (each launch waited for), load {load0:.1f}-{os.getloadavg()[0]:.1f}\n")
+    print(f"| step | {sha} (ms) | now (ms) | now / {sha} |\n|---|---:|---:|---:|")
+    names = sorted(set(best[sha]) | set(best["now"]), key=lambda k: -max(best[sha].get(k, 0), best["now"].get(k, 0)))
+    for name in names:
+        a, b = best[sha].get(name), best["now"].get(name)
+        ratio = f"{b / a:.2f}" if a and b else "-"
+        fmt = lambda v: "-" if v is None else f"{v * 1e3:.1f}"
+        print(f"| {name} | {fmt(a)} | {fmt(b)} | {ratio} |")
+
+
 def _compared_calls(scene, disparity_before, sha, backend):
     """{who: call} of :func:`compare` on ``scene``."""
     left, right, _, _, top = load_scene(scene)
@@ -414,6 +449,9 @@ def main():
     ap.add_argument("--compare", metavar="REV", help="the default sgm as of git revision REV and now, with "
                     "StereoSGBM, alternated in one process on --scenes (first backend), instead of the scene table")
     args = ap.parse_args()
+    if args.compare and args.kernels:
+        compare_kernels(args.compare, args.kernels, args.repeat)
+        return
     if args.compare:
         compare(args.compare, args.scenes, args.backends[0], args.repeat)
         return

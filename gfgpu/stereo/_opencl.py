@@ -57,9 +57,32 @@ def _bucket_kernel(be, name, bucket):
     sgm_band and select_disparity kernels of a bucket, window and sub-pixel step (one build
     instead of four)."""
     nb, nv_full, block, steps = bucket
+    extra = {"NIBBLES": 1} if _nibbles(be, block) else {}
     return _build(be, name, N_DISP=int(nb), NV_FULL=int(nv_full), BLOCK=int(block),
                   COST_SHIFT=specs.cost_shift(int(block)), STEPS=int(steps), COST_BYTES=1, PADDED_PIXELS=1,
-                  **_host_cpu_defines(be))
+                  **_host_cpu_defines(be), **extra)
+
+
+#: whether the CPU band matcher's 3 x 3 block costs run from nibble planes of the right census
+#: codes (stereo.cl's census_nibbles and block_cost with -D NIBBLES) where the device allows
+#: (:func:`_nibbles`); False: from the interleaved codes, as every other block (tests set it to
+#: compare the two)
+USE_NIBBLES = True
+
+
+def _nibbles(be, block):
+    """Whether the band matcher's cost runs from nibble planes: PoCL on an x86-64 host with AVX2
+    (the kernel's vpshufb lookups), a 3 x 3 block (byte sums without a shift), and no
+    AVX512-VPOPCNTDQ (whose interleaved-code kernel counts 8 distances per instruction)."""
+    if not USE_NIBBLES or int(block) != 3 or be.kind != "cpu" or _host_cpu_defines(be):
+        return False
+    return _pocl_x86(be) and "avx2" in _host_cpu_flags()
+
+
+def _nibble_row_bytes(w, steps):
+    """Bytes per image row of census_nibbles' planes (stereo.cl's nib_row)."""
+    plane = -(-w * steps // 32) * 32 + 32
+    return 32 + 12 * plane
 
 
 def _host_cpu_flags():
@@ -82,13 +105,25 @@ def _host_cpu_defines(be):
     """Build options of the CPU band matcher's kernels for instructions of the host CPU that an
     OpenCL CPU device (which runs on it) may not target by default: ``VPOPCNTQ`` where the CPU
     has AVX512-VPOPCNTDQ (PoCL 3.1 targets such a Zen 5 as skylake-avx512, without it)."""
-    import platform
     # the kernel names x86 clang builtins: only PoCL (clang) on an x86-64 host compiles them
-    pocl = "portable computing language" in be.cl_device.platform.name.lower()
-    if (be.kind == "cpu" and pocl and platform.machine() in ("x86_64", "AMD64")
-            and "avx512_vpopcntdq" in _host_cpu_flags()):
+    if be.kind == "cpu" and _pocl_x86(be) and "avx512_vpopcntdq" in _host_cpu_flags():
         return {"VPOPCNTQ": 1}
     return {}
+
+
+def _pocl_x86(be):
+    """Whether ``be``'s device is PoCL on an x86-64 host (whose clang compiles x86 builtins); asked
+    once per device (its platform query and the host's machine name)."""
+    import platform
+    key = be.cl_device.int_ptr
+    if key not in _POCL_X86:
+        pocl = "portable computing language" in be.cl_device.platform.name.lower()
+        _POCL_X86[key] = pocl and platform.machine() in ("x86_64", "AMD64")
+    return _POCL_X86[key]
+
+
+#: device (its ``int_ptr``) -> :func:`_pocl_x86`
+_POCL_X86 = {}
 
 
 def _padded(be, rows, w, n, dtype, workspace=None, name="padded"):
@@ -179,6 +214,14 @@ def _interleave(be, cr, h, w, steps, n, workspace=None, bucket=None, row0=0, row
     with their sub-pixel planes (stereo.cl's census_interleave) into ``ri`` (a new buffer of
     ``rows`` rows where None)."""
     rows = h if rows is None else int(rows)
+    if bucket is not None and _nibbles(be, bucket[2]):
+        # the bucket's block_cost reads nibble planes (census_nibbles) instead
+        if ri is None:
+            ri = _empty(be, workspace, "nibbles", (rows, _nibble_row_bytes(w, steps)), np.uint8)
+        gsize, lsize = _row_grid(be, 1, rows)
+        ocl.launch(be, _bucket_kernel(be, "census_nibbles", bucket), gsize, lsize, [cr], [ri],
+                   (cr.data, ri.data, np.int32(h), np.int32(w), np.int32(steps), np.int32(row0)))
+        return ri
     if ri is None:
         ri = _empty(be, workspace, "interleaved", (rows, w * steps), np.uint64)
     knl = _stereo_kernel(be, "census_interleave", n) if bucket is None else _bucket_kernel(be, "census_interleave",
@@ -406,8 +449,12 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # the interleaved right codes: of the whole image where the costs are kept, else of a coarse
     # band and its block margin, interleaved before each computation of its costs
     r = block // 2
-    ri = _interleave(be, cr, h, w, steps, nb, workspace, bucket) if keep else \
-        _empty(be, workspace, "interleaved", (min(h, coarse + 2 * r), w * steps), np.uint64)
+    if keep:
+        ri = _interleave(be, cr, h, w, steps, nb, workspace, bucket)
+    elif _nibbles(be, block):
+        ri = _empty(be, workspace, "nibbles", (min(h, coarse + 2 * r), _nibble_row_bytes(w, steps)), np.uint8)
+    else:
+        ri = _empty(be, workspace, "interleaved", (min(h, coarse + 2 * r), w * steps), np.uint64)
     cost = _padded(be, coarse, w, nb, np.uint8, workspace, "cost")
     down = _padded(be, k, w, nb, np.int16, workspace, "down")
     up = _padded(be, k, w, nb, np.int16, workspace, "up")

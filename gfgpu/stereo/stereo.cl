@@ -261,6 +261,80 @@ __kernel void census_interleave(__global const ulong *cr, __global ulong *out, c
     }
 }
 
+#ifdef NIBBLES
+// The right census codes as nibble planes (the CPU band matcher's block_cost with -D NIBBLES): row
+// y - row0 of `out` is NIB_LEAD bytes of zeros, then NIB_PLANES planes of nib_plane(w, steps)
+// bytes, plane p holding nibble p (bits 4p .. 4p + 3) of the code with the right pixel of sample t
+// = n*steps + f at left column x at index q = (w - 1 - x + n)*steps + f: the reverse of
+// census_interleave's order, so that a left pixel's samples are consecutive *increasing* bytes of
+// every plane (one vector load per plane and 32 samples), and a nibble is a vpshufb index (the
+// distance of a nibble pair is a 16-entry table lookup).  Each plane's tail past w*steps is zeros,
+// so that a vector starting up to 31 bytes before a plane or inside it stays in the row.
+#define NIB_PLANES 12                      // nibbles of the widest code: (2*3 + 1)^2 - 1 = 48 bits
+#define NIB_LEAD 32
+static inline size_t nib_plane(const int w, const int steps)
+{
+    return (size_t)(((w * steps + 31) / 32) * 32 + 32);
+}
+static inline size_t nib_row(const int w, const int steps)
+{
+    return NIB_LEAD + NIB_PLANES * nib_plane(w, steps);
+}
+
+__kernel void census_nibbles(__global const ulong *cr, __global uchar *out, const int h, const int w,
+                             const int steps, const int row0)
+{
+    const int y = row0 + (int)get_global_id(1);
+    if (y >= h)
+        return;
+    const size_t plane = (size_t)h * w, ps = nib_plane(w, steps);
+    const int ws = w * steps;
+    __global uchar *row = out + (size_t)(y - row0) * nib_row(w, steps);
+    for (int i = 0; i < NIB_LEAD; ++i)
+        row[i] = 0;
+    row += NIB_LEAD;
+    __global const ulong *src = cr + (size_t)y * w + w - 1;
+    int xr = 0;
+#if defined(STEPS)
+    // 16 right pixels at a time (their STEPS * 16 codes gathered, each plane's bytes stored as
+    // vectors: the byte-wise loop below took 20 cycles per code)
+    for (; xr + 16 <= w; xr += 16, src -= 16) {
+        ulong code[16 * STEPS];
+        #pragma unroll
+        for (int i = 0; i < 16; ++i)
+            #pragma unroll
+            for (int f = 0; f < STEPS; ++f)
+                code[i * STEPS + f] = src[f * plane - i];
+        __global uchar *dst = row + xr * STEPS;
+        #pragma unroll
+        for (int p = 0; p < NIB_PLANES; ++p) {
+            #pragma unroll
+            for (int v = 0; v < STEPS; ++v) {
+                uchar16 b;
+                __private uchar *bp = (__private uchar *)&b;
+                #pragma unroll
+                for (int m = 0; m < 16; ++m)
+                    bp[m] = (uchar)((code[16 * v + m] >> (4 * p)) & 15);
+                VSTORE(uchar, 16, b, dst + p * ps + 16 * v);
+            }
+        }
+    }
+#endif
+    for (; xr < w; ++xr, --src) {        // right pixel w - 1 - xr
+        for (int f = 0; f < steps; ++f) {
+            const ulong code = src[f * plane];
+            __global uchar *dst = row + xr * steps + f;
+            #pragma unroll
+            for (int p = 0; p < NIB_PLANES; ++p)
+                dst[p * ps] = (uchar)((code >> (4 * p)) & 15);
+        }
+    }
+    for (int p = 0; p < NIB_PLANES; ++p)
+        for (int q = ws; q < (int)ps; ++q)
+            row[p * ps + q] = 0;
+}
+#endif
+
 // Hamming distances of the census codes, ham[i][x][k] = popcount(L[y][x] ^ R_f[y][x - n]) for the
 // image row y = row0 + i and the disparity sample t = first_step + k = n*steps + f, or 0 where
 // x - n is outside (never summed into a sample in view; uchar: the distances of 48-bit codes are
@@ -497,6 +571,137 @@ static ALWAYS_INLINE ushort16 ring_column(__global const uchar *ring, const size
 // the column sums' slots: the last BLOCK + 1 columns entered, column c in slot c mod (BLOCK + 1)
 #define COLSUM_SLOTS (BLOCK + 1)
 
+#ifdef NIBBLES
+// block_cost of a 3 x 3 block (COST_SHIFT 0) from the nibble planes of census_nibbles (in `ri`), for
+// x86 CPUs with AVX2 (the launcher builds it only there): 32 samples per vector.  The Hamming
+// distances of a row's column: 12 vpshufb lookups (one per nibble plane, the table of the left
+// code's nibble: popcount(l ^ r) = T_l[r]) and byte adds per 32 samples, ~1.4 instructions per
+// distance with the addressing (popcount4's ~2.8).  The block sum: each column's three rows added
+// as bytes (at most 3 * 48 = 144, exact) into a slot as the column enters the window, then the three
+// columns with saturating byte adds and the minimum with COST_MAX: min(sum, 255) then
+// min(., COST_MAX) is min(sum, COST_MAX), the cost without a shift.  No 16-bit sums, no running
+// sum carried in (spilled) registers.
+#if !defined(__clang__) || !defined(__AVX2__) || BLOCK != 3 || COST_SHIFT != 0 || !defined(COST_BYTES) || \
+    !defined(PADDED_PIXELS)
+#error "NIBBLES: block_cost of 3 x 3 byte costs, padded pixels, on an x86 CPU with AVX2 (clang)"
+#endif
+typedef uchar v32u __attribute__((__vector_size__(32)));
+typedef uchar v32u_u __attribute__((__vector_size__(32), __aligned__(1)));
+typedef uchar v16u_u __attribute__((__vector_size__(16), __aligned__(1)));
+#define V32(x) {x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x, x}
+#define LOAD32(p) (*(__global const v32u_u *)(p))
+// 32 bytes at p, or the first 16 where only 16 lanes of the pixel remain (NP % 32 = 16)
+#define STORE32(v, p, k) do { if ((k) + 32 <= NP) *(__global v32u_u *)(p) = (v);                          \
+                              else *(__global v16u_u *)(p) = __builtin_shufflevector((v), (v), 0, 1, 2, 3, \
+                                  4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15); } while (0)
+
+// dst[k] = popcount(code of left pixel c ^ code of sample k's right pixel), k = 0 .. NP - 1, for the
+// columns c = ca .. cb - 1 of image row y; samples whose right pixel is outside the image get any
+// value (never summed into a sample in view; the cost stores mark those out of view), vectors
+// wholly outside 0 (the loads stay inside the row: census_nibbles' margins)
+static ALWAYS_INLINE void nibble_row(__global uchar *dst, __global const ulong *cl, __global const uchar *nib,
+                                     const int y, const int ca, const int cb, const int w, const int first_step,
+                                     const int steps, const int n, const int ri_row0, const __private v32c *tables)
+{
+    const int ws = w * steps;
+    const size_t ps = nib_plane(w, steps);
+    __global const uchar *row = nib + (size_t)(y - ri_row0) * nib_row(w, steps) + NIB_LEAD;
+    for (int c = ca; c < cb; ++c, dst += NP) {
+        const ulong lc = cl[(size_t)y * w + c];
+        const int base = (w - 1 - c) * steps + first_step;         // the index of sample 0
+        v32c tab[NIB_PLANES];
+        #pragma unroll
+        for (int p = 0; p < NIB_PLANES; ++p)
+            tab[p] = tables[(lc >> (4 * p)) & 15];
+        UNROLL_NV
+        for (int k = 0; k < NP; k += 32) {
+            const int s = base + k;
+            v32c acc = V32(0);
+            if (k < n && s > -32 && s < ws) {
+                __global const uchar *q = row + s;
+                #pragma unroll
+                for (int p = 0; p < NIB_PLANES; ++p)
+                    acc += __builtin_ia32_pshufb256(tab[p], (v32c)LOAD32(q + p * ps));
+            }
+            STORE32((v32u)acc, dst + k, k);
+        }
+    }
+}
+
+__kernel void block_cost(__global const ulong *cl, __global const uchar *ri, __global cost_t *out,
+                         __global uchar *scratch, const int h, const int w, const int first_step,
+                         const int steps, const int y0, const int rows, const int out_row0, const int splits,
+                         const int slot_cols, const int n_valid, const int ri_row0)
+{
+    const int g = get_global_id(0);
+    if (g >= splits)
+        return;
+    const int xa = (int)((long)g * w / splits), xb = (int)((long)(g + 1) * w / splits);
+    const int ca = IMAX(xa - 1, 0), cb = IMIN(xb + 1, w);
+    const size_t slot = (size_t)slot_cols * NP;
+    __global uchar *ring = scratch + (size_t)g * (3 * slot + 2 * COLSUM_SLOTS * NP);
+    // the three-row sums of the last columns entered, column c in slot c & 3 (the colsum region)
+    __global uchar *vs = ring + 3 * slot;
+    const v32u cmax = V32(COST_MAX), out_mark = V32(COST_OUT);
+    const v32c lanes = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23,
+                        24, 25, 26, 27, 28, 29, 30, 31};
+    // the 16 tables T_l[r] = popcount(l ^ r) of a left nibble l, in both 128-bit lanes (vpshufb
+    // looks up within each): a column's 12 are loads, not 12 broadcasts, xors and shuffles
+    v32c tables[16];
+    const v32c lut = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4, 0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+    const v32c iota = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15,
+                       0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    for (int l = 0; l < 16; ++l) {
+        const v32c lv = V32((char)l);
+        tables[l] = __builtin_ia32_pshufb256(lut, iota ^ lv);
+    }
+    for (int i = 0; i < rows; ++i) {
+        const int y = y0 + i;
+        for (int t = i == 0 ? y - 1 : y + 1; t <= y + 1; ++t)
+            nibble_row(ring + (((t % 3) + 3) % 3) * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step,
+                       steps, n_valid, ri_row0, tables);
+        // the window's columns clamp(x - 1), x, clamp(x + 1): the first two entered before x = xa
+        for (int c = IMAX(xa - 1, 0); c <= xa; ++c) {
+            __global const uchar *r0 = ring + (size_t)(c - ca) * NP;
+            UNROLL_NV
+            for (int k = 0; k < NP; k += 32)
+                STORE32(LOAD32(r0 + k) + LOAD32(r0 + slot + k) + LOAD32(r0 + 2 * slot + k),
+                        vs + (size_t)(c & 3) * NP + k, k);
+        }
+        __global cost_t *dst = out + ((size_t)(out_row0 + i) * w + xa) * PIX;
+        for (int x = xa; x < xb; ++x, dst += PIX) {
+            const int cp = IMIN(x + 1, w - 1);
+            __global const uchar *va = vs + (size_t)(IMAX(x - 1, 0) & 3) * NP, *vb = vs + (size_t)(x & 3) * NP;
+            __global uchar *vc = vs + (size_t)(cp & 3) * NP;
+            __global const uchar *r0 = ring + (size_t)(cp - ca) * NP;
+            long lo, hi;
+            view_range(x, 1, w, first_step, steps, &lo, &hi);
+            const int masked = !(lo <= 0 && hi >= n_valid - 1);
+            const long k_lo = lo, k_hi = hi < (long)n_valid - 1 ? hi : (long)n_valid - 1;
+            UNROLL_NV
+            for (int k = 0; k < NP; k += 32) {
+                // column cp's three rows (x = w - 1: its own, already in its slot)
+                v32u c3 = LOAD32(vc + k);
+                if (cp != x) {
+                    c3 = LOAD32(r0 + k) + LOAD32(r0 + slot + k) + LOAD32(r0 + 2 * slot + k);
+                    STORE32(c3, vc + k, k);
+                }
+                v32u sum = __builtin_elementwise_min(
+                    __builtin_elementwise_add_sat(__builtin_elementwise_add_sat(LOAD32(va + k), LOAD32(vb + k)), c3),
+                    cmax);
+                if (masked) {
+                    // lanes k + i in view: k_lo <= k + i <= k_hi (COST_OUT elsewhere)
+                    const char a = (char)CLAMPI(k_lo - k, 0L, 32L), b = (char)CLAMPI(k_hi - k + 1, 0L, 32L);
+                    const v32c va_ = V32(a), vb_ = V32(b);
+                    const v32c in_view = (v32c)((lanes >= va_) & (lanes < vb_));
+                    sum = (sum & (v32u)in_view) | (out_mark & ~(v32u)in_view);
+                }
+                STORE32(sum, dst + k, k);
+            }
+        }
+    }
+}
+#else
 __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ulong *ri, __global cost_t *out,
                          __global uchar *scratch, const int h, const int w, const int first_step,
                          const int steps, const int y0, const int rows, const int out_row0, const int splits,
@@ -556,6 +761,7 @@ __kernel VPOP_TARGET void block_cost(__global const ulong *cl, __global const ul
         }
     }
 }
+#endif  // NIBBLES
 #endif  // BLOCK
 
 static inline short hmin16(const short16 v)
@@ -565,6 +771,21 @@ static inline short hmin16(const short16 v)
     const short2 c = VMIN(b.lo, b.hi);
     return VMIN(c.x, c.y);
 }
+
+// hmin16 of lanes that are all 0 .. SHRT_MAX (their unsigned minimum is the minimum): on x86 with
+// SSE4.1 one vpminuw and one phminposuw, about 9 instructions less than hmin16's shuffles (the
+// selection's three minima per pixel, the band sweeps' one per path and pixel)
+#if defined(__clang__) && defined(__SSE4_1__)
+typedef short v8s_ __attribute__((__vector_size__(16)));
+static inline short hmin16_nonneg(const short16 v)
+{
+    const ushort8 a = VMIN(as_ushort8(v.lo), as_ushort8(v.hi));
+    const v8s_ r = __builtin_ia32_phminposuw128(__builtin_astype(a, v8s_));
+    return r[0];
+}
+#else
+#define hmin16_nonneg hmin16
+#endif
 
 // One sweep of the path recursion along a line of `len` pixels starting at element `base`,
 // `stride` elements per pixel; total = L_r (accumulate = 0) or total + L_r.  Samples out of view
@@ -833,17 +1054,18 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                     BAND_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)), write, diagonals);
             else
                 BAND_PIXEL(1, LOAD_COST(c, j), write, diagonals);
+            // (path values are 0 .. COST_MAX + P2 and padding PAD_COST: the unsigned minimum)
             if (write) {
                 VSTORE(short, 16, pend_h, out_h + 16 * (NV - 1));
-                mh = hmin16(run_h);
+                mh = hmin16_nonneg(run_h);
             }
             VSTORE(short, 16, pend_v, out_v + 16 * (NV - 1));
-            mv_out[cell] = hmin16(run_v);
+            mv_out[cell] = hmin16_nonneg(run_v);
             if (diagonals) {
                 VSTORE(short, 16, pend_e, out_e + 16 * (NV - 1));
                 VSTORE(short, 16, pend_d, out_d + 16 * (NV - 1));
-                me_out[cell] = hmin16(run_e);
-                md_out[cell] = hmin16(run_d);
+                me_out[cell] = hmin16_nonneg(run_e);
+                md_out[cell] = hmin16_nonneg(run_d);
             }
         }
         if (write && t0 + tn < ncol) {   // the row's last cell of this tile, for the next
@@ -884,22 +1106,6 @@ __kernel void sgm_guards(__global short *ckpt, __global short *ckpt_min, const i
 
 #endif  // COST_BYTES
 
-// Lane k of the result takes lane k + STEPS of the vectors a[] (fill after the last): the next
-// sample of the same sub-pixel phase (STEPS = subpixel steps, 1..4, a build option)
-#if STEPS == 1
-#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s1234, a[j].s5678, a[j].s9abc, a[j].sdef,         \
-                                           (j) + 1 < NV ? a[((j) + 1) % NV].s0 : (short)(fill)))
-#elif STEPS == 2
-#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s2345, a[j].s6789, a[j].sabcd, a[j].sef,          \
-                                           (j) + 1 < NV ? a[((j) + 1) % NV].s01 : (short2)(fill)))
-#elif STEPS == 3
-#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s3456, a[j].s789a, a[j].sbcde, a[j].sf,           \
-                                           (j) + 1 < NV ? a[((j) + 1) % NV].s012 : (short3)(fill)))
-#elif STEPS == 4
-#define SHIFT_STEPS(a, j, fill) ((short16)(a[j].s4567, a[j].s89ab, a[j].scdef,                    \
-                                           (j) + 1 < NV ? a[((j) + 1) % NV].s0123 : (short4)(fill)))
-#endif
-
 // Winner-take-all for both views, one work-item per row: the left disparity (NaN when nothing is
 // in view, when the minimum is cut by the image or not unique; parabola vertex), its margin
 // (S2 - S1) / S2 (0 where rejected) and the right view's winner in steps (NO_MATCH if no left
@@ -929,12 +1135,28 @@ static inline int right_winner(const short16 ev, const short16 ei, const int t0)
     return best < SHRT_MAX ? t0 + k : NO_MATCH;
 }
 
+// Private vectors at element alignment (the F cells of select_pass: loads at lane offset STEPS)
+#ifdef __clang__
+#define PLOAD16(p) (*(const __private short16_u *)(p))
+#define PSTORE16(v, p) (*(__private short16_u *)(p) = (v))
+#else
+#define PLOAD16(p) vload16(0, (const __private short *)(p))
+#define PSTORE16(v, p) vstore16((v), 0, (__private short *)(p))
+#endif
+
 // One pass over pixel x's vectors (two = 1: S = agg + agg2, the band sweeps' sums, agg2's rows
 // stored right to left as sgm_band's sum_up, both -1 where
 // out of view): per lane the least cost m1 (its first k, i1) and the second least m2, and the
-// right view's F_x from F_(x+1) in ev, ei (one shift by STEPS lanes).
+// right view's F_x (fv_out, fi_out: costs and their k) from F_(x+1) (fv_in, fi_in) read STEPS
+// lanes on: F_x[k] = min(S_x[k], F_(x+1)[k + STEPS]).  The cells are private memory of NP + 16
+// lanes (lanes NP .. of fv_in hold SHRT_MAX: no pixel); a vector load at lane offset STEPS
+// replaces the two lane shuffles per vector of F kept in registers, which spilled (48 vectors
+// at 383 samples: each a reload, two shuffles and a spill per pixel, 51 instructions a vector in
+// all, now 18).
 static ALWAYS_INLINE void select_pass(__global const short *agg, __global const short *agg2, const int y,
-                                      const int w, const int x, const int two, short16 *ev, short16 *ei,
+                                      const int w, const int x, const int two,
+                                      const __private short *fv_in, const __private short *fi_in,
+                                      __private short *fv_out, __private short *fi_out,
                                       short16 *m1_, short16 *m2_, short16 *i1_, const int n)
 {
     const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
@@ -953,10 +1175,10 @@ static ALWAYS_INLINE void select_pass(__global const short *agg, __global const 
         i1 = sv < m1 ? k : i1;
         m2 = VMIN(m2, sv < m1 ? m1 : sv);
         m1 = VMIN(m1, sv);
-        const short16 cv = SHIFT_STEPS(ev, j, SHRT_MAX), ci = SHIFT_STEPS(ei, j, 0);
+        const short16 cv = PLOAD16(fv_in + 16 * j + STEPS), ci = PLOAD16(fi_in + 16 * j + STEPS);
         const short16 take = sv <= cv;
-        ev[j] = take ? sv : cv;
-        ei[j] = take ? k : ci;
+        PSTORE16(take ? sv : cv, fv_out + 16 * j);
+        PSTORE16(take ? k : ci, fi_out + 16 * j);
     }
     *m1_ = m1;
     *m2_ = m2;
@@ -974,11 +1196,12 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
 {
     __global const short *s = agg + ((size_t)y * w + x) * PIX;
     __global const short *s2 = agg2 + ((size_t)y * w + w - 1 - x) * PIX;     // rows right to left
-    const int best = hmin16(m1);
-    const int kb = hmin16(m1 == (short16)(best) ? i1 : (short16)(SHRT_MAX));
+    // (m1, m2: sums in view 0 .. SHRT_MAX - 1 or SHRT_MAX; i1: sample indices)
+    const int best = hmin16_nonneg(m1);
+    const int kb = hmin16_nonneg(m1 == (short16)(best) ? i1 : (short16)(SHRT_MAX));
     const short16 near = (i1 >= (short16)(kb - 1)) & (i1 <= (short16)(kb + 1));
     // SHRT_MAX: nothing in view, or no sample in view more than one step from kb
-    const int second = hmin16(near ? m2 : m1);
+    const int second = hmin16_nonneg(near ? m2 : m1);
     const int unique = best < SHRT_MAX && second < SHRT_MAX &&
                        (long)second * 100 > (long)best * (100 + uniqueness);
     const int km = kb > 0 ? kb - 1 : 0, kp = kb < n - 1 ? kb + 1 : n - 1;
@@ -989,7 +1212,7 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
     float delta = 0.0f;
     if (kb > 0 && kb < n - 1 && den > 0.0f)
         delta = (float)(sm - sp) / (2.0f * den);
-    if (steps == 2 && kb >= 2 && kb <= n - 3) {
+    if (STEPS == 2 && kb >= 2 && kb <= n - 3) {
         // half-pixel samples: one baseline per phase (spec._half_pixel_fit)
         const int sm2 = s[kb - 2] < 0 || !two ? s[kb - 2] : s[kb - 2] + s2[kb - 2];
         const int sp2 = s[kb + 2] < 0 || !two ? s[kb + 2] : s[kb + 2] + s2[kb + 2];
@@ -1000,7 +1223,8 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
         }
     }
     const int keep = unique && !cut;
-    drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
+    // (the build's STEPS, the launch's steps: a constant divisor, a multiplication for 1, 2 and 4)
+    drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)STEPS : NAN;
     mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
 }
 
@@ -1013,13 +1237,11 @@ __kernel void select_disparity(__global const short *agg, __global const short *
     if (y >= h)
         return;
     const int t0 = d_min * STEPS, n0 = d_min;
-    const short16 lane = (short16)(0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15);
-    const short16 none = (short16)(SHRT_MAX);
-    short16 ev[NV], ei[NV];                     // F_x: costs and their k
-    UNROLL_SEL
-    for (int j = 0; j < NV; ++j) {
-        ev[j] = none;                           // F beyond the right edge: no pixel
-        ei[j] = lane + (short16)(16 * j);
+    // F_x (costs, their k) of the pixel before and of this one, alternating: cell x & 1
+    short fv[2][NP + 16], fi[2][NP + 16];
+    for (int i = 0; i < NP + 16; ++i) {
+        fv[0][i] = fv[1][i] = SHRT_MAX;         // F beyond the right edge: no pixel
+        fi[0][i] = fi[1][i] = 0;
     }
     __global int *rrow = right + (size_t)(y_out0 + y) * w;
     __global float *drow = disp + (size_t)(y_out0 + y) * w;
@@ -1034,13 +1256,16 @@ __kernel void select_disparity(__global const short *agg, __global const short *
         const int cnt = IMIN(4, x + 1);
         for (int q = 0; q < 4; ++q) {
             if (q < cnt) {
+                const int xq = x - q, cur = xq & 1;
                 // `two` as a constant: no test per vector (1000 x 1500 x 383: -38 %)
                 if (two)
-                    select_pass(agg, agg2, y, w, x - q, 1, ev, ei, &m1[q], &m2[q], &i1[q], n_valid);
+                    select_pass(agg, agg2, y, w, xq, 1, fv[cur ^ 1], fi[cur ^ 1], fv[cur], fi[cur], &m1[q], &m2[q],
+                                &i1[q], n_valid);
                 else
-                    select_pass(agg, agg2, y, w, x - q, 0, ev, ei, &m1[q], &m2[q], &i1[q], n_valid);
-                if (x - q - n0 >= 0 && x - q - n0 < w)
-                    rrow[x - q - n0] = right_winner(ev[0], ei[0], t0);
+                    select_pass(agg, agg2, y, w, xq, 0, fv[cur ^ 1], fi[cur ^ 1], fv[cur], fi[cur], &m1[q], &m2[q],
+                                &i1[q], n_valid);
+                if (xq - n0 >= 0 && xq - n0 < w)
+                    rrow[xq - n0] = right_winner(PLOAD16(fv[cur]), PLOAD16(fi[cur]), t0);
             }
         }
         for (int q = 0; q < 4; ++q)
@@ -1048,26 +1273,18 @@ __kernel void select_disparity(__global const short *agg, __global const short *
                 select_left(agg, agg2, y, w, x - q, two, m1[q], m2[q], i1[q], t0, steps, uniqueness, drow, mrow,
                             n_valid);
     }
-    // right pixels whose diagonals start left of the image enter it at pixel 0, entries
-    // g STEPS .. g STEPS + STEPS - 1 with g = -xr - n0
+    // right pixels whose diagonals start left of the image enter it at pixel 0 (F_0: cell 0),
+    // entries g STEPS .. g STEPS + STEPS - 1 with g = -xr - n0
     const int xr_end = IMIN(w, -n0);
-    if (xr_end > 0) {
-        short idx[NP], val[NP];
-        UNROLL_SEL
-        for (int j = 0; j < NV; ++j) {
-            *(__private short16 *)(idx + 16 * j) = ei[j];
-            *(__private short16 *)(val + 16 * j) = ev[j];
-        }
-        for (int xr = 0; xr < xr_end; ++xr) {
-            const int k0 = (-xr - n0) * STEPS;
-            int best = SHRT_MAX, kb = 0;
-            for (int k = k0; k < IMIN(k0 + STEPS, n_valid); ++k)
-                if (val[k] < best || (val[k] == best && idx[k] < kb)) {
-                    best = val[k];
-                    kb = idx[k];
-                }
-            rrow[xr] = best < SHRT_MAX ? t0 + kb : NO_MATCH;
-        }
+    for (int xr = 0; xr < xr_end; ++xr) {
+        const int k0 = (-xr - n0) * STEPS;
+        int best = SHRT_MAX, kb = 0;
+        for (int k = k0; k < IMIN(k0 + STEPS, n_valid); ++k)
+            if (fv[0][k] < best || (fv[0][k] == best && fi[0][k] < kb)) {
+                best = fv[0][k];
+                kb = fi[0][k];
+            }
+        rrow[xr] = best < SHRT_MAX ? t0 + kb : NO_MATCH;
     }
 }
 #endif  // STEPS
