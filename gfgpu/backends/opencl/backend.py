@@ -17,6 +17,7 @@ import ctypes
 import os
 import shutil
 import tempfile
+import threading
 import warnings
 from collections import OrderedDict
 from typing import NamedTuple
@@ -32,10 +33,12 @@ from . import launch
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
 _CACHE_LINE = 64           # bytes per step of a CPU work-item (one cache line)
+_ROW_VECTOR = 32           # bytes of rows per CPU row work-item: one 256-bit (AVX2) register, whose tile
+                           # transposes in in-lane shuffles (64-byte tiles spilled: row pass 2.4x slower)
 _SHEAR_VECS = 4            # vectors of adjacent steps per work-item of the shallow shears (recurse_lines.cl)
 _BAND = 64                 # most vectors (cache lines) of adjacent columns per CPU work-item
 _DRAM_BAND = 16            # ... when the pass runs from memory and stores whole lines (recurse_launch)
-_STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU)
+_STREAM_BYTES = 1 << 23    # arrays from this size are written with non-temporal stores (CPU columns)
 _MIN_BLOCK = 1024          # shortest block of a block-parallel line on a CPU (steps)
 _MIN_GPU_BLOCK = 64        # ... and on a GPU
 _GPU_ITEMS_PER_UNIT = 1024  # work-items per compute unit a GPU pass should have in flight
@@ -338,20 +341,21 @@ def recurse_launch(shape, axis, itemsize, units, kind, group, length=None, const
     Returns
     -------
     RecurseShape
-        A CPU work-item runs ``LANES = 64 / itemsize`` lines in vector lanes (one cache line per
-        step), columns in bands of up to ``_BAND`` vectors (every core still gets two
-        work-items; ``_DRAM_BAND`` when the input and output together exceed ``cache`` and
-        either rows are whole cache lines or the pass streams its stores); a GPU work-item runs
-        one line.  Lines too few for the device (fewer work-items than cores on a CPU, than
-        ``_GPU_ITEMS_PER_UNIT`` per multiprocessor on a GPU) are cut into blocks of at least
-        ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps whose states are carried exactly
-        (:func:`gfgpu._core.recursion.run_reference_blocks`).  CPU rows too few to fill
-        a work-item's lanes per core put each line's blocks in the lanes (``rows_as_blocks``:
-        rows of the ``(lines * blocks, block)`` view; ``block`` divides the line; constant plans).
+        A CPU work-item runs ``LANES = 64 / itemsize`` columns in vector lanes (one cache line per
+        step; rows ``32 / itemsize``, one 256-bit register: ``_ROW_VECTOR``), columns in bands of
+        up to ``_BAND`` vectors (every core still gets two work-items; ``_DRAM_BAND`` when the
+        input and output together exceed ``cache`` and either rows are whole cache lines or the
+        pass streams its stores); a GPU work-item runs one line.  Lines too few for the device
+        (fewer work-items than cores on a CPU, than ``_GPU_ITEMS_PER_UNIT`` per multiprocessor
+        on a GPU) are cut into blocks of at least ``_MIN_BLOCK`` (GPU: ``_MIN_GPU_BLOCK``) steps
+        whose states are carried exactly (:func:`gfgpu._core.recursion.run_reference_blocks`).
+        CPU rows too few to fill a work-item's lanes per core put each line's blocks in the lanes
+        (``rows_as_blocks``: rows of the ``(lines * blocks, block)`` view; ``block`` divides the
+        line; constant plans).
     """
     b, n, m = (int(x) for x in shape)
     cpu = kind == "cpu"
-    lanes = _CACHE_LINE // itemsize if cpu else 1
+    lanes = (_ROW_VECTOR if axis == 2 else _CACHE_LINE) // itemsize if cpu else 1
     if cpu and axis == 2 and length is None and constant and b * n < lanes * units:
         nb = _row_blocks(b * n, m, lanes, units)
         if nb:
@@ -409,11 +413,12 @@ class OpenCLBackend(Backend):
     Notes
     -----
     One source, ``gfgpu/backends/opencl/recurse.cl``, specialised by defines.  On a CPU a work-item
-    runs ``64 / itemsize`` lines (16 float32, 8 float64) in the lanes of a vector, so each
-    step moves one cache line: columns load adjacent samples directly, rows load a square
-    tile and transpose it in registers.  Work-groups are one work-item so that PoCL spreads
-    lines over all cores.  On a GPU a work-item runs one line, work-groups hold 64.
-    float64 needs a device with fp64 (``supports_float64``); otherwise a ``TypeError``.
+    runs lines in the lanes of a vector: columns ``64 / itemsize`` (16 float32, 8 float64), so
+    each step loads one cache line of adjacent samples; rows ``32 / itemsize`` (8 float32,
+    4 float64, one 256-bit register), loading a square tile and transposing it in registers.
+    Work-groups are one work-item so that PoCL spreads lines over all cores.  On a GPU a
+    work-item runs one line, work-groups hold 64.  float64 needs a device with fp64
+    (``supports_float64``); otherwise a ``TypeError``.
 
     Examples
     --------
@@ -463,7 +468,10 @@ class OpenCLBackend(Backend):
         self._host_pool = new_pool(fence=self.queue.finish)
         self._plans = OrderedDict()    # (id(plan), dtype) -> (plan, buffers)
         self._indices = OrderedDict()  # id(index) -> (index, device int32 array, max index, size)
-        self._in_flight = []           # host arrays wrapped for the device, kept until the queue drains
+        # host arrays wrapped for the device, kept until the queue drains, per thread (its Thread
+        # object: an ident can be reused): another thread may not have enqueued their kernels yet
+        self._in_flight = {}
+        self._in_flight_lock = threading.Lock()
         self._spare = None             # placeholder buffer (_dummy)
 
     def _find_device(self, device):
@@ -524,11 +532,18 @@ class OpenCLBackend(Backend):
             mapped, _ = self._cl.enqueue_map_buffer(self.queue, array.base_data, self._cl.map_flags.READ,
                                                     array.offset, host.shape, host.dtype, is_blocking=True)
             mapped.base.release(self.queue)
-            self._in_flight.clear()   # the queue is in order: every earlier command is done
+            self._drained()   # the queue is in order: every command this thread enqueued is done
             return host
         out = array.get(queue=self.queue)
-        self._in_flight.clear()
+        self._drained()
         return out
+
+    def _drained(self, ended=()):
+        """Drop the wrapped host arrays of this thread (after a blocking command of its own) and of
+        the threads ``ended``."""
+        with self._in_flight_lock:
+            for thread in (threading.current_thread(), *ended):
+                self._in_flight.pop(thread, None)
 
     def _wrap_host(self, host, flags):
         # PoCL uses host memory in place only from an address aligned to the device's base-address
@@ -546,10 +561,11 @@ class OpenCLBackend(Backend):
         arr = self._array.Array(self.queue, host.shape, host.dtype, data=buf, offset=delta)
         arr.gfgpu_host = host       # keeps the memory alive as long as the device array
         # ... and until queued kernels have read it, even if the caller drops the array first
-        if len(self._in_flight) >= _IN_FLIGHT_MAX:
-            self.queue.finish()
-            self._in_flight.clear()
-        self._in_flight.append(host)
+        me = threading.current_thread()
+        if len(self._in_flight.get(me, ())) >= _IN_FLIGHT_MAX:
+            self.synchronize()
+        with self._in_flight_lock:
+            self._in_flight.setdefault(me, []).append(host)
         return arr
 
     def host_view(self, host):
@@ -661,8 +677,10 @@ class OpenCLBackend(Backend):
         return int(flag[0]) == 0
 
     def synchronize(self):
+        with self._in_flight_lock:   # threads ended before the finish have enqueued all they will
+            ended = [thread for thread in self._in_flight if not thread.is_alive()]
         self.queue.finish()
-        self._in_flight.clear()
+        self._drained(ended)
 
     @property
     def spec(self):
@@ -680,10 +698,6 @@ class OpenCLBackend(Backend):
         return int(min(self._device.global_mem_size // 2, 4 * self._device.max_mem_alloc_size))
 
     # ---- kernels --------------------------------------------------------------------
-    def _lanes(self, dtype):
-        # CPU: one cache line per step; GPU: one line per work-item (coalesced columns)
-        return _CACHE_LINE // dtype.itemsize if self.kind == "cpu" else 1
-
     def _kernel(self, name, dtype, **defines):
         return launch.kernel(self, __package__, "recurse.cl", name, dtype, **defines)
 
@@ -852,8 +866,8 @@ class OpenCLBackend(Backend):
         flag = np.zeros(1, np.int32)
         flag_buf = (self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
                     if check else self._dummy())
-        # non-temporal stores only for arrays well beyond the caches: a small result is read
-        # again by the next pass, from the cache
+        # non-temporal stores (columns) only for arrays well beyond the caches: a small result is
+        # read again by the next pass, from the cache
         stream = int(cpu and src.nbytes >= _STREAM_BYTES)
         head = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
                 lam, kap, omega, omega_c, np.int32(plan.omega.shape[1]), np.int32(plan.n),
@@ -915,14 +929,13 @@ class OpenCLBackend(Backend):
         flag = np.zeros(1, np.int32)
         flag_buf = (self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=flag)
                     if check else self._dummy())
-        stream = int(src.nbytes >= _STREAM_BYTES)
         carry = self.empty((sections * 2 * rows,), dtype)
         scratch = self.empty((sections * 2 * rows,), dtype)
         config = dict(SECTIONS=sections, CONSTANT_COEF=1, LANES=shape.lanes, ROWS=1, BAND=1, STREAM=1, WINDOW=0)
         head = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
                 lam, kap, omega, omega_c, np.int32(0), np.int32(blen), real(cval), real(plan.tap),
                 np.int32(plan.reverse), np.int32(bool(accumulate)), np.int32(1), np.int32(rows), np.int32(blen),
-                np.int32(1), np.int32(stream), flag_buf, np.int32(blen), np.int32(1))
+                np.int32(1), np.int32(0), flag_buf, np.int32(blen), np.int32(1))
         tail = (carry.base_data, scratch.base_data, self._dummy(), np.int32(0))
         knl = self._kernel("recurse", dtype, PHASE=1, CHECK=int(bool(check)), **config)
         launch.launch(self, knl, shape.gsize, shape.lsize, [src], [carry, scratch], head + tail)

@@ -17,7 +17,7 @@
  *   ROWS           0: lines along axis 1 ("columns": B*M lines of N samples, stride M)
  *                  1: lines along axis 2 ("rows": B*N contiguous lines of M samples)
  *   BAND           columns: most vectors of adjacent columns per work-item (CPU 64, GPU 1)
- *   STREAM         1: non-temporal stores may be used (CPU devices; chosen per call by `stream`)
+ *   STREAM         1: columns may use non-temporal stores (CPU devices; chosen per call by `stream`)
  *   PHASE          0: whole lines; 1 and 2: the two passes of block-parallel lines (below)
  *   CHECK          1: OR `flag` with 1 if a sample read is NaN or infinite (the finite check)
  *   WINDOW         1: the line is read through a window index (an integer translation with the
@@ -29,7 +29,8 @@
  * LANES contiguous samples (a full cache line for LANES = 64 bytes / sizeof(REAL)).
  * Rows: a work-item runs LANES rows; LANES steps at a time it loads a LANES x LANES tile
  * (one vector per row), transposes it in registers so that each vector holds one sample of
- * every row, steps with vector arithmetic, transposes the outputs back and stores them.
+ * every row, steps with vector arithmetic, transposes the outputs back and stores them (the host
+ * gives rows one 256-bit register of lanes: 8 float, 4 double).
  * On a GPU the host uses LANES = 1: one work-item per line, so for columns adjacent
  * work-items touch adjacent addresses (coalesced) and the tile code reduces to scalars.
  *
@@ -467,6 +468,43 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 #else
 /* ---- rows: LANES contiguous lines of n samples, transposed tile by tile --------------- */
 
+/* The tile transpose of the rows in single-instruction shuffles of 256-bit registers (AVX2):
+ * interleave within 128-bit halves (unpck), then pairs (shufps / unpckpd), then swap halves
+ * (vperm2f128): 24 for 8 x 8, 8 for 4 x 4.  transpose_tile's zips cross the halves (16 x 16
+ * float tiles were 512-bit vectors split in two, with spills: the row pass ran 2.4x slower). */
+#define SHUF __builtin_shufflevector
+INLINE void rows_transpose(VT *t)
+{
+#if LANES == 8 && defined(__clang__)
+    VT u[8], v[8];
+#pragma unroll
+    for (int i = 0; i < 8; i += 2) {   /* rows i, i + 1: columns 0 1 4 5 and 2 3 6 7 */
+        u[i] = SHUF(t[i], t[i + 1], 0, 8, 1, 9, 4, 12, 5, 13);
+        u[i + 1] = SHUF(t[i], t[i + 1], 2, 10, 3, 11, 6, 14, 7, 15);
+    }
+#pragma unroll
+    for (int i = 0; i < 8; i += 2) {   /* v[j + 4h]: column j | j + 4 of rows 4h .. 4h + 3 */
+        const int a = i / 4 * 4 + i / 2 % 2;
+        v[i] = SHUF(u[a], u[a + 2], 0, 1, 8, 9, 4, 5, 12, 13);
+        v[i + 1] = SHUF(u[a], u[a + 2], 2, 3, 10, 11, 6, 7, 14, 15);
+    }
+#pragma unroll
+    for (int c = 0; c < 4; ++c) {
+        t[c] = SHUF(v[c], v[c + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+        t[c + 4] = SHUF(v[c], v[c + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+    }
+#elif LANES == 4 && defined(__clang__)
+    const VT u0 = SHUF(t[0], t[1], 0, 4, 2, 6), u1 = SHUF(t[0], t[1], 1, 5, 3, 7);
+    const VT u2 = SHUF(t[2], t[3], 0, 4, 2, 6), u3 = SHUF(t[2], t[3], 1, 5, 3, 7);
+    t[0] = SHUF(u0, u2, 0, 1, 4, 5);
+    t[1] = SHUF(u1, u3, 0, 1, 4, 5);
+    t[2] = SHUF(u0, u2, 2, 3, 6, 7);
+    t[3] = SHUF(u1, u3, 2, 3, 6, 7);
+#else
+    transpose_tile(t);
+#endif
+}
+
 /* w[i] = samples of every lane at traversal position k0 + i, i < cnt.  A full chunk is a
  * tile load + transpose; a partial one (cnt < LANES, the end of the line) is gathered.
  * Lanes past the last row (valid < LANES) repeat the last row: loads stay in bounds.
@@ -491,7 +529,7 @@ INLINE void load_chunk(VT *w, __global const REAL *src, const int n, const int v
 #pragma unroll
             for (int l = 0; l < LANES; ++l)
                 t[l] = VLOAD(src + (long)IMIN(l, valid - 1) * M + q0);
-            transpose_tile(t);
+            rows_transpose(t);
             /* t[j] is natural position p0 + j; traversal runs backwards when reversed */
 #pragma unroll
             for (int i = 0; i < LANES; ++i)
@@ -526,7 +564,7 @@ INLINE void load_chunk(VT *w, __global const REAL *src, const int n, const int v
  * position p is output sample p - first, written only for 0 <= p - first < M. */
 INLINE void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
                                const int k0, const int cnt, const int reverse,
-                               const int accumulate, const int nt, const int M, const int first)
+                               const int accumulate, const int M, const int first)
 {
     if (cnt == LANES) {
         const int p0 = reverse ? n - k0 - LANES : k0;
@@ -536,15 +574,12 @@ INLINE void store_chunk(VT *y, __global REAL *dst, const int n, const int valid,
 #pragma unroll
             for (int i = 0; i < LANES; ++i)
                 t[i] = reverse ? y[LANES - 1 - i] : y[i];
-            transpose_tile(t);   /* back to one vector per row */
+            rows_transpose(t);   /* back to one vector per row */
 #pragma unroll
             for (int l = 0; l < LANES; ++l) {
                 if (l < valid) {
                     __global REAL *p = dst + (long)l * M + x0;
-                    if (accumulate)
-                        VSTORE(VLOAD(p) + t[l], p);
-                    else
-                        STORE_V(t[l], p, nt && ((ulong)p % sizeof(VT)) == 0);
+                    VSTORE(accumulate ? VLOAD(p) + t[l] : t[l], p);
                 }
             }
             return;
@@ -581,6 +616,25 @@ INLINE VT advance(VT *fr, VT *fi, const VT v, const REAL tap, const coef_t *c)
     return y;
 }
 
+/* Steps k0 .. k0 + cnt - 1 (cnt <= LANES) of the chunk w, in place: w[i] becomes the output of
+ * step k0 + i; chk sums the samples' residues (CHECK). */
+INLINE void step_chunk(VT *w, const int k0, const int cnt, VT *fr, VT *fi, VT *chk, coef_t *c,
+                       __global const REAL *lam, __global const REAL *kap, const int n, const REAL tap)
+{
+#pragma unroll
+    for (int i = 0; i < LANES; ++i) {
+        if (i < cnt) {
+#if CHECK
+            *chk += RESIDUE(w[i]);
+#endif
+#if !CONSTANT_COEF
+            load_coef(c, lam, kap, n, k0 + i);
+#endif
+            w[i] = advance(fr, fi, w[i], tap, c);
+        }
+    }
+}
+
 /* F_s += omega[s, j] v  (initial state, traversal position j < L) */
 INLINE void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
                                const int L, const int j)
@@ -615,7 +669,7 @@ INLINE int tile_lead(__global const REAL *d0, const int n, const int M, const in
 INLINE int run_rows(__global const REAL *src, __global REAL *dst,
                            __global const REAL *lam, __global const REAL *kap,
                            const int n, const REAL tap, const int accumulate, const int valid,
-                           const int reverse, const int k_lo, const int k_hi, const int nt,
+                           const int reverse, const int k_lo, const int k_hi,
                            VT *fr, VT *fi, const int M, __global const int *window,
                            const int first, const REAL cval, const int lead)
 {
@@ -626,56 +680,33 @@ INLINE int run_rows(__global const REAL *src, __global REAL *dst,
     int k0 = k_lo;
     if (lead > 0 && k0 + lead < k_hi) {   /* the partial chunk before the aligned tiles */
         load_chunk(w, src, n, valid, k0, lead, reverse, M, window, cval);
-#pragma unroll
-        for (int i = 0; i < LANES; ++i) {
-            if (i < lead) {
-#if CHECK
-                chk += RESIDUE(w[i]);
-#endif
-#if !CONSTANT_COEF
-                load_coef(&c, lam, kap, n, k0 + i);
-#endif
-                w[i] = advance(fr, fi, w[i], tap, &c);
-            }
-        }
+        step_chunk(w, k0, lead, fr, fi, &chk, &c, lam, kap, n, tap);
 #if PHASE != 1
-        store_chunk(w, dst, n, valid, k0, lead, reverse, accumulate, nt, M, first);
+        store_chunk(w, dst, n, valid, k0, lead, reverse, accumulate, M, first);
 #endif
         k0 += lead;
     }
-    for (; k0 + LANES <= k_hi; k0 += LANES) {
-        load_chunk(w, src, n, valid, k0, LANES, reverse, M, window, cval);   /* read before written */
-#pragma unroll
-        for (int i = 0; i < LANES; ++i) {
-#if CHECK
-            chk += RESIDUE(w[i]);
-#endif
-#if !CONSTANT_COEF
-            load_coef(&c, lam, kap, n, k0 + i);
-#endif
-            w[i] = advance(fr, fi, w[i], tap, &c);
-        }
+#if LANES > 1
+    /* two tiles at a time: the second's loads and transposes overlap the first's steps (one chain
+     * of dependent multiply-adds); every sample is read before its output is written */
+    for (; k0 + 2 * LANES <= k_hi; k0 += 2 * LANES) {
+        VT w1[LANES];
+        load_chunk(w, src, n, valid, k0, LANES, reverse, M, window, cval);
+        load_chunk(w1, src, n, valid, k0 + LANES, LANES, reverse, M, window, cval);
+        step_chunk(w, k0, LANES, fr, fi, &chk, &c, lam, kap, n, tap);
+        step_chunk(w1, k0 + LANES, LANES, fr, fi, &chk, &c, lam, kap, n, tap);
 #if PHASE != 1
-        store_chunk(w, dst, n, valid, k0, LANES, reverse, accumulate, nt, M, first);
+        store_chunk(w, dst, n, valid, k0, LANES, reverse, accumulate, M, first);
+        store_chunk(w1, dst, n, valid, k0 + LANES, LANES, reverse, accumulate, M, first);
 #endif
     }
-    if (k0 < k_hi) {   /* scalar tail: the last steps of the line */
-        const int cnt = k_hi - k0;
-        load_chunk(w, src, n, valid, k0, cnt, reverse, M, window, cval);
-#pragma unroll
-        for (int i = 0; i < LANES; ++i) {
-            if (i < cnt) {
-#if CHECK
-                chk += RESIDUE(w[i]);
 #endif
-#if !CONSTANT_COEF
-                load_coef(&c, lam, kap, n, k0 + i);
-#endif
-                w[i] = advance(fr, fi, w[i], tap, &c);
-            }
-        }
+    for (; k0 < k_hi; k0 += LANES) {   /* the last tile and the line's end (LANES = 1: every step) */
+        const int cnt = IMIN(LANES, k_hi - k0);
+        load_chunk(w, src, n, valid, k0, cnt, reverse, M, window, cval);   /* read before written */
+        step_chunk(w, k0, cnt, fr, fi, &chk, &c, lam, kap, n, tap);
 #if PHASE != 1
-        store_chunk(w, dst, n, valid, k0, cnt, reverse, accumulate, nt, M, first);
+        store_chunk(w, dst, n, valid, k0, cnt, reverse, accumulate, M, first);
 #endif
     }
 #if CHECK
@@ -686,19 +717,30 @@ INLINE int run_rows(__global const REAL *src, __global REAL *dst,
 #endif
 }
 
-/* The omega terms of traversal positions j_lo .. j_hi - 1 added to fr/fi. */
-INLINE void initial_terms(__global const REAL *src, __global const REAL *omega, const int L,
-                                 const int n, const int valid, const int reverse, const int j_lo,
-                                 const int j_hi, VT *fr, VT *fi, const int M,
-                                 __global const int *window, const REAL cval)
+/* fr/fi = the omega terms of traversal positions j_lo .. j_hi - 1, summed from zero, then
+ * + omega_c cval where omega_c is given (a whole line's initial state; 0: a block's share). */
+INLINE void initial_terms(__global const REAL *src, __global const REAL *omega,
+                          __global const REAL *omega_c, const int L, const int n, const int valid,
+                          const int reverse, const int j_lo, const int j_hi, VT *fr, VT *fi,
+                          const int M, __global const int *window, const REAL cval)
 {
     VT w[LANES];
+#pragma unroll
+    for (int s = 0; s < SECTIONS; ++s)
+        fr[s] = fi[s] = (VT)(0);
     for (int k0 = j_lo - j_lo % LANES; k0 < j_hi; k0 += LANES) {
         load_chunk(w, src, n, valid, k0, IMIN(LANES, n - k0), reverse, M, window, cval);
 #pragma unroll
         for (int i = 0; i < LANES; ++i)
             if (k0 + i >= j_lo && k0 + i < j_hi)
                 add_initial(fr, fi, w[i], omega, L, k0 + i);
+    }
+    if (omega_c) {
+#pragma unroll
+        for (int s = 0; s < SECTIONS; ++s) {
+            fr[s] += omega_c[2 * s] * cval;
+            fi[s] += omega_c[2 * s + 1] * cval;
+        }
     }
 }
 
@@ -726,37 +768,20 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     const long base = r0 * M;
     __global const REAL *s0 = src + src_off + base;
     __global REAL *d0 = dst + dst_off + base;
-    /* non-temporal stores where the row's tiles are aligned: tested per store (tile_lead) */
-    const int nt = stream && !accumulate && PHASE != 1 && M % LANES == 0;
+    /* plain stores: non-temporal ones ran the 4096^2 row pass 35-55 % slower (PoCL, AVX2, 2 cores,
+     * 8 lanes, A/B in one process) */
+    (void)stream;
     VT fr[SECTIONS], fi[SECTIONS];
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] = (VT)(0);
-        fi[s] = (VT)(0);
-    }
 #if PHASE == 0
-    initial_terms(s0, omega, L, n, valid, reverse, 0, L, fr, fi, M, window, cval);
+    initial_terms(s0, omega, omega_c, L, n, valid, reverse, 0, L, fr, fi, M, window, cval);
+#elif PHASE == 1
+    /* the block's share of the initial state (its samples' omega terms), then a zero start */
+    initial_terms(s0, omega, 0, L, n, valid, reverse, k_lo, IMIN(k_hi, L), fr, fi, M, window, cval);
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] += omega_c[2 * s] * cval;
-        fi[s] += omega_c[2 * s + 1] * cval;
-    }
-#elif PHASE == 1
-    if (k_lo < L) {
-        initial_terms(s0, omega, L, n, valid, reverse, k_lo, IMIN(k_hi, L), fr, fi, M, window, cval);
-#pragma unroll
-        for (int s = 0; s < SECTIONS; ++s) {
-            store_lanes(partial + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
-            store_lanes(partial + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
-            fr[s] = (VT)(0);
-            fi[s] = (VT)(0);
-        }
-    } else {
-#pragma unroll
-        for (int s = 0; s < SECTIONS; ++s) {
-            store_lanes(partial + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
-            store_lanes(partial + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
-        }
+        store_lanes(partial + carry_index(0, blk, nblocks, s, 0, r0, rows), fr[s], valid);
+        store_lanes(partial + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
+        fr[s] = fi[s] = (VT)(0);
     }
 #else
 #pragma unroll
@@ -766,9 +791,9 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
     }
 #endif
     const int bad = reverse
-        ? run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 1, k_lo, k_hi, nt, fr, fi, M, window, first, cval,
+        ? run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 1, k_lo, k_hi, fr, fi, M, window, first, cval,
                    tile_lead(d0, n, M, 1))
-        : run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 0, k_lo, k_hi, nt, fr, fi, M, window, first, cval,
+        : run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 0, k_lo, k_hi, fr, fi, M, window, first, cval,
                    tile_lead(d0, n, M, 0));
 #if PHASE == 1
 #pragma unroll
@@ -777,7 +802,6 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
         store_lanes(carry + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
     }
 #endif
-    STREAM_FENCE(nt);
 #if CHECK
     if (bad)
         atomic_or(flag, 1);
@@ -808,35 +832,15 @@ __kernel void recurse_pair(__global const REAL *src, __global REAL *dst, const l
     __global REAL *d0 = dst + dst_off + r0 * M;
     __global const int *none = 0;
     VT fr[SECTIONS], fi[SECTIONS];
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] = (VT)(0);
-        fi[s] = (VT)(0);
-    }
-    initial_terms(s0, omega, L, n, valid, reverse, 0, L, fr, fi, M, none, cval);
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] += omega_c[2 * s] * cval;
-        fi[s] += omega_c[2 * s + 1] * cval;
-    }
+    initial_terms(s0, omega, omega_c, L, n, valid, reverse, 0, L, fr, fi, M, none, cval);
     const int bad = reverse
-        ? run_rows(s0, d0, lam, kap, n, tap, 0, valid, 1, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1))
-        : run_rows(s0, d0, lam, kap, n, tap, 0, valid, 0, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] = (VT)(0);
-        fi[s] = (VT)(0);
-    }
-    initial_terms(s0, omega2, L2, n, valid, reverse2, 0, L2, fr, fi, M, none, cval);
-#pragma unroll
-    for (int s = 0; s < SECTIONS; ++s) {
-        fr[s] += omega_c2[2 * s] * cval;
-        fi[s] += omega_c2[2 * s + 1] * cval;
-    }
+        ? run_rows(s0, d0, lam, kap, n, tap, 0, valid, 1, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1))
+        : run_rows(s0, d0, lam, kap, n, tap, 0, valid, 0, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
+    initial_terms(s0, omega2, omega_c2, L2, n, valid, reverse2, 0, L2, fr, fi, M, none, cval);
     if (reverse2)
-        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 1, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1));
+        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 1, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1));
     else
-        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 0, 0, n, 0, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
+        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 0, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
 #if CHECK
     if (bad)
         atomic_or(flag, 1);
