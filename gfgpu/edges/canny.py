@@ -2,12 +2,13 @@
 
 ``canny`` = the gradient of :mod:`gfgpu.edges.operator` (D across, P = ∫D along; exact
 recursions on the backend)
-→ magnitude and interpolated non-maximum suppression (a kernel on the backend) → hysteresis
-(connected components on the host).
+→ magnitude, interpolated non-maximum suppression and its classes against the thresholds (a
+kernel on the backend) → hysteresis (seeds grown through the candidates, on the host).
 """
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -16,11 +17,13 @@ from scipy.sparse import csgraph
 
 from .._core import strips
 from .._core.boundary import filter_mode
-from .._core.job import Job
+from .._core.job import NONFINITE, Job
 from .._core.validation import finite_cval, finite_scalar, flag
+from ..backends import resolve_backend
 from ..filters import make_job
 from ..greens import EDGE_A, EDGE_ETA
 from . import kernels, operator
+from .spec import class_thresholds
 
 __all__ = ["canny", "edge_gradient", "check_arguments", "hysteresis", "DEFAULT_LOW", "DEFAULT_HIGH"]
 
@@ -129,6 +132,35 @@ def _link_runs(index, width):
     return run, csgraph.connected_components(graph, directed=False)[1]
 
 
+def _grow(between, strong):
+    """Hysteresis from its seeds ``strong`` and the other candidates ``between`` (2-D bool,
+    disjoint, both False on the image's border): the pixels of the 8-connected components of
+    ``between | strong`` that hold a seed.
+
+    Every seed is an edge; a candidate below the upper threshold is one when its component among
+    such candidates alone touches a seed (8-neighbours): the path from it to a seed runs through
+    those candidates up to the first seed.  Only the candidates between the two thresholds are
+    linked, typically far fewer than all of them (none for noise, where every crest clears both).
+    The edges are written into ``strong`` (returned).
+    """
+    index = np.flatnonzero(between)
+    edges = strong
+    if index.size == 0:
+        return edges
+    label, count = _components(between, index)
+    # a seed among the 8 neighbours; no candidate is on the border, so no offset leaves the
+    # image or wraps onto the next row
+    width = between.shape[1]
+    seeds = strong.reshape(-1)
+    touch = np.zeros(index.size, bool)
+    for offset in (-width - 1, -width, -width + 1, -1, 1, width - 1, width, width + 1):
+        touch |= seeds[index + offset]
+    keep = np.zeros(count, bool)    # (every seed read above, before the first edge is added)
+    keep[label[touch]] = True
+    edges.reshape(-1)[index[keep[label]]] = True
+    return edges
+
+
 def _kept(index, label, count, strong, shape):
     """Edge map: the pixels at ``index`` whose component (``label`` < ``count``) holds a pixel
     where ``strong`` (both per pixel of ``index``)."""
@@ -167,7 +199,7 @@ def _check_mask(mask, shape):
 
 
 def _host_image(job, image):
-    """The image as a host array of the work dtype, finite (checked); integers scaled to [0, 1]
+    """The image as a host array of the work dtype (not checked to be finite); integers scaled to [0, 1]
     by their dtype's maximum (as skimage), in float64 before the cast so no integer is rounded
     before its division."""
     be = job.backend
@@ -307,13 +339,16 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     step response has a single extremum, at the edge.  ``return_gradient`` returns its gradient.
 
     Non-maximum suppression interpolates the magnitude linearly along the gradient direction
-    (as skimage's bilinear variant does) and runs on the backend; hysteresis keeps the
-    8-connected components of ``magnitude >= low`` (after suppression) that contain a pixel
-    ``>= high``, computed on the host from the candidate pixels only: their runs along the rows,
-    linked to the touching runs of the row above by a binary search, and the components of
-    that graph (``scipy.sparse.csgraph``), which costs the few candidates rather than the
-    image (about 3x faster than ``scipy.ndimage.label`` for the 2 % of candidates of a 2048²
-    photograph; candidates denser than 1/16 of the pixels take ``ndimage.label``, the same
+    (as skimage's bilinear variant does) and runs on the backend, which also compares the
+    suppressed magnitude with the thresholds (one byte a pixel comes back to the host);
+    hysteresis keeps the 8-connected components of ``magnitude >= low`` (after suppression)
+    that contain a pixel ``>= high``.  It is computed on the host as: every seed (``>= high``)
+    is an edge, and a candidate below ``high`` is one when its component among those
+    candidates alone touches a seed (the path to a seed runs through them up to the first
+    seed), so only the candidates between the thresholds are linked: their runs along the
+    rows, linked to the touching runs of the row above by a binary search, and the components
+    of that graph (``scipy.sparse.csgraph``), which costs those few candidates rather than the
+    image (candidates denser than 1/16 of the pixels take ``scipy.ndimage.label``, the same
     components).  Magnitudes within 64 ulps of the image's largest value are rounding noise
     and never edges.
 
@@ -340,7 +375,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     low, low_q, high, high_q, cval = args.low, args.low_q, args.high, args.high_q, args.cval
     single_scale, return_gradient = args.single_scale, args.return_gradient
     mode = filter_mode(mode)
-    job = make_job(image, None, backend, device, min_ndim=2)
+    # the finite check is the image's extremes below, which also give its peak (one read)
+    job = Job(image, None, resolve_backend(backend, device, image), min_ndim=2, finite=True)
     if job.ndim != 2:
         raise ValueError(f"image must be 2-D (H, W), got shape {job.shape}")
     if mask is not None:
@@ -348,11 +384,15 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     strips.require_whole_image(job, "canny (hysteresis links edges across the image)")
     be = job.backend
     img = _host_image(job, image)
+    hi, lo = float(img.max()), float(img.min())      # no |img| temporary
+    if not (math.isfinite(hi) and math.isfinite(lo)):
+        raise ValueError(NONFINITE)
+    peak = max(hi, -lo)
     if mask is not None:
         if not mask.any():
             return _nothing(job, return_gradient)
         img = _fill_outside(img, mask)
-    peak = max(float(img.max()), -float(img.min()))     # no |img| temporary
+        peak = max(float(img.max()), -float(img.min()))
     if "constant" in mode:       # the constant extension is part of the image
         peak = max(peak, abs(cval))
     if peak == 0:
@@ -368,9 +408,6 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     dev = be.host_view(np.ascontiguousarray(img))
     gy, gx = operator.gradient(Job(dev, None, be, finite=True), u, mode, cval, a, eta, single_scale,
                                projection_scale)
-    suppressed = be.empty(job.shape, job.dtype)
-    kernels.nms(be, gy, gx, suppressed)
-    nms = be.to_host(suppressed)
     # a gradient within the recursions' rounding of the image's values is zero: without this
     # floor a flat image has "edges" made of rounding noise that differ by backend and dtype
     floor = _NOISE_ULPS * float(np.finfo(job.dtype).eps) * float(np.ldexp(peak, -exponent))
@@ -389,16 +426,18 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
         raise ValueError(f"low_threshold ({low_threshold!r}: {np.ldexp(low, exponent):.6g} per pixel) must not "
                          f"exceed high_threshold ({high_threshold!r}: {np.ldexp(high, exponent):.6g} per pixel)")
     # candidates: above the floor and >= low, in one comparison (either bound implies the other;
-    # decided on the bounds as the comparisons round them, to the dtype), inside the eroded mask;
-    # seeds: candidates >= high
-    with np.errstate(over="ignore"):    # a threshold beyond the dtype's range compares as inf
-        low_t, floor_t = nms.dtype.type(low), nms.dtype.type(floor)
-        weak = nms > floor_t if low_t <= floor_t else nms >= low_t
-        if mask is not None:
-            weak &= ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0)
-        index = np.flatnonzero(weak)
-        strong = nms.reshape(-1)[index] >= high
-    edges = _kept(index, *_components(weak, index), strong, job.shape)
+    # decided on the bounds as the comparisons round them, to the dtype); seeds: candidates
+    # >= high.  The device classifies the suppressed magnitude (one byte a pixel read back)
+    low_t, floor_t = class_thresholds(job.dtype, low, floor)
+    bound, strict = (floor_t, True) if low_t <= floor_t else (low_t, False)
+    classes = be.empty(job.shape, np.uint8)
+    kernels.nms_classes(be, gy, gx, classes, bound, high, strict)
+    cls = np.asarray(be.to_host(classes))
+    if mask is not None:        # candidates inside the eroded mask only
+        cls = cls * ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0)
+    # the suppressed magnitude is 0 on the border: clearing it again keeps _grow's neighbours inside
+    cls[[0, -1], :] = cls[:, [0, -1]] = 0
+    edges = _grow(cls == 1, cls == 3)
     if return_gradient:
         with np.errstate(over="ignore"):    # only a magnitude beyond the dtype's range: inf
             mag = np.ldexp(magnitude, exponent).astype(job.dtype, copy=False)

@@ -1,15 +1,16 @@
 """Executable numpy specification of the edge detector's fused kernel: non-maximum suppression.
 
 Every backend's kernel (``_warp.py``, ``edges.cl`` through ``_opencl.py``) must compute what
-:func:`suppress_nonmaxima_reference` computes, to rounding; the numpy backend runs it itself
-(``_numpy.py``), and ``tests/edges`` checks every backend against it.
+:func:`suppress_nonmaxima_reference` (and :func:`suppress_classes_reference`) computes, to
+rounding; the numpy backend runs them itself (``_numpy.py``), and ``tests/edges`` checks every
+backend against them.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["TIE_RTOL", "suppress_nonmaxima_reference"]
+__all__ = ["TIE_RTOL", "suppress_nonmaxima_reference", "suppress_classes_reference", "class_thresholds"]
 
 #: relative difference below which two magnitudes are a tie in non-maximum suppression
 TIE_RTOL = 1e-5
@@ -53,3 +54,26 @@ def suppress_nonmaxima_reference(gy, gx):
     tol = TIE_RTOL * m
     out[c] = np.where((m > 0) & (m > plus + tol) & (m >= minus - tol), m, 0)
     return out
+
+
+def class_thresholds(dtype, low, high):
+    """``(low, high)`` as scalars of the float ``dtype`` the magnitudes are compared in (a value
+    beyond its range: infinite), as numpy compares a float array with a Python float."""
+    t = np.dtype(dtype).type
+    with np.errstate(over="ignore"):
+        return t(low), t(high)
+
+
+def suppress_classes_reference(gy, gx, low, high, strict=False):
+    """The hysteresis classes of the suppressed magnitude ``s = suppress_nonmaxima_reference(gy, gx)``.
+
+    Returns a uint8 array: 1 where ``s`` is a candidate (``s > low`` if ``strict``, else
+    ``s >= low``), 3 where a candidate is also ``>= high`` (a seed), else 0.  The thresholds are
+    compared in the gradient's dtype (:func:`class_thresholds`).  One pass on the device writes
+    these bytes where the magnitude would take 4 or 8 per pixel, and the host reads them back.
+    """
+    s = suppress_nonmaxima_reference(gy, gx)
+    lo, hi = class_thresholds(s.dtype, low, high)
+    weak = s > lo if strict else s >= lo
+    strong = weak & (s >= hi)
+    return weak.astype(np.uint8) | (strong.astype(np.uint8) << 1)
