@@ -116,7 +116,8 @@ def motion_blur(image, velocity, *, kind="uniform", psf="green", center=None, di
     (box) and 0.4-0.6 % (G_u) on Gaussian-filtered noise (sigma 2 px) under smooth, split,
     rotation, zoom, shear and random fields; 0.6-8.7 % on photographs (grass 7-18 %), where sharp
     edges put detail at 0.25-0.5 cycles/px that the node spacing aliases.  A field with a path
-    beyond the rule's tables (126 px box, 128 px G_u), and every field with ``quadrature="exact"``,
+    beyond the rule's tables (126 px box by its dominant component, 181 px G_u by its length; every
+    path of at most 128 px along each axis fits), and every field with ``quadrature="exact"``,
     runs the exact cells:
     cells of at most one pixel with three Gauss-Legendre nodes each (2e-4 on white noise), at most
     96 (box) or 432 (G_u) samples per pixel (:data:`gfgpu.motion.field.FIELD_CELLS`), a field whose

@@ -20,13 +20,15 @@ least centred), plus the pixel itself with the correction for G_u's kink at ``t 
 at uniform steps aliases only at the steps' own frequency, so this rule is more accurate than 3-node
 Gauss-Legendre cells of 2 px per node (which alias at a third of the cell's frequency) with a third
 fewer samples.  Cost per pixel: ``ceil(L / 2) + 1`` samples (box) or ``max(12, ceil(1.736 |v|)) + 1``
-(G_u: 54 at |v| = 30) of 16 coefficients, 1 for a still pixel, at most 64 and 224 (the tables: paths
-up to 126 px box, 128 px G_u).  Against a rendering of 512 exactly warped copies at |v| <= 30
+(G_u: 54 at |v| = 30) of 16 coefficients, 1 for a still pixel, at most 64 and 316 (the tables: paths
+up to 126 px box by the dominant component, 181 px G_u by the length; every path of at most 128 px
+along each axis fits).  Against a rendering of 512 exactly warped copies at |v| <= 30
 (``docs/motion.md``): 0.02-0.23 % (box) and 0.4-0.6 % (G_u) on Gaussian-filtered noise (sigma 2 px)
 under smooth, split, rotation, zoom, shear and random fields; on six photographs 0.7-8.7 % (box) and
 0.6-8.1 % (G_u), grass 7-18 %, where sharp edges and fine texture put detail at 0.25-0.5 cycles/px
 that the node spacing aliases; up to 5.5 % (G_u) on noise band-limited at 0.25 cycles/px.  Those
-inputs want ``"exact"``.
+inputs want ``"exact"``, within its budget (below): G_u at |v| = 30 fits it only on images of about
+50 x 50 px; larger ones are refused before any work.
 
 ``"exact"`` (:func:`gfgpu.motion.spec.field_blur_reference`): the support cut into ``n`` equal
 cells of at most one pixel of ``L``, each integrated by 3-point Gauss-Legendre quadrature (exact

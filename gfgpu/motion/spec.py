@@ -327,8 +327,11 @@ GREEN_GRADE = (1.5, 0.5, 5.0)
 
 #: fewest and most intervals of G_u's rule per PSF code 1 (causal) and 3 (centred): at least 12 (24
 #: centred, whose shape varies on half a velocity) resolve the PSF's own shape however short the path
-#: (6 left 1-2 % at |v| = 3 on a photograph); the most are those of a 128-px path
-GREEN_RULE_INTERVALS = {1: (12, 223), 3: (24, 223)}
+#: (6 left 1-2 % at |v| = 3 on a photograph); the most are those of a path whose dominant component is
+#: 128 px at 45 degrees (181 px long: the rule counts the Euclidean length, and the tables must cover every
+#: path that the dominant component's limit admits, or one diagonal pixel would send a whole field to the
+#: exact cells)
+GREEN_RULE_INTERVALS = {1: (12, 315), 3: (24, 315)}
 
 
 def rule_support(code):

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from .._core.arrays import as_kind, kind_of
@@ -62,7 +64,9 @@ class StereoMatcher:
     The right view's sub-pixel planes are computed on the host
     (:func:`gfgpu.stereo.matching.matching_views`, so that every backend matches the same
     bits), and each frame's images are uploaded; device arrays passed to :meth:`compute` are
-    copied to the host for that (O(H·W)).  The maps are returned as numpy arrays.
+    copied to the host for that (O(H·W)).  The maps are returned as numpy arrays.  A matcher may
+    be shared between threads: its frames share its buffers, so their device work runs one frame
+    at a time (a matcher per thread runs them concurrently).
 
     Examples
     --------
@@ -106,6 +110,8 @@ class StereoMatcher:
                                self._window)
         self._buffers = {}       # disparity's own device buffers
         self._workspace = {}     # the fused matcher's (band volumes, states, checkpoints)
+        # frames share those buffers: calls from several threads run one at a time
+        self._lock = threading.Lock()
 
     def __repr__(self):
         return (f"StereoMatcher(shape={self.shape}, max_disparity={self.max_disparity}, "
@@ -149,9 +155,10 @@ class StereoMatcher:
         flag("return_confidence", return_confidence)
         lft = self._view(left, "left")
         rgt = self._view(right, "right")
-        disp, conf = matching._sgm(self.backend, lft, rgt, self.min_disparity, self.max_disparity, self._steps,
-                                   self._radius, self._window, self._p1, self._p2, self._paths, self._uniqueness,
-                                   self._lr_check, lambda n: None, self._buffers, self._workspace)
+        with self._lock:
+            disp, conf = matching._sgm(self.backend, lft, rgt, self.min_disparity, self.max_disparity, self._steps,
+                                       self._radius, self._window, self._p1, self._p2, self._paths, self._uniqueness,
+                                       self._lr_check, lambda n: None, self._buffers, self._workspace)
         if not self._subpixel:
             disp = np.rint(disp * self._steps) / self._steps
         disp = disp.astype(np.float32)

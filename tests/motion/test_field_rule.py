@@ -208,6 +208,36 @@ def test_paths_longer_than_the_tables_take_the_exact_cells(backend):
     np.testing.assert_array_equal(out, exact)
 
 
+@pytest.mark.parametrize("psf, code", [("green", 1), ("green", 3), ("box", 0)])
+def test_every_path_within_128_px_per_axis_fits_the_tables(psf, code):
+    """G_u's rule counts the Euclidean length: its tables cover a 45-degree path of 128 px per axis
+    (181 px long), so one such pixel in a field of short paths keeps the whole field on the rule (a
+    regression sent it to the exact cells, whose budget then refused an ordinary field)."""
+    if code == 0:
+        limit = 126.0                      # the box counts its dominant component
+        assert rule_fits(np.full((2, 4, 4), limit), code) and not rule_fits(np.full((2, 4, 4), limit + 2.5), code)
+        return
+    for angle in np.linspace(0.0, 2 * np.pi, 17):
+        field = np.zeros((2, 4, 4))
+        field[:, 1, 2] = 128.0 * np.array([np.sin(angle), np.cos(angle)]) / max(abs(np.sin(angle)), abs(np.cos(angle)))
+        assert rule_fits(field, code), angle
+    assert not rule_fits(np.full((2, 4, 4), 128.5), code)   # beyond 181 px long
+
+
+def test_one_long_diagonal_path_keeps_the_default_rule(backend):
+    """The field of the regression: short paths and one pixel at (100, 100) px (141 px long) run
+    the default rule on every backend, not the exact cells' refused budget."""
+    img = texture(160, seed=9).astype(np.float32)
+    field = np.full((2, 160, 160), 10.0, np.float32)
+    field[:, 80, 80] = 100.0
+    out = motion_blur(img, field, psf="green", mode="reflect", backend=backend.name)
+    ref = motion_blur(img.astype(np.float64), field.astype(np.float64), psf="green", mode="reflect", backend="numpy")
+    np.testing.assert_allclose(out, ref, atol=2e-5 * np.abs(ref).max())
+    # the long path blurs its pixel as the rule does, not as a short path would
+    short = motion_blur(img, np.full_like(field, 10.0), psf="green", mode="reflect", backend=backend.name)
+    assert abs(out[80, 80] - short[80, 80]) > 1e-3
+
+
 def test_stack_planes_are_blurred_alike(backend):
     img = np.stack([texture(24, seed=s) for s in (1, 2, 3)])
     field = smooth_field(24, 9.0)

@@ -45,6 +45,32 @@ def test_results_are_not_overwritten_by_the_next_frame(backend):
     _equal(first, kept)
 
 
+def test_one_matcher_shared_by_threads(backend):
+    """Frames from several threads on one matcher share its buffers: each still gets its own
+    pair's map (they ran interleaved, and gave wrong maps or aborted PoCL, before a lock)."""
+    import threading
+    frames = _frames(4)
+    matcher = stereo.StereoMatcher(frames[0][0].shape, 14, backend=backend)
+    want = [stereo.disparity(left, right, 14, backend=backend) for left, right in frames]
+    got, errors = {}, []
+
+    def work(k):
+        try:
+            for rep in range(5):
+                got[k, rep] = matcher.compute(*frames[k])
+        except Exception as exc:    # reported below: a thread's exception does not fail the test
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    for (k, _), d in got.items():
+        _equal(d, want[k])
+
+
 def test_buffers_kept_and_no_build_after_the_first_frame(require_backend):
     from gfgpu.backends.opencl import launch
     be = require_backend("opencl")
