@@ -943,16 +943,15 @@ class OpenCLBackend(Backend):
         L = plan.omega.shape[1]
         lblocks = -(-L // blen)
         partial = self.empty((max(1, nb * sections * 2 * lines),), dtype)
-        if lblocks:
-            ends = self.empty((nb * sections * 2 * lines,), dtype)
+        if lblocks:   # (TERMS_ONLY: the omega terms alone, no recursion over the blocks)
             lam0, kap0, omega0, omega_c0 = self._plan_buffers(plan, dtype)
             first = (src.base_data, dst.base_data, np.int64(src.offset // item), np.int64(dst.offset // item),
                      lam0, kap0, omega0, omega_c0, np.int32(L), np.int32(plan.n), real(cval), real(plan.tap),
                      np.int32(plan.reverse), np.int32(0), np.int32(b), np.int32(n), np.int32(m), np.int32(1),
                      np.int32(0), self._dummy(), np.int32(blen), np.int32(nb),
-                     ends.base_data, partial.base_data, self._dummy(), np.int32(0))
-            knl = self._kernel("recurse", dtype, PHASE=1, CHECK=0, **config)
-            launch.launch(self, knl, (-(-lines // shape.lanes), lblocks), (1, 1), [src], [ends, partial], first)
+                     self._dummy(), partial.base_data, self._dummy(), np.int32(0))
+            knl = self._kernel("recurse", dtype, PHASE=1, CHECK=0, TERMS_ONLY=1, **config)
+            launch.launch(self, knl, (-(-lines // shape.lanes), lblocks), (1, 1), [src], [partial], first)
         compose = self._kernel("compose_rows", dtype, SECTIONS=sections, LANES=1)
         launch.launch(self, compose, (-(-lines // 64) * 64,), (64,), [partial], [carry],
                       (carry.base_data, partial.base_data, self._plan_buffers(plan, dtype)[3],

@@ -174,6 +174,9 @@ INLINE int lanes_nonfinite(const VT z)   /* summed, no any(): a call in PoCL */
 #ifndef PHASE
 #define PHASE 0
 #endif
+#ifndef TERMS_ONLY
+#define TERMS_ONLY 0    /* PHASE 1 (rows): write the blocks' omega terms to `partial`, nothing else */
+#endif
 
 INLINE size_t carry_index(const int outer, const int blk, const int nblocks, const int s,
                                  const int part, const long inner, const long count)
@@ -278,16 +281,30 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
                       __global REAL *carry, __global REAL *partial, __global const int *window,
                       const int first)
 {
-    const int m0 = (int)get_global_id(0) * nv * LANES;
+    /* bands start where dst's rows are vector-aligned: a numpy output= starts 16 bytes into a
+     * cache line, and its misaligned vectors took the staged stores (4096^2 float32 column pass
+     * into output= ~20 % more CPU); band 0 is `mis` columns narrower, the last band takes the
+     * `mis` columns left (one vector more: only where nv < BAND) */
+    const int width = nv * LANES;
+    const int g = (int)get_global_id(0);
+#if LANES > 1
+    const int mis = (M % LANES || nv >= BAND) ? 0 : (int)(((ulong)(dst + dst_off) / sizeof(REAL)) % LANES);
+#else
+    const int mis = 0;
+#endif
+    const int m0 = IMAX(0, g * width - mis);
+    int m_end = IMIN(M, (g + 1) * width - mis);
+    if (mis && M - m_end < LANES)
+        m_end = M;
     const int b = (int)get_global_id(1);
     const int blk = (int)get_global_id(2);
-    if (m0 >= M || b >= B)
+    if (m0 >= m_end || b >= B)
         return;
     const int k_lo = PHASE ? blk * block : 0;
     const int k_hi = PHASE ? IMIN(n, k_lo + block) : n;
     if (k_lo >= k_hi)
         return;
-    const int cols = IMIN(nv * LANES, M - m0);
+    const int cols = m_end - m0;
     const int vecs = (cols + LANES - 1) / LANES;
     const int last = cols - (vecs - 1) * LANES;      /* real lanes of the last vector */
     const long stride = M;
@@ -648,17 +665,21 @@ INLINE void add_initial(VT *fr, VT *fi, const VT v, __global const REAL *omega,
 }
 
 /* Steps before the first whole tile so that the tiles' stores are vector-aligned in dst (a numpy
- * output= starts 16 bytes into a cache line); rows of M % LANES == 0 share the alignment. */
-INLINE int tile_lead(__global const REAL *d0, const int n, const int M, const int reverse)
+ * output= starts 16 bytes into a cache line); rows of M % LANES == 0 share the alignment.  Natural
+ * position p is output sample p - first (WINDOW; else first = 0): a windowed pass into a numpy
+ * output= stored unaligned tiles (4096^2 float32 shift by 2.5 columns: ~7 % more CPU). */
+INLINE int tile_lead(__global const REAL *d0, const int n, const int M, const int reverse, const int first)
 {
-#if LANES == 1 || WINDOW
+#if LANES == 1
     return 0;
 #else
     if (M % LANES)
         return 0;
     const int mis = (int)(((ulong)d0 / sizeof(REAL)) % LANES);    /* samples past an aligned vector */
-    const int p = (LANES - mis) % LANES;                          /* first aligned natural position */
-    return reverse ? (n - p) % LANES : p;
+    /* forward: the tile at traversal k0 = lead stores output p - first = lead - first; reversed,
+     * the tile at k0 stores from n - k0 - LANES - first */
+    const int lead = reverse ? (n - first + mis) % LANES : (first - mis) % LANES;
+    return lead < 0 ? lead + LANES : lead;
 #endif
 }
 
@@ -783,6 +804,11 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
         store_lanes(partial + carry_index(0, blk, nblocks, s, 1, r0, rows), fi[s], valid);
         fr[s] = fi[s] = (VT)(0);
     }
+#if TERMS_ONLY
+    /* only the omega terms asked for (the first blocks of long rows, _recurse_row_blocks): the
+     * block's recursion ran 2.2 ms of a (4, 4194304) pass's 22 for end states nobody reads */
+    return;
+#endif
 #else
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -792,9 +818,9 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 #endif
     const int bad = reverse
         ? run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 1, k_lo, k_hi, fr, fi, M, window, first, cval,
-                   tile_lead(d0, n, M, 1))
+                   tile_lead(d0, n, M, 1, first))
         : run_rows(s0, d0, lam, kap, n, tap, accumulate, valid, 0, k_lo, k_hi, fr, fi, M, window, first, cval,
-                   tile_lead(d0, n, M, 0));
+                   tile_lead(d0, n, M, 0, first));
 #if PHASE == 1
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
@@ -834,13 +860,13 @@ __kernel void recurse_pair(__global const REAL *src, __global REAL *dst, const l
     VT fr[SECTIONS], fi[SECTIONS];
     initial_terms(s0, omega, omega_c, L, n, valid, reverse, 0, L, fr, fi, M, none, cval);
     const int bad = reverse
-        ? run_rows(s0, d0, lam, kap, n, tap, 0, valid, 1, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1))
-        : run_rows(s0, d0, lam, kap, n, tap, 0, valid, 0, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
+        ? run_rows(s0, d0, lam, kap, n, tap, 0, valid, 1, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1, 0))
+        : run_rows(s0, d0, lam, kap, n, tap, 0, valid, 0, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0, 0));
     initial_terms(s0, omega2, omega_c2, L2, n, valid, reverse2, 0, L2, fr, fi, M, none, cval);
     if (reverse2)
-        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 1, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1));
+        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 1, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 1, 0));
     else
-        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 0, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0));
+        run_rows(s0, d0, lam2, kap2, n, tap2, 1, valid, 0, 0, n, fr, fi, M, none, 0, cval, tile_lead(d0, n, M, 0, 0));
 #if CHECK
     if (bad)
         atomic_or(flag, 1);
