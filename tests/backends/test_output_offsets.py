@@ -18,12 +18,6 @@ from gfgpu import greens
 OFFSETS = [4, 16, 36, 60]      # bytes past a cache line (0 mod 64: the aligned case, new arrays)
 
 
-@pytest.fixture
-def cpu_backend(require_backend):
-    be = require_backend("opencl")     # fails, not skips, where GFGPU_TEST_BACKENDS asks for OpenCL
-    if be.kind != "cpu":
-        pytest.skip("band and tile alignment are CPU-device paths")
-    return be
 
 
 def at_offset(shape, dtype, offset):

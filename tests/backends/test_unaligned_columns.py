@@ -33,12 +33,6 @@ def reference(x, lp, mode, cval):
     return np.moveaxis(out, 0, 1)
 
 
-@pytest.fixture
-def cpu_backend(require_backend):
-    be = require_backend("opencl")     # fails, not skips, where GFGPU_TEST_BACKENDS asks for OpenCL
-    if be.kind != "cpu":
-        pytest.skip("the streamed column stores are a CPU-device path")
-    return be
 
 
 @pytest.mark.parametrize("name", sorted(PASSES))
