@@ -129,6 +129,16 @@ def require_backend():
     return use_backend_or_skip
 
 
+@pytest.fixture
+def cpu_opencl(require_backend):
+    """The OpenCL backend on a CPU device, for the engine's CPU-device paths (bands, row tiles,
+    streamed stores, two-sided kernels); skipped on a GPU device."""
+    be = require_backend("opencl")     # fails, not skips, where GFGPU_TEST_BACKENDS asks for OpenCL
+    if be.kind != "cpu":
+        pytest.skip("a CPU-device path of the OpenCL engine")
+    return be
+
+
 def pytest_collection_modifyitems(config, items):
     if not DEVICE_RUN:
         return

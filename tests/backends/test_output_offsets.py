@@ -48,8 +48,8 @@ CALLS = {
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 @pytest.mark.parametrize("shape", [(2100, 1024), (333, 512)])   # streamed stores; plain ones
 @pytest.mark.parametrize("name", sorted(CALLS))
-def test_output_at_any_offset(cpu_backend, name, shape, dtype, rng):
-    be, call = cpu_backend, CALLS[name]
+def test_output_at_any_offset(cpu_opencl, name, shape, dtype, rng):
+    be, call = cpu_opencl, CALLS[name]
     x = rng.standard_normal(shape).astype(dtype)
     # the shifted bands need room for one more vector (nv < BAND) and rows of whole vectors
     view = be.recurse_shape((1,) + shape, 1, dtype)
@@ -69,8 +69,8 @@ def test_output_at_any_offset(cpu_backend, name, shape, dtype, rng):
 
 @pytest.mark.parametrize("mode", ["reflect", "mirror", "nearest", "constant", "wrap"])
 @pytest.mark.parametrize("anticausal", [False, True])
-def test_long_rows_match_the_specification(cpu_backend, mode, anticausal, rng):
-    be = cpu_backend
+def test_long_rows_match_the_specification(cpu_opencl, mode, anticausal, rng):
+    be = cpu_opencl
     x = rng.standard_normal((3, 1 << 19)).astype(np.float32)
     assert be.recurse_shape((1,) + x.shape, 2, np.float32).rows_as_blocks
     kernel = greens.UniformGreen(3.0)

@@ -37,8 +37,8 @@ def reference(x, lp, mode, cval):
 
 @pytest.mark.parametrize("name", sorted(PASSES))
 @pytest.mark.parametrize("n, m, dtype", SHAPES)
-def test_unaligned_columns_match_the_specification(cpu_backend, name, n, m, dtype, rng):
-    be, lp = cpu_backend, PASSES[name]
+def test_unaligned_columns_match_the_specification(cpu_opencl, name, n, m, dtype, rng):
+    be, lp = cpu_opencl, PASSES[name]
     x = rng.standard_normal((1, n, m)).astype(dtype)
     assert x.nbytes >= ocl._STREAM_BYTES and (m * x.itemsize) % 64
     shape = be.recurse_shape(x.shape, 1, dtype)
@@ -56,9 +56,9 @@ def test_unaligned_columns_match_the_specification(cpu_backend, name, n, m, dtyp
     assert np.array_equal(src.get(), got)
 
 
-def test_unaligned_columns_equal_plain_stores(cpu_backend, rng, monkeypatch):
+def test_unaligned_columns_equal_plain_stores(cpu_opencl, rng, monkeypatch):
     """The streamed path and plain stores (an array under _STREAM_BYTES) give the same bits."""
-    be = cpu_backend
+    be = cpu_opencl
     x = rng.standard_normal((1, 700, 3000)).astype(np.float32)
     plan = recursion.plan_pass(PASSES["G_u"], 700, "reflect", np.float32)
     outs = []

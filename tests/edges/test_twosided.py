@@ -70,12 +70,6 @@ def test_plans_refuse_what_they_cannot_express():
     assert plan_two_sided([(0, many)], 16, "reflect", np.float32) is None       # five complex poles
 
 
-@pytest.fixture
-def cpu_opencl(require_backend):
-    be = require_backend("opencl")
-    if be.kind != "cpu":
-        pytest.skip("two-sided kernels run on OpenCL CPU devices")
-    return be
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])

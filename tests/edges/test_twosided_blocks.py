@@ -15,12 +15,6 @@ from gfgpu.edges import operator
 TOL = {np.float32: 2e-5, np.float64: 1e-12}
 
 
-@pytest.fixture
-def cpu_opencl(require_backend):
-    be = require_backend("opencl")
-    if be.kind != "cpu":
-        pytest.skip("two-sided kernels run on OpenCL CPU devices")
-    return be
 
 
 def _run(be, plan, xs, cvals, check=False):
