@@ -547,9 +547,9 @@ def derivative(input, u, *, axis=None, axes=None, channel_axis=None, output=None
     D is applied as one causal and one anticausal pass of two 2-pole sections (one per
     scale); taps are the point samples of eq. 25-26 normalised so that ``-Σ m D[m] = 1``.
     P = ∫D, the integral of D from -∞, is even; it is sampled and normalised to unit sum.
-    On an OpenCL CPU device a step along columns runs its causal and anticausal passes as a
-    backward sweep, then blocks that restart it and run the forward one (the result written
-    once), and a step along rows as one fused pair (:func:`run_line_program`).
+    On an OpenCL CPU device a step runs its causal and anticausal passes as one kernel, along
+    columns or rows: a backward sweep that keeps the anticausal parts in the cache, then the
+    forward one, the result written once (:func:`run_line_program`).
 
     References
     ----------
@@ -687,14 +687,15 @@ def _two_sided_runner(be):
 def _two_sided_steps(job, steps, mode):
     """Per step of ``steps`` (``[(outputs, axis), ...]``, outputs as
     :func:`~gfgpu._core.twosided.plan_two_sided` takes them): ``(plan, view, line_axis)`` for a
-    step along columns that a two-sided kernel runs, else None (rows: the generic primitive's
-    fused pair; a step no plan expresses)."""
+    step that a two-sided kernel runs, else None (rows too few or too long for it: the generic
+    primitive's fused pair; a step no plan expresses)."""
     from ._core.lines import axis_view_shape
     from ._core.twosided import plan_two_sided
+    from .backends.opencl.twosided import takes
     plans = []
     for outputs, axis in steps:
         view, line = axis_view_shape(job.shape, axis)
-        plan = plan_two_sided(outputs, view[line], mode, job.dtype) if line == 1 else None
+        plan = plan_two_sided(outputs, view[line], mode, job.dtype) if takes(job.backend, view, line) else None
         plans.append(None if plan is None else (plan, view, line))
     return plans
 
@@ -787,8 +788,8 @@ def job_gradient(job, d_passes, p_passes, axes, mode, cval):
     For two axes ``(y, x)`` (an image, y the columns' axis) on a device with two-sided steps, the
     passes along y share their states: one two-sided step gives ``C = P_y I`` and ``E = D_y I``
     (the image read twice, C and E written once); then ``d/dy = P_x E`` and
-    ``d/dx = D_x C`` along the rows, each step's passes one fused pair where the backend fuses
-    them (four reads of an image and four writes in all, against eight passes).  P has unit sum
+    ``d/dx = D_x C`` along the rows, each a two-sided step too where the device runs it, else
+    one fused pair (four reads of an image and four writes in all, against eight passes).  P has unit sum
     and D zero sum, so the constant extension of ``C`` is ``cval`` and that of ``E`` is 0: the
     result equals each derivative's own program (P along the other axis first) up to rounding.
     Otherwise each derivative is its own program (:func:`run_line_program`) on the same input,
@@ -806,10 +807,13 @@ def job_gradient(job, d_passes, p_passes, axes, mode, cval):
             if not _checked_first_step(job, runner, plans[0], [c, e], cval, may_write=True):
                 _launch(job, runner, plans[0], [job.data], [c, e], job.scaled(cval))
             cval = job.scaled(cval)
-            gy = job.result_buffer()
-            run_passes(job.backend, e, gy, job.dtype, _paired(p_passes), mode, 0.0, axis=x, shape=job.shape)
-            gx = job.result_buffer()
-            run_passes(job.backend, c, gx, job.dtype, _paired(d_passes), mode, cval, axis=x, shape=job.shape)
+            gy, gx = job.result_buffer(), job.result_buffer()
+            for src, dst, passes, cv in ((e, gy, p_passes, 0.0), (c, gx, d_passes, cval)):
+                step = _two_sided_steps(job, [([(0, passes)], x)], mode)[0]
+                if step is None:
+                    run_passes(job.backend, src, dst, job.dtype, _paired(passes), mode, cv, axis=x, shape=job.shape)
+                else:
+                    _launch(job, runner, step, [src], [dst], cv)
             return job.finish(gy), job.finish(gx)
     results = []
     for d in axes:

@@ -95,8 +95,8 @@ def test_kernel_matches_spec(cpu_opencl, dtype, shape, kind, rng):
 
 
 def test_kernel_check_and_large_arrays(cpu_opencl, rng):
-    """Arrays beyond the caches (non-temporal stores) and the finite check's verdicts; rows are
-    refused (the generic primitive's fused pair runs them)."""
+    """Arrays beyond the caches (non-temporal stores) and the finite check's verdicts; an axis
+    other than 1 (columns) or 2 (rows) is refused."""
     from gfgpu.backends.opencl.twosided import run_two_sided
     be, axis = cpu_opencl, 1
     shape = (1, 1040, 2064)                 # 8.6 MB float32: the streaming path
@@ -113,8 +113,8 @@ def test_kernel_check_and_large_arrays(cpu_opencl, rng):
         y = x.copy()
         y[0, 1033, 2050] = bad
         assert not run_two_sided(be, [be.asarray(y)], dsts, axis, plan, check=True)
-    with pytest.raises(ValueError, match="axis 1"):
-        run_two_sided(be, [be.asarray(x)], dsts, 2, plan)
+    with pytest.raises(ValueError, match="axis must be 1"):
+        run_two_sided(be, [be.asarray(x)], dsts, 0, plan)
 
 
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])

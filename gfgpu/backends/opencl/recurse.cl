@@ -485,43 +485,6 @@ __kernel void recurse(__global const REAL *src, __global REAL *dst, const long s
 #else
 /* ---- rows: LANES contiguous lines of n samples, transposed tile by tile --------------- */
 
-/* The tile transpose of the rows in single-instruction shuffles of 256-bit registers (AVX2):
- * interleave within 128-bit halves (unpck), then pairs (shufps / unpckpd), then swap halves
- * (vperm2f128): 24 for 8 x 8, 8 for 4 x 4.  transpose_tile's zips cross the halves (16 x 16
- * float tiles were 512-bit vectors split in two, with spills: the row pass ran 2.4x slower). */
-#define SHUF __builtin_shufflevector
-INLINE void rows_transpose(VT *t)
-{
-#if LANES == 8 && defined(__clang__)
-    VT u[8], v[8];
-#pragma unroll
-    for (int i = 0; i < 8; i += 2) {   /* rows i, i + 1: columns 0 1 4 5 and 2 3 6 7 */
-        u[i] = SHUF(t[i], t[i + 1], 0, 8, 1, 9, 4, 12, 5, 13);
-        u[i + 1] = SHUF(t[i], t[i + 1], 2, 10, 3, 11, 6, 14, 7, 15);
-    }
-#pragma unroll
-    for (int i = 0; i < 8; i += 2) {   /* v[j + 4h]: column j | j + 4 of rows 4h .. 4h + 3 */
-        const int a = i / 4 * 4 + i / 2 % 2;
-        v[i] = SHUF(u[a], u[a + 2], 0, 1, 8, 9, 4, 5, 12, 13);
-        v[i + 1] = SHUF(u[a], u[a + 2], 2, 3, 10, 11, 6, 7, 14, 15);
-    }
-#pragma unroll
-    for (int c = 0; c < 4; ++c) {
-        t[c] = SHUF(v[c], v[c + 4], 0, 1, 2, 3, 8, 9, 10, 11);
-        t[c + 4] = SHUF(v[c], v[c + 4], 4, 5, 6, 7, 12, 13, 14, 15);
-    }
-#elif LANES == 4 && defined(__clang__)
-    const VT u0 = SHUF(t[0], t[1], 0, 4, 2, 6), u1 = SHUF(t[0], t[1], 1, 5, 3, 7);
-    const VT u2 = SHUF(t[2], t[3], 0, 4, 2, 6), u3 = SHUF(t[2], t[3], 1, 5, 3, 7);
-    t[0] = SHUF(u0, u2, 0, 1, 4, 5);
-    t[1] = SHUF(u1, u3, 0, 1, 4, 5);
-    t[2] = SHUF(u0, u2, 2, 3, 6, 7);
-    t[3] = SHUF(u1, u3, 2, 3, 6, 7);
-#else
-    transpose_tile(t);
-#endif
-}
-
 /* w[i] = samples of every lane at traversal position k0 + i, i < cnt.  A full chunk is a
  * tile load + transpose; a partial one (cnt < LANES, the end of the line) is gathered.
  * Lanes past the last row (valid < LANES) repeat the last row: loads stay in bounds.

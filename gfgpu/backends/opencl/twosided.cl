@@ -1,15 +1,17 @@
 /*
  * Two-sided steps on a CPU device (spec: gfgpu/_core/twosided.py, run_two_sided_reference).  Up to
- * two inputs X_i and two outputs Y_o along the columns of (B, N, M) arrays, output o reading IN(o):
+ * two inputs X_i and two outputs Y_o along the lines of (B, N, M) arrays, output o reading IN(o):
  *     Y_o[k] = tap_o X[k] + sum_s Re(causal[o,s] F_s[k]) + sum_s Re(anticausal[o,s] G_s[k])
  * F_s, G_s: the unit states (F <- lam F + x) before sample k, forward and backward, started from the
- * boundary mode's initial state (omega, omega_c).  A work-item runs a band of columns, in two
- * phases so that each output is written once (one sweep down and up wrote it twice and read it
- * back from memory: a band of 4096 rows is beyond the caches): phases 0 and 1 below.
- * Defines: REAL, LANES (a cache line per vector), SECTIONS (poles per input), NIN, NOUT (1 or 2),
- * REAL_POLES (real poles and weights: real states), BAND (most vectors per work-item), CHECK (OR
- * flag with 1 if a sample of input 0 is NaN, infinite or beyond the range limit).  coef, omega:
- * TwoSidedPlan.packed.  No overlaps between arrays.  No fast-math (contraction to fma allowed).
+ * boundary mode's initial state (omega, omega_c).  A work-item's backward sweep stores the
+ * anticausal parts of its lines in its scratch, its forward sweep writes each output once: lines
+ * along columns (two_sided) or, with ROWS=1, along rows (two_sided_rows).  Work-items take the next
+ * lines from the counter flag[1] (zero at launch).
+ * Defines: REAL, LANES (columns: a cache line per vector; rows: a 256-bit vector), SECTIONS (poles
+ * per input), NIN, NOUT (1 or 2), REAL_POLES (real poles and weights: real states), BAND, AHEAD
+ * (columns), ROWS, CHECK (OR flag[0] with 1 if a sample of input 0 is NaN, infinite or beyond the
+ * range limit).  coef, omega: TwoSidedPlan.packed.  No overlaps between arrays.  No fast-math
+ * (contraction to fma allowed).
  */
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -161,11 +163,25 @@ INLINE void start_states(const plan_t *p, VT *fr, VT *fi, const int d, const REA
     }
 }
 
-/* ---- columns: a band of nv vectors of LANES adjacent columns, N rows ------------------------ */
+#ifndef ROWS
+#define ROWS 0
+#endif
+#if !ROWS
+/* ---- columns: bands of BAND vectors of LANES adjacent columns (a cache line each), N rows -------
+ * A work-item takes the next band of the next image from the counter flag[1] until none is left (a
+ * core slowed by other work takes fewer).  Its backward sweep reads the band from memory (rows
+ * AHEAD steps ahead are prefetched: no hardware prefetcher follows a few cache lines a row, a row
+ * apart), with the check, and keeps the band's anticausal parts in the work-item's scratch (N x
+ * BAND x NOUT vectors, reused by its next band: in the caches); the forward sweep reads the band
+ * again from the caches and writes each output once as (tap_o X[k] + causal) + anticausal, bit
+ * for bit the sums of the blocked kernel it replaced (a backward sweep storing states every 32
+ * rows, then blocks restarting it: a third sweep, 1.3-1.7x this one's CPU time at 4096^2 float32). */
 #ifndef BAND
 #define BAND 1
 #endif
-
+#ifndef AHEAD
+#define AHEAD 8
+#endif
 INLINE VT load_cols(__global const REAL *p, const int valid)
 {
     if (valid == LANES)
@@ -213,67 +229,47 @@ INLINE void initial_cols(const plan_t *p, VT *fr, VT *fi, __global const REAL *c
 
 #define BAND_LOOP(v) _Pragma("unroll") for (int v = 0; v < BAND; ++v) if (v < vecs)
 #define VALID(v) ((v) == vecs - 1 ? last : LANES)
-/* the next block's rows are prefetched during a block's forward sweep (no hardware prefetcher
- * follows a few cache lines a row, a row apart) */
 #if defined(__clang__)
 #define PREFETCH(p) __builtin_prefetch((p), 0, 3)
 #else
 #define PREFETCH(p) do { } while (0)
 #endif
-/* vectors of a work-item's scratch in phase 1 */
-#define SCRATCH_VECS(K) (NS * 2 * BAND + (K) * BAND * NOUT)
-#define STATES_TO(t) _Pragma("unroll") for (int q = 0; q < NS * BAND; ++q) { t[2 * q] = fr[q]; t[2 * q + 1] = fi[q]; }
-#define STATES_FROM(t) _Pragma("unroll") for (int q = 0; q < NS * BAND; ++q) { fr[q] = t[2 * q]; fi[q] = t[2 * q + 1]; }
 
-/* carries: the backward states at the last row of each block, (B, NB, NS, 2 (re, im), M) */
-#define CARRY(blk, q) (carry + (((long)b * NB + (blk)) * NS + (q)) * 2L * M + m0)
-
-/* One work-item runs both phases on its band (phase 1 reads the band back from the cache).
- * Phase 0: the band's backward sweep, bottom to top, reading every input once (with the finite
- * check); the state before the last row of each block of K rows is stored as its carry, where
- * phase 1 restarts it (the same sweep: phase 1's states are bit for bit the same).
- * Phase 1: the band top to bottom, a block at a time: the block's backward sweep
- * from its carry (the inputs read into the nearer cache), its anticausal parts kept in this
- * work-item's scratch (reused by every block: it stays in the cache), then the forward sweep (the
- * inputs from the cache), each output written once as (tap_o X[k] + causal) + anticausal, the
- * order of the sum of the single sweep pair this replaced. */
 __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
                         __global REAL *dst1, const long src0_off, const long src1_off,
                         const long dst0_off, const long dst1_off, __global const REAL *coef,
                         __global const REAL *omega, const int L, const REAL cval0, const REAL cval1,
-                        const int B, const int N, const int M, const int nv, const int K,
-                        const int stream, __global REAL *carry, __global VT *scratch,
+                        const int B, const int N, const int M, const int stream, __global VT *scratch,
                         __global int *flag)
 {
-    const int m0 = (int)get_global_id(0) * nv * LANES, b = (int)get_global_id(1);
-    if (m0 >= M || b >= B)
-        return;
-    const int cols = IMIN(nv * LANES, M - m0), vecs = (cols + LANES - 1) / LANES;
-    const int last = cols - (vecs - 1) * LANES, NB = (N + K - 1) / K;
-    const long base = (long)b * N * M + m0;
-    __global const REAL *src[2] = {src0 + src0_off + base, src1 + src1_off + base};
-    __global REAL *dst[2] = {dst0 + dst0_off + base, dst1 + dst1_off + base};
     plan_t p;
     load_plan(&p, coef);
-    VT fr[NS * BAND], fi[NS * BAND];
-    {   /* phase 0 */
-        VT chk = (VT)(0);
+    __global VT *anti = scratch + (long)get_global_id(0) * N * BAND * NOUT;
+    const int bands = (M + BAND * LANES - 1) / (BAND * LANES);
+    VT fr[NS * BAND], fi[NS * BAND], chk = (VT)(0);
+    for (long g = atomic_inc(flag + 1); g < (long)B * bands; g = atomic_inc(flag + 1)) {
+        const int b = (int)(g / bands), m0 = (int)(g % bands) * BAND * LANES;
+        const int cols = IMIN(BAND * LANES, M - m0), vecs = (cols + LANES - 1) / LANES;
+        const int last = cols - (vecs - 1) * LANES;
+        const long base = (long)b * N * M + m0;
+        __global const REAL *src[2] = {src0 + src0_off + base, src1 + src1_off + base};
+        __global REAL *dst[2] = {dst0 + dst0_off + base, dst1 + dst1_off + base};
+        int nt = stream && M % LANES == 0;
+#pragma unroll
+        for (int o = 0; o < NOUT; ++o)
+            nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
         initial_cols(&p, fr, fi, src, omega, L, 1, N, M, vecs, last, cval0, cval1);
         for (int k = N - 1; k >= 0; --k) {
             const long row = (long)k * M;
-            if (k % K == K - 1 || k == N - 1) {
-#pragma unroll
-                for (int q = 0; q < NS; ++q) {
-                    __global REAL *c = CARRY(k / K, q);
-                    BAND_LOOP(v) {
-                        store_cols(c + v * LANES, fr[q * BAND + v], VALID(v), 0);
-#if !REAL_POLES
-                        store_cols(c + M + v * LANES, fi[q * BAND + v], VALID(v), 0);
-#endif
-                    }
-                }
-            }
+            __global VT *a = anti + (long)k * BAND * NOUT;
             BAND_LOOP(v) {
+                if (k >= AHEAD)
+#pragma unroll
+                    for (int i = 0; i < NIN; ++i)
+                        PREFETCH(src[i] + row - AHEAD * (long)M + v * LANES);
+#pragma unroll
+                for (int o = 0; o < NOUT; ++o)
+                    a[v * NOUT + o] = readout(&p, fr, fi, o, 1, v, BAND);
 #pragma unroll
                 for (int i = 0; i < NIN; ++i) {
                     const VT x = load_cols(src[i] + row + v * LANES, VALID(v));
@@ -285,58 +281,15 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
                 }
             }
         }
-#if CHECK
-        if (lanes_nonzero(chk))
-            atomic_or(flag, 1);
-#endif
-    }
-    /* the scratch: the forward states between blocks (NS * 2 * BAND vectors), then the block's
-     * anticausal parts (K * BAND * NOUT); one set of states in registers, the backward ones then
-     * the forward ones (two sets spill more than the forward ones' wait in the scratch) */
-    __global VT *fsave = scratch + ((long)b * get_global_size(0) + get_global_id(0)) * SCRATCH_VECS(K);
-    __global VT *anti = fsave + NS * 2 * BAND;
-    initial_cols(&p, fr, fi, src, omega, L, 0, N, M, vecs, last, cval0, cval1);
-    STATES_TO(fsave)
-    /* non-temporal stores: whole aligned vectors */
-    int nt = stream && M % LANES == 0;
-#pragma unroll
-    for (int o = 0; o < NOUT; ++o)
-        nt = nt && ((ulong)dst[o] % sizeof(VT)) == 0;
-    for (int blk = 0; blk < NB; ++blk) {
-        const int k0 = blk * K, k1 = IMIN(N, k0 + K);
-#pragma unroll
-        for (int q = 0; q < NS; ++q) {
-            __global const REAL *c = CARRY(blk, q);
-            BAND_LOOP(v) {
-                fr[q * BAND + v] = load_cols(c + v * LANES, VALID(v));
-#if !REAL_POLES
-                fi[q * BAND + v] = load_cols(c + M + v * LANES, VALID(v));
-#endif
-            }
-        }
-        for (int k = k1 - 1; k >= k0; --k) {
-            __global VT *a = anti + (long)(k - k0) * BAND * NOUT;
-            BAND_LOOP(v) {
-#pragma unroll
-                for (int o = 0; o < NOUT; ++o)
-                    a[v * NOUT + o] = readout(&p, fr, fi, o, 1, v, BAND);
-#pragma unroll
-                for (int i = 0; i < NIN; ++i)
-                    advance(&p, fr, fi, i, load_cols(src[i] + (long)k * M + v * LANES, VALID(v)), v, BAND);
-            }
-        }
-        STATES_FROM(fsave)
-        for (int k = k0; k < k1; ++k) {
+        initial_cols(&p, fr, fi, src, omega, L, 0, N, M, vecs, last, cval0, cval1);
+        for (int k = 0; k < N; ++k) {
             const long row = (long)k * M;
-            __global const VT *a = anti + (long)(k - k0) * BAND * NOUT;
+            __global const VT *a = anti + (long)k * BAND * NOUT;
             BAND_LOOP(v) {
                 VT x[NIN];
 #pragma unroll
-                for (int i = 0; i < NIN; ++i) {
-                    if (2 * k1 - 1 - k < N)    /* the next block's rows, bottom first */
-                        PREFETCH(src[i] + (long)(2 * k1 - 1 - k) * M + v * LANES);
+                for (int i = 0; i < NIN; ++i)
                     x[i] = load_cols(src[i] + row + v * LANES, VALID(v));
-                }
 #pragma unroll
                 for (int o = 0; o < NOUT; ++o)
                     store_cols(dst[o] + row + v * LANES,
@@ -347,8 +300,174 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
                     advance(&p, fr, fi, i, x[i], v, BAND);
             }
         }
-        STATES_TO(fsave)
     }
-    if (nt)
+    if (stream)
         STREAM_FENCE();
+#if CHECK
+    if (lanes_nonzero(chk))
+        atomic_or(flag, 1);
+#endif
 }
+#endif
+
+/* ---- rows (ROWS=1): LANES rows per work-item (a 256-bit vector: 8 float, 4 double), M samples --
+ * A work-item takes the next LANES rows from the counter flag[1] until none is left.  Backward:
+ * tiles of LANES x LANES samples loaded and transposed in registers (a vector a step: a sample of
+ * every row), the check on the way, the anticausal readouts and the transposed samples stored to
+ * the work-item's scratch (M x (NOUT + NIN) vectors, time major, reused: in the cache; 4096 float32
+ * rows: 256 KiB); forward: from the scratch (re-reading and transposing the rows instead took 1.5x
+ * the CPU time), each output = (tap X + causal) + anticausal as the column kernel sums it,
+ * transposed back and written once (plain stores: streamed ones, 32 bytes of 8 rows at a time, ran
+ * the 4096^2 float32 step 1.3-1.7x slower).  The interior runs in chunks of a cache line of every
+ * row (CH steps), aligned to dst0 where every row shares its alignment (M a multiple of CH); the
+ * ends go sample by sample. */
+#if ROWS
+#define TILE_LANES LANES
+#define TILE_VT VT
+#include "tile.cl"
+#define CH (64 / (int)sizeof(REAL))
+#define ROW(x, l) ((x) + (long)IMIN((l), valid - 1) * M)
+#define SS (NOUT + NIN)     /* scratch vectors a step: the anticausal parts, then the samples */
+
+/* x[i]: the samples at position k of the rows of input i (gathered: the lines' ends) */
+INLINE void gather_step(VT *x, __global const REAL *const *src, const int valid, const long M, const int k)
+{
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+#pragma unroll
+        for (int l = 0; l < LANES; ++l)
+            x[i][l] = ROW(src[i], l)[k];
+}
+
+/* t[i * CH + j]: positions c0 + j of the rows of input i, a chunk of whole tiles */
+INLINE void load_chunk(VT *t, __global const REAL *const *src, const int valid, const long M, const int c0)
+{
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+#pragma unroll
+        for (int h = 0; h < CH; h += LANES) {
+#pragma unroll
+            for (int l = 0; l < LANES; ++l)
+                t[i * CH + h + l] = VLOAD(ROW(src[i], l) + c0 + h);
+            rows_transpose(t + i * CH + h);
+        }
+}
+
+INLINE void back_step(const plan_t *p, VT *fr, VT *fi, __global VT *a, const VT *x, VT *chk)
+{
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        a[o] = readout(p, fr, fi, o, 1, 0, 1);
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+        advance(p, fr, fi, i, x[i], 0, 1);
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+        a[NOUT + i] = x[i];
+#if CHECK
+    *chk += RESIDUE(x[0]);
+#endif
+}
+
+/* y[o]: the outputs at a position whose anticausal parts are at a */
+INLINE void fwd_step(const plan_t *p, VT *fr, VT *fi, __global const VT *a, const VT *x, VT *y)
+{
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        y[o] = (p->tap[o] * x[IN(o)] + readout(p, fr, fi, o, 0, 0, 1)) + a[o];
+#pragma unroll
+    for (int i = 0; i < NIN; ++i)
+        advance(p, fr, fi, i, x[i], 0, 1);
+}
+
+__kernel void two_sided_rows(__global const REAL *src0, __global const REAL *src1, __global REAL *dst0,
+                             __global REAL *dst1, const long src0_off, const long src1_off,
+                             const long dst0_off, const long dst1_off, __global const REAL *coef,
+                             __global const REAL *omega, const int L, const REAL cval0, const REAL cval1,
+                             const int B, const int N, const int M, const int stream, __global VT *scratch,
+                             __global int *flag)
+{
+    plan_t p;
+    load_plan(&p, coef);
+    __global VT *anti = scratch + (long)get_global_id(0) * M * SS;
+    const long rows = (long)B * N;
+    /* the chunks: [lead, tail), CH-aligned in dst0 where every row shares the alignment */
+    const int lead = M % CH ? 0 : IMIN(M, (int)((CH - ((ulong)(dst0 + dst0_off) / sizeof(REAL)) % CH) % CH));
+    const int tail = lead + (M - lead) / CH * CH;
+    VT chk = (VT)(0), fr[NS], fi[NS], x[NIN], y[NOUT], t[(NIN > NOUT ? NIN : NOUT) * CH];
+    (void)stream;
+    for (long r0 = (long)atomic_inc(flag + 1) * LANES; r0 < rows; r0 = (long)atomic_inc(flag + 1) * LANES) {
+        const int valid = (int)IMIN((long)LANES, rows - r0);
+        __global const REAL *src[2] = {src0 + src0_off + r0 * M, src1 + src1_off + r0 * M};
+        __global REAL *dst[2] = {dst0 + dst0_off + r0 * M, dst1 + dst1_off + r0 * M};
+        for (int d = 1; d >= 0; --d) {      /* the initial states: backward, then forward */
+            start_states(&p, fr, fi, d, cval0, cval1, 0, 1);
+            for (int j = 0; j < L; ++j) {
+                gather_step(x, src, valid, M, d ? M - 1 - j : j);
+#pragma unroll
+                for (int i = 0; i < NIN; ++i)
+                    add_initial(fr, fi, omega, L, i, d, j, x[i], 0, 1);
+            }
+            if (!d)
+                break;
+            for (int k = M - 1; k >= 0; --k) {
+                if (k == tail - 1 && tail > lead) {        /* the chunks, backward */
+                    for (int c0 = tail - CH; c0 >= lead; c0 -= CH) {
+                        load_chunk(t, src, valid, M, c0);
+#pragma unroll
+                        for (int j = CH - 1; j >= 0; --j) {
+#pragma unroll
+                            for (int i = 0; i < NIN; ++i)
+                                x[i] = t[i * CH + j];
+                            back_step(&p, fr, fi, anti + (long)(c0 + j) * SS, x, &chk);
+                        }
+                    }
+                    k = lead;
+                    continue;
+                }
+                gather_step(x, src, valid, M, k);
+                back_step(&p, fr, fi, anti + (long)k * SS, x, &chk);
+            }
+        }
+        for (int k = 0; k < M; ++k) {
+            if (k == lead && tail > lead) {     /* the chunks, forward: outputs transposed back in t */
+                for (int c0 = lead; c0 < tail; c0 += CH) {
+#pragma unroll
+                    for (int j = 0; j < CH; ++j) {
+#pragma unroll
+                        for (int i = 0; i < NIN; ++i)
+                            x[i] = anti[(long)(c0 + j) * SS + NOUT + i];
+                        fwd_step(&p, fr, fi, anti + (long)(c0 + j) * SS, x, y);
+#pragma unroll
+                        for (int o = 0; o < NOUT; ++o)
+                            t[o * CH + j] = y[o];
+                    }
+#pragma unroll
+                    for (int o = 0; o < NOUT; ++o)
+#pragma unroll
+                        for (int h = 0; h < CH; h += LANES) {
+                            rows_transpose(t + o * CH + h);
+                            for (int l = 0; l < valid; ++l)
+                                VSTORE(t[o * CH + h + l], dst[o] + (long)l * M + c0 + h);
+                        }
+                }
+                k = tail;
+                if (k >= M)
+                    break;
+            }
+#pragma unroll
+            for (int i = 0; i < NIN; ++i)
+                x[i] = anti[(long)k * SS + NOUT + i];
+            fwd_step(&p, fr, fi, anti + (long)k * SS, x, y);
+#pragma unroll
+            for (int o = 0; o < NOUT; ++o)
+                for (int l = 0; l < valid; ++l)
+                    dst[o][(long)l * M + k] = y[o][l];
+        }
+    }
+#if CHECK
+    if (lanes_nonzero(chk))
+        atomic_or(flag, 1);
+#endif
+}
+#endif

@@ -1,10 +1,10 @@
 """Two-sided steps on an OpenCL CPU device (``twosided.cl``; spec
 :func:`gfgpu._core.twosided.run_two_sided_reference`), for :mod:`gfgpu.filters`' derivative,
-projection and gradient: a column step's causal and anticausal passes over bands of columns in one
-kernel, a backward sweep that stores its states every :data:`BLOCK_ROWS` rows, then blocks that
-restart it from them and run the forward sweep, so that the inputs are read twice (the second time
-from the cache) and each output is written once (the earlier sweep down then up the whole band
-wrote each output twice and read it back from memory).  CPU devices only (:func:`runs_on`)."""
+projection and gradient: a step's causal and anticausal passes in one kernel, along columns (bands
+of columns) or rows (a vector of rows per work-item, tiles transposed in registers).  A work-item's
+backward sweep reads its lines from memory and keeps their anticausal parts in a scratch that stays
+in the cache; its forward sweep reads the lines again from the cache and writes each output once.
+CPU devices only (:func:`runs_on`)."""
 
 from __future__ import annotations
 
@@ -15,14 +15,19 @@ import numpy as np
 
 from . import launch
 
-__all__ = ["runs_on", "run_two_sided"]
+__all__ = ["runs_on", "takes", "run_two_sided"]
 
 _CACHE_LINE = 64
-_STREAM_BYTES = 1 << 23    # outputs from this size are written with non-temporal stores
+_STREAM_BYTES = 1 << 23    # column outputs from this size are written with non-temporal stores
 _PLAN_CACHE = 32
-#: rows of a block: phase 1 restarts each block's backward sweep from its carry and keeps the
-#: block's anticausal parts in a scratch of BLOCK_ROWS x BAND vectors per output (in the cache)
-BLOCK_ROWS = 32
+#: vectors (cache lines) of adjacent columns per band of a step along columns; rows prefetched ahead
+#: (4096^2 float32, A/B in one process: 4 vectors ran 0.6x the CPU time of the blocked kernel, 1 and
+#: 2 vectors or 32-byte vectors slower, 8 no faster; 4 to 12 rows ahead alike, none or 24 slower)
+BAND, AHEAD = 4, 8
+#: work-items per core (each takes the next band or rows from a counter: balanced under other load)
+ITEMS_PER_CORE = 2
+#: longest rows of a step along rows (a work-item's scratch: a row of 32-byte vectors per input and output)
+MAX_ROW = 1 << 15
 _uploads = weakref.WeakKeyDictionary()    # backend -> OrderedDict((id(plan), dtype) -> (plan, buffers))
 
 
@@ -47,23 +52,27 @@ def _buffers(be, plan, dtype):
     return bufs
 
 
-def band(plan):
-    """Most vectors of adjacent columns per work-item: the states of a band stay in registers."""
-    states = len(set(plan.inputs)) * plan.sections * (1 if plan.real else 2)
-    return max(1, min(4, 16 // states))
+def takes(be, shape, axis):
+    """True when :func:`run_two_sided` runs a step along ``axis`` of a ``(B, N, M)`` view on
+    ``be``: columns always; rows when there are enough to fill every core's lanes (8 work-items'
+    worth) and each fits the work-item's scratch (:data:`MAX_ROW` samples)."""
+    if not runs_on(be) or axis not in (1, 2):
+        return False
+    b, n, m = shape
+    return axis == 1 or (b * n >= 8 * int(be.cl_device.max_compute_units) and m <= MAX_ROW)
 
 
 def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
-    """Run a two-sided step along axis 1 (columns) of C-contiguous ``(B, N, M)`` arrays: ``srcs``
-    and ``dsts``, one per input and output of ``plan`` (outputs overlap nothing), ``cvals`` each
-    input's constant (mode 'constant').  With ``check`` the first (backward) sweep also tests that
+    """Run a two-sided step along ``axis`` (1: columns, 2: rows) of C-contiguous ``(B, N, M)``
+    arrays: ``srcs`` and ``dsts``, one per input and output of ``plan`` (outputs overlap nothing),
+    ``cvals`` each input's constant (mode 'constant').  With ``check`` the first (backward) sweep also tests that
     ``srcs[0]`` is finite and within the range limit, and the result is that bool (a blocking
     read); else None.  Raises ValueError or TypeError for arrays, axis or plan that do not fit."""
 
     if not runs_on(be):
         raise ValueError(f"two-sided steps run on OpenCL CPU devices, not on {be!r}")
-    if axis != 1:
-        raise ValueError(f"two-sided steps run lines along axis 1 (columns; rows: recurse_pair), got axis {axis}")
+    if axis not in (1, 2):
+        raise ValueError(f"axis must be 1 (columns) or 2 (rows), got {axis}")
     nin, nout = len(set(plan.inputs)), len(plan.inputs)
     if len(srcs) != nin or len(dsts) != nout:
         raise ValueError(f"the plan takes {nin} input(s) and {nout} output(s), got {len(srcs)} and {len(dsts)}")
@@ -82,31 +91,27 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     b, n, m = first.shape
     if first.size == 0:
         return True if check else None
-    lanes = _CACHE_LINE // dtype.itemsize
-    units = int(be.cl_device.max_compute_units)
-    width = band(plan)
-    vecs = -(-m // lanes)
-    nv = max(1, min(width, (b * vecs) // (2 * units)))     # every core gets two bands at least
-    gsize, lsize = (-(-vecs // nv), b), (1, 1)
-    knl = launch.kernel(be, __package__, "twosided.cl", "two_sided", dtype, LANES=lanes, SECTIONS=plan.sections,
-                        NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), BAND=width, CHECK=int(bool(check)))
     coef, omega = _buffers(be, plan, dtype)
-    k = BLOCK_ROWS
-    carries = be.empty((b, -(-n // k), nin * plan.sections, 2, m), dtype)
-    per_item = nin * plan.sections * 2 * width + k * width * nout     # SCRATCH_VECS of twosided.cl
-    scratch = be.empty((gsize[0] * b, per_item, lanes), dtype)
-    flag = be.asarray(np.zeros(1, np.int32))
-    s0, s1 = srcs[0], srcs[-1]
-    d0, d1 = dsts[0], dsts[-1]
-    item = dtype.itemsize
-    real = dtype.type
-    stream = int(first.nbytes >= _STREAM_BYTES)
+    config = dict(SECTIONS=plan.sections, NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), CHECK=int(bool(check)))
+    flag = be.asarray(np.zeros(2, np.int32))     # the check's flag, the work-items' counter
+    if axis == 2:
+        lanes = 32 // dtype.itemsize      # a 256-bit vector of rows
+        items, per_step = -(-(b * n) // lanes), nout + nin      # scratch: the transposed samples too
+        knl = launch.kernel(be, __package__, "twosided.cl", "two_sided_rows", dtype, ROWS=1, LANES=lanes, **config)
+    else:
+        lanes = _CACHE_LINE // dtype.itemsize
+        items, per_step = b * -(-m // (lanes * BAND)), BAND * nout
+        knl = launch.kernel(be, __package__, "twosided.cl", "two_sided", dtype, LANES=lanes, BAND=BAND, AHEAD=AHEAD,
+                            **config)
+    items = max(1, min(items, ITEMS_PER_CORE * int(be.cl_device.max_compute_units)))
+    scratch = be.empty((items * plan.n * per_step, lanes), dtype)
+    item, real = dtype.itemsize, dtype.type
+    s0, s1, d0, d1 = srcs[0], srcs[-1], dsts[0], dsts[-1]
     args = (s0.base_data, s1.base_data, d0.base_data, d1.base_data, np.int64(s0.offset // item),
             np.int64(s1.offset // item), np.int64(d0.offset // item), np.int64(d1.offset // item), coef.data,
             omega.data, np.int32(plan.omega.shape[-1]), real(cvals[0]), real(cvals[-1] if nin == 2 else 0.0),
-            np.int32(b), np.int32(n), np.int32(m), np.int32(nv), np.int32(k), np.int32(stream), carries.data,
-            scratch.data, flag.data)
-    launch.launch(be, knl, gsize, lsize, list(srcs), list(dsts) + [carries, scratch] + ([flag] if check else []), args)
+            np.int32(b), np.int32(n), np.int32(m), np.int32(s0.nbytes >= _STREAM_BYTES), scratch.data, flag.data)
+    launch.launch(be, knl, (items,), (1,), list(srcs), list(dsts) + [scratch, flag], args)
     if not check:
         return None
     return int(be.to_host(flag)[0]) == 0      # waits for the kernel (the flag holds its event)
