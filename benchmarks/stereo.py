@@ -208,19 +208,23 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4, package=None):
     """Seconds per OpenCL kernel and per host step of one steady ``disparity`` call (the best of
     ``repeat`` after a warm-up): every launch is waited for and timed by its kernel's name (so the
     kernels do not overlap, as they do not in the band matcher's queue), and the host's
-    grey conversion, view preparation (scaling, Green-shifted planes) and read-back are timed around
-    their functions.  ``package``: the gfgpu package to profile (default: this one; ``--compare``
-    passes an older revision's).  Returns ({name: seconds}, whole call seconds)."""
+    grey conversion, view preparation (scaling; Green-shifted planes where the host makes them) and
+    speckle filter are timed around their functions.  ``package``: the gfgpu package to profile
+    (default: this one; ``--compare`` passes an older revision's).  Returns ({name: seconds},
+    whole call seconds)."""
     if package is None:
         import gfgpu as package
     import importlib
     stereo = importlib.import_module(package.__name__ + ".stereo")
     ocl = importlib.import_module(package.__name__ + ".backends.opencl.launch")
     matching = importlib.import_module(package.__name__ + ".stereo.matching")
+    post = importlib.import_module(package.__name__ + ".stereo.postfilter")
     be_name = "opencl"
     acc = {}
     real_launch, real_views, real_grey = ocl.launch, matching.matching_views, matching.grey_image
     real_preset, real_copy = ocl.PresetLaunch.__call__, ocl.copy_bytes
+    real_post = post.apply_postfilter
+    real_scaled = getattr(matching, "_scaled_views", None)     # (older revisions have none)
 
     def add(name, t0):
         acc[name] = acc.get(name, 0.0) + time.perf_counter() - t0
@@ -239,11 +243,11 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4, package=None):
         add("kernel " + self.function_name, t0)
         return evt
 
-    def copy(*a, **k):          # the band matcher's checkpoint copies
+    def copy(*a, **k):          # device copies (the right view into its plane 0)
         t0 = time.perf_counter()
         evt = real_copy(*a, **k)
         evt.wait()
-        add("device copies (checkpoints)", t0)
+        add("device copies", t0)
         return evt
 
     def views(*a):
@@ -258,8 +262,23 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4, package=None):
         add("host: grey_image", t0)
         return out
 
+    def speckles(*a):
+        t0 = time.perf_counter()
+        out = real_post(*a)
+        add("host: speckle filter (apply_postfilter)", t0)
+        return out
+
+    def scaled(*a):
+        t0 = time.perf_counter()
+        out = real_scaled(*a)
+        add("host: scaled views", t0)
+        return out
+
     ocl.launch, matching.matching_views, matching.grey_image = launch, views, grey
     ocl.PresetLaunch.__call__, ocl.copy_bytes = preset, copy
+    post.apply_postfilter = speckles
+    if real_scaled is not None:
+        matching._scaled_views = scaled
     try:
         best, best_total = None, np.inf
         for _ in range(repeat + 1):
@@ -272,6 +291,9 @@ def kernel_profile(scene_images, d_max, repeat, steps=2, paths=4, package=None):
     finally:
         ocl.launch, matching.matching_views, matching.grey_image = real_launch, real_views, real_grey
         ocl.PresetLaunch.__call__, ocl.copy_bytes = real_preset, real_copy
+        post.apply_postfilter = real_post
+        if real_scaled is not None:
+            matching._scaled_views = real_scaled
     return best, best_total
 
 
@@ -483,7 +505,7 @@ def main():
         print("| step | ms | share |\n|---|---|---|")
         for name, sec in sorted(parts.items(), key=lambda kv: -kv[1]):
             print(f"| {name} | {sec * 1e3:.1f} | {sec / total:.0%} |")
-        print(f"| rest (host: checks, census buffers, left-right, read-back) | "
+        print(f"| rest (host: checks, buffers, launches, read-back) | "
               f"{(total - sum(parts.values())) * 1e3:.1f} | {1 - sum(parts.values()) / total:.0%} |")
         print(f"| whole call | {total * 1e3:.1f} | |")
         return

@@ -56,11 +56,25 @@ def _bucket_kernel(be, name, bucket):
     (:func:`gfgpu.stereo.band_plan.sample_bucket`): one program for the interleave, block_cost,
     sgm_band and select_disparity kernels of a bucket, window and sub-pixel step (one build
     instead of four)."""
-    nb, nv_full, block, steps = bucket
-    extra = {"NIBBLES": 1} if _nibbles(be, block) else {}
-    return _build(be, name, N_DISP=int(nb), NV_FULL=int(nv_full), BLOCK=int(block),
-                  COST_SHIFT=specs.cost_shift(int(block)), STEPS=int(steps), COST_BYTES=1, PADDED_PIXELS=1,
-                  **_host_cpu_defines(be), **extra)
+    # looked up once per (backend, kernel, bucket): a call of the band matcher asks 4-5 times per
+    # image and twice per band, and each lookup rebuilt its defines and queried the device (the
+    # key also holds what the defines follow: the nibble switch, the host's flags and the
+    # function that reads them, which tests replace)
+    key = (be, name, tuple(bucket), USE_NIBBLES, _CPU_FLAGS, _host_cpu_defines)
+    knl = _BUCKET_KERNELS.get(key)
+    if knl is None:
+        nb, nv_full, block, steps = bucket
+        extra = {"NIBBLES": 1} if _nibbles(be, block) else {}
+        knl = _BUCKET_KERNELS[key] = _build(be, name, N_DISP=int(nb), NV_FULL=int(nv_full), BLOCK=int(block),
+                                            COST_SHIFT=specs.cost_shift(int(block)), STEPS=int(steps), COST_BYTES=1,
+                                            PADDED_PIXELS=1, **_host_cpu_defines(be), **extra,
+                                            **({"SELECT_LR": 1} if be.supports_float64 else {}))
+    return knl
+
+
+#: (backend, kernel name, bucket, what its defines follow) -> the kernel of :func:`_bucket_kernel`
+_BUCKET_KERNELS = {}
+os.register_at_fork(after_in_child=_BUCKET_KERNELS.clear)      # a forked child has contexts of its own
 
 
 #: whether the CPU band matcher's 3 x 3 block costs run from nibble planes of the right census
@@ -330,10 +344,12 @@ def launch_select(be, aggregated, disp, disp_right, margin, d_min, steps, unique
     return disp, disp_right, margin
 
 
-def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness, bucket=None):
+def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness, bucket=None,
+            lr_tol=0.0):
     """Winners of image rows y0 .. y0 + rows - 1 from agg[:rows] (+ agg2[:rows], whose rows are
     stored right to left as sgm_band's up sums), n samples per pixel (volumes of
-    :func:`_padded` where their last axis is longer; ``bucket`` as for :func:`_band_cost`)."""
+    :func:`_padded` where their last axis is longer; ``bucket`` as for :func:`_band_cost`, whose
+    kernel checks each row left against right where ``lr_tol`` > 0: :func:`_fused_tolerance`)."""
     padded = agg.shape[2] != n
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
@@ -345,14 +361,25 @@ def _select(be, agg, agg2, disp, disp_right, margin, y0, rows, w, n, d_min, step
         knl = _bucket_kernel(be, "select_disparity", bucket)
     ocl.launch(be, knl, (-(-rows // group) * group,), (group,), [agg, second], [disp, disp_right, margin],
                _select_args(agg, second, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness,
-                            agg2 is not None))
+                            agg2 is not None, lr_tol))
 
 
-def _select_args(agg, second, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness, two):
+def _select_args(agg, second, disp, disp_right, margin, y0, rows, w, n, d_min, steps, uniqueness, two, lr_tol=0.0):
     """The arguments of select_disparity (:func:`_select`); the band's (``rows``, ``y0``) at
     indices 5 and 11."""
     return (agg.data, second.data, disp.data, disp_right.data, margin.data, np.int32(rows), np.int32(w),
-            np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(two), np.int32(y0), np.int32(n))
+            np.int32(d_min), np.int32(steps), np.int32(uniqueness), np.int32(two), np.int32(y0), np.int32(n),
+            np.float32(lr_tol))
+
+
+def _fused_tolerance(be, tol):
+    """The tolerance the band matcher's selection checks its rows left against right with
+    (stereo.cl's select_disparity with -D SELECT_LR, built where the device has fp64), or None
+    where it cannot: no ``tol``, no fp64, or a ``tol`` that a float32 argument does not hold
+    exactly (the check then runs as the left_right kernel after the matcher)."""
+    if tol is None or not be.supports_float64 or float(np.float32(tol)) != float(tol) or not tol > 0:
+        return None
+    return float(tol)
 
 
 def _sgm_state(be, w, n, workspace=None):
@@ -409,7 +436,7 @@ def _band_sweeps(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, co
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
-                 p1, p2, paths, uniqueness, budget=None, workspace=None):
+                 p1, p2, paths, uniqueness, budget=None, workspace=None, left_right=None):
     cl_ = ocl.plain(be, census_left, "census_left", np.uint64)
     cr = ocl.plain(be, census_right, "census_right", np.uint64)
     for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
@@ -426,8 +453,11 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         # one int16 sum volume (_opencl_groups.py; disparity() checks the device's memory before
         # allocating)
         from . import _opencl_groups
-        return _opencl_groups.launch_match(be, cl_, cr, disp, disp_right, margin, first_step, n, steps, block,
-                                           p1, p2, paths, uniqueness, workspace)
+        _opencl_groups.launch_match(be, cl_, cr, disp, disp_right, margin, first_step, n, steps, block,
+                                    p1, p2, paths, uniqueness, workspace)
+        if left_right is not None:
+            launch_left_right(be, disp, disp_right, margin, steps, left_right)
+        return disp, disp_right, margin
     # CPUs: bands of k rows through the two sweeps (one per core).  The up sweep's state at
     # each band's top is kept from a first, checkpointing up sweep, and each band's up sums are
     # recomputed from its checkpoint: O(k W D + (H / k) W D) for the sums instead of (H, W, D)
@@ -436,6 +466,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     # (band_plan.match_plan): the first sweep keeps the up state at each coarse band's top only,
     # and each coarse band computes its costs again, sweeps up through them once more to keep the
     # state at its fine bands' tops, then runs its fine bands (O(K W D + (H / K + K / k) W D)).
+    # left_right (a tolerance): the maps come back checked, by the selection of each row where it can
+    lr_fused = _fused_tolerance(be, left_right)
     plan = band_plan.match_plan(h, w, n, paths, block, budget)
     k, keep = plan.rows, plan.keep
     # one call's buffers are made once even without the caller's workspace (the cost kernel's
@@ -470,8 +502,10 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     n_top = -(-h // step) - 1
     n_fine = 0 if keep else per_coarse - 1
     ckpt = _checkpoints(be, w, nb, paths, n_top + n_fine, workspace)
-    ocl.launch(be, _bucket_kernel(be, "sgm_guards", bucket), (ckpt[0].shape[0],), (1,), [], [ckpt[0], ckpt[1]],
-               (ckpt[0].data, ckpt[1].data, np.int32(w), np.int32(ckpt[0].shape[0])))
+    if n_top + n_fine:
+        # (one band, every image up to band_plan.WHOLE_BYTES: its sweeps read and write no slot)
+        ocl.launch(be, _bucket_kernel(be, "sgm_guards", bucket), (ckpt[0].shape[0],), (1,), [], [ckpt[0], ckpt[1]],
+                   (ckpt[0].data, ckpt[1].data, np.int32(w), np.int32(ckpt[0].shape[0])))
 
     def costs(y0, rows):
         ya = 0
@@ -491,7 +525,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         select_launch = ocl.PresetLaunch(be, _bucket_kernel(be, "select_disparity", bucket), [down, up],
                                       [disp, disp_right, margin],
                                       _select_args(down, up, disp, disp_right, margin, 0, 1, w, n,
-                                                   first_step // steps, steps, uniqueness, True))
+                                                   first_step // steps, steps, uniqueness, True, lr_fused or 0.0))
 
     def sweep(y0, rows, row0, init, active, write_up=True, src=-1, dst=-1):
         """Both sweeps (``active`` 3) or the up sweep alone (2) of a band; the up sweep's states
@@ -508,7 +542,7 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
     def select(y0, rows):
         if h <= k:
             _select(be, down, up, disp, disp_right, margin, y0, rows, w, n, first_step // steps, steps,
-                    uniqueness, bucket)
+                    uniqueness, bucket, lr_fused or 0.0)
             return
         select_launch((rows,), (1,), {5: np.int32(rows), 11: np.int32(y0)})
 
@@ -551,6 +585,8 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             sweep(y0, rows, y0 if keep else y0 - c0, init=(1 if y0 == 0 else 0) | (2 if last else 0), active=3,
                   src=slot, dst=slot)
             select(y0, rows)
+    if left_right is not None and lr_fused is None:
+        launch_left_right(be, disp, disp_right, margin, steps, left_right)
     return disp, disp_right, margin
 
 

@@ -49,7 +49,9 @@ select = register("stereo.select", specs.select_disparity_reference, **_launcher
 #: outputs as for ``select``; ``first_step`` a multiple of ``steps``); on CPUs the OpenCL launcher
 #: streams bands of rows instead of holding (H, W, D) volumes, and keeps the byte costs of the whole
 #: image only if that fits ``budget`` bytes (None: no limit); ``workspace=dict`` (keyword, Warp and
-#: OpenCL) keeps the launcher's own buffers in that dict across calls (:class:`StereoMatcher`)
+#: OpenCL) keeps the launcher's own buffers in that dict across calls (:class:`StereoMatcher`);
+#: ``left_right=tol`` (keyword, OpenCL) returns the maps checked as ``left_right`` checks them (the
+#: CPU band matcher in its selection, row by row)
 match = register("stereo.match", specs.semi_global_match_reference, **_launchers("match"))
 
 #: ``left_right(be, disp, disp_right, margin, steps, tol)``: ``disp, margin =

@@ -623,10 +623,15 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
     # (memory O(band x W x D)), on GPUs it holds (H, W, D) volumes
     budget = _budget(be)
     extra = {} if workspace is None else {"workspace": workspace}
+    # OpenCL: the matcher checks the maps left against right itself (the CPU band matcher in its
+    # selection, row by row: one launch and one pass over the maps fewer)
+    fused_check = lr_check and be.name == "opencl"
+    if fused_check:
+        extra["left_right"] = LR_TOLERANCE
     kernels.match(be, cen_l, cen_r, disp, right_steps, margin, d_min * steps, n_disp, steps, block, p1, p2,
                   paths, uniqueness, None if budget is None else budget - _sgm_base((h, w), steps), **extra)
     progress(1)
-    if lr_check:
+    if lr_check and not fused_check:
         # NaN where the views disagree; the confidence times the left-right agreement (1 where
         # both views agree exactly, 1/2 at the tolerance)
         kernels.left_right(be, disp, right_steps, margin, steps, LR_TOLERANCE)

@@ -93,6 +93,43 @@ __kernel void census(__global const float *img, __global ulong *out, const long 
 // Built with -D N_DISP=n (the disparity samples per pixel, the innermost axis of the int16 cost
 // volumes): a pixel's n values are NV short16 vectors, the last one holding TAIL lanes; the
 // loops over the vectors unroll and PoCL (or any OpenCL C compiler) emits SIMD for them.
+// Pixel x of one row of the left-right check (the left_right kernel; the band matcher's
+// selection with -D SELECT_LR, at the end of each row it selects: a row's right winners are all
+// of that row); float64 as the specification, left_right_reference.
+#if defined(LEFT_RIGHT) || defined(SELECT_LR)
+#pragma OPENCL EXTENSION cl_khr_fp64 : enable
+#ifdef __clang__        // the instructions, not calls (PoCL does not inline its builtins)
+#define RINT_D(v) __builtin_rint(v)
+#define FABS_D(v) __builtin_fabs(v)
+#else
+#define RINT_D(v) rint(v)
+#define FABS_D(v) fabs(v)
+#endif
+static inline void left_right_pixel(__global float *drow, __global const int *rrow, __global float *mrow,
+                                    const int x, const int w, const int steps, const double tol)
+{
+    const float d = drow[x];
+    int ok = 0;
+    double diff = 0.0;
+    if (d == d) {                           // not NaN
+        const double xr = RINT_D((double)x - (double)d);
+        if (xr >= 0.0 && xr <= (double)(w - 1)) {
+            const int back = rrow[(int)xr];
+            if (back != NO_MATCH) {
+                diff = FABS_D((double)back / (double)steps - (double)d);
+                ok = diff <= tol;
+            }
+        }
+    }
+    if (ok) {
+        mrow[x] = (float)((double)mrow[x] * (1.0 - diff / (2.0 * tol)));
+    } else {
+        drow[x] = NAN;
+        mrow[x] = 0.0f;
+    }
+}
+#endif
+
 #ifdef N_DISP
 #define NV ((N_DISP + 15) / 16)
 #define TAIL (N_DISP - 16 * (NV - 1))      // lanes of the last vector that are disparities, 1..16
@@ -1119,19 +1156,23 @@ __kernel void sgm_guards(__global short *ckpt, __global short *ckpt_min, const i
 // (the specification's first minimum).
 #if defined(STEPS)
 // The right winner (in steps, NO_MATCH if none) from F's first STEPS lanes: the least cost,
-// ties to the smaller k
+// ties to the smaller k.  As one minimum of the keys cost * 65536 + k (k: 0 .. 32767): the same
+// order, without branches (which lane wins is data-dependent; the compare-and-branch code held
+// ~7 % of the selection's perf samples at tsukuba)
 static inline int right_winner(const short16 ev, const short16 ei, const int t0)
 {
-    int best = ev.s0, k = ei.s0;
+    int key = (int)ev.s0 * 65536 + (int)ei.s0;
 #if STEPS > 1
-    if (ev.s1 < best || (ev.s1 == best && ei.s1 < k)) { best = ev.s1; k = ei.s1; }
+    key = IMIN(key, (int)ev.s1 * 65536 + (int)ei.s1);
 #endif
 #if STEPS > 2
-    if (ev.s2 < best || (ev.s2 == best && ei.s2 < k)) { best = ev.s2; k = ei.s2; }
+    key = IMIN(key, (int)ev.s2 * 65536 + (int)ei.s2);
 #endif
 #if STEPS > 3
-    if (ev.s3 < best || (ev.s3 == best && ei.s3 < k)) { best = ev.s3; k = ei.s3; }
+    key = IMIN(key, (int)ev.s3 * 65536 + (int)ei.s3);
 #endif
+    // (key >> 16 = floor(key / 65536): the cost, a negative one too)
+    const int best = key >> 16, k = key & 0xffff;
     return best < SHRT_MAX ? t0 + k : NO_MATCH;
 }
 
@@ -1231,7 +1272,7 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
 __kernel void select_disparity(__global const short *agg, __global const short *agg2, __global float *disp,
                                __global int *right, __global float *margin, const int h, const int w,
                                const int d_min, const int steps, const int uniqueness, const int two,
-                               const int y_out0, const int n_valid)
+                               const int y_out0, const int n_valid, const float lr_tol)
 {
     const int y = get_global_id(0);
     if (y >= h)
@@ -1286,6 +1327,13 @@ __kernel void select_disparity(__global const short *agg, __global const short *
             }
         rrow[xr] = best < SHRT_MAX ? t0 + kb : NO_MATCH;
     }
+#ifdef SELECT_LR
+    // lr_tol > 0: the left-right check of this row, its maps still in cache (a launch and a pass
+    // over three maps fewer than the left_right kernel after the matcher)
+    if (lr_tol > 0.0f)
+        for (int x = 0; x < w; ++x)
+            left_right_pixel(drow, rrow, mrow, x, w, steps, (double)lr_tol);
+#endif
 }
 #endif  // STEPS
 #endif  // N_DISP
@@ -1418,14 +1466,6 @@ __kernel void shift_planes(__global const float *right, __global float *planes, 
 // falls the same way): NaN where the right view's winner at rint(x - d) is missing or more than
 // tol px from d; the confidence margin times 1 - |d - d_R| / (2 tol), 0 where rejected.
 #ifdef LEFT_RIGHT
-#pragma OPENCL EXTENSION cl_khr_fp64 : enable
-#ifdef __clang__        // the instructions, not calls (PoCL does not inline its builtins)
-#define RINT_D(v) __builtin_rint(v)
-#define FABS_D(v) __builtin_fabs(v)
-#else
-#define RINT_D(v) rint(v)
-#define FABS_D(v) fabs(v)
-#endif
 // Columns x = global id 0 in steps of global size 0: a work-item per row on CPUs, per pixel on
 // GPUs (as census_interleave)
 __kernel void left_right(__global float *disp, __global const int *right, __global float *margin,
@@ -1434,27 +1474,7 @@ __kernel void left_right(__global float *disp, __global const int *right, __glob
     const int y = get_global_id(1);
     if (y >= h)
         return;
-    for (int x = get_global_id(0); x < w; x += get_global_size(0)) {
-        const size_t p = (size_t)y * w + x;
-        const float d = disp[p];
-        int ok = 0;
-        double diff = 0.0;
-        if (d == d) {                           // not NaN
-            const double xr = RINT_D((double)x - (double)d);
-            if (xr >= 0.0 && xr <= (double)(w - 1)) {
-                const int back = right[(size_t)y * w + (int)xr];
-                if (back != NO_MATCH) {
-                    diff = FABS_D((double)back / (double)steps - (double)d);
-                    ok = diff <= tol;
-                }
-            }
-        }
-        if (ok) {
-            margin[p] = (float)((double)margin[p] * (1.0 - diff / (2.0 * tol)));
-        } else {
-            disp[p] = NAN;
-            margin[p] = 0.0f;
-        }
-    }
+    for (int x = get_global_id(0); x < w; x += get_global_size(0))
+        left_right_pixel(disp + (size_t)y * w, right + (size_t)y * w, margin + (size_t)y * w, x, w, steps, tol);
 }
 #endif  // LEFT_RIGHT

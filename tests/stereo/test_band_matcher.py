@@ -154,3 +154,31 @@ def test_stream_in_coarse_bands_equals_disparity(require_backend, monkeypatch, p
         np.testing.assert_array_equal(got, want)
         np.testing.assert_array_equal(got, stereo.disparity(left, right, 13, min_disparity=-1, paths=paths,
                                                             backend="numpy"))
+
+
+@pytest.mark.parametrize("plan", ["one band", "bands", "coarse bands"])
+@pytest.mark.parametrize("tol", [1.0, 0.5, 0.1])
+def test_selection_checks_left_right_as_the_specification(require_backend, monkeypatch, plan, tol):
+    # match(left_right=tol): the selection checks each row left against right as it finishes it
+    # (a tolerance a float32 holds exactly, on a device with fp64), else the left_right kernel
+    # after the matcher (0.1); either way the maps of left_right_reference after the matcher's,
+    # on noisy codes whose two views disagree in places
+    be = _cpu_opencl(require_backend)
+    if plan != "one band":
+        monkeypatch.setattr(band_plan, "WHOLE_BYTES", 0)
+        monkeypatch.setattr(band_plan, "band_rows", lambda h_, paths_, w=1, n=1: min(h_, 3))
+    if plan == "coarse bands":
+        monkeypatch.setattr(band_plan, "KEEP_BYTES", 0)
+    h, w, n, steps, first = 17, 30, 23, 2, -4
+    left, right = _codes(np.random.default_rng(int(10 * tol)), h, w, steps, 3, 0.35)
+    outs = be.empty((h, w), np.float32), be.empty((h, w), np.int32), be.empty((h, w), np.float32)
+    kernels.match(be, be.asarray(left), be.asarray(right), *outs, first, n, steps, 3, 5, 40, 4, 10, None,
+                  left_right=tol)
+    disp, disp_right, margin = specs.semi_global_match_reference(left[0], right, first, n, steps, 3, 5, 40, 4, 10)
+    want_disp, want_margin = specs.left_right_reference(disp, disp_right, margin, steps, tol)
+    assert np.isnan(want_disp).sum() > np.isnan(disp).sum()          # the check rejects something
+    assert np.isfinite(want_disp).any()
+    np.testing.assert_array_equal(be.to_host(outs[0]), want_disp)
+    np.testing.assert_array_equal(be.to_host(outs[1]), disp_right)
+    np.testing.assert_array_equal(be.to_host(outs[2]), want_margin)
+    assert _opencl._fused_tolerance(be, tol) == (tol if tol != 0.1 and be.supports_float64 else None)
