@@ -29,6 +29,7 @@ from ..._core.magnitude import host_in_range
 from ..._core.recursion import PassPlan, packed_block_powers
 from ..base import Backend, BackendUnavailable, check_line_plans, memory_hint
 from . import launch
+from .probe import wide_vector_failure
 
 _PLAN_CACHE_SIZE = 64      # uploaded plans, keyed by id(plan) (plans are cached upstream)
 _INDEX_CACHE_SIZE = 8      # uploaded gather indices, keyed by id(index)
@@ -155,8 +156,10 @@ def build_failure(device):
 
     A device can be listed and still fail every build: a PoCL whose LLVM predates the CPU
     (AMD Zen 5 under the PoCL 3.0 that PyOpenCL's wheels bundle: "unknown target CPU
-    'generic'") -- every gfgpu call would then fail at its first kernel.  Such a device is
-    never chosen by default, and choosing it names the reason.
+    'generic'") -- every gfgpu call would then fail at its first kernel.  Or it builds a
+    trivial kernel and aborts the process on 16-wide vectors (the same PoCL on an AVX-512 AMD
+    EPYC, :mod:`gfgpu.backends.opencl.probe`, run in a child process once per machine for a
+    CPU device).  Such a device is never chosen by default, and choosing it names the reason.
 
     Parameters
     ----------
@@ -169,17 +172,21 @@ def build_failure(device):
     cl = _import_cl()
     key = device.int_ptr
     if key not in _build_failures:
+        detail = None
         try:
             cl.Program(cl.Context([device]), _PROBE).build()
-            _build_failures[key] = None
         except cl.Error as exc:
             log = [line.strip() for line in str(exc).splitlines() if "error" in line.lower()]
             detail = next((line for line in log if line.startswith("error:")), log[-1] if log else str(exc))
-            _build_failures[key] = (
-                f"OpenCL device {device.name.strip()!r} ({device.platform.version.split('  ')[0].strip()}) "
-                f"cannot compile kernels ({detail}): its compiler does not support this machine; install a "
-                f"newer OpenCL runtime for it (for a CPU, your distribution's PoCL, e.g. Debian/Ubuntu "
-                f"'apt-get install pocl-opencl-icd'), or use backend='warp' or 'numpy'")
+        if detail is None and _kind(device) == "cpu":
+            # (a compiler that builds the probe may still abort the process on 16-wide vectors)
+            wide = wide_vector_failure(device)
+            detail = None if wide is None else f"16-wide vectors: {wide}"
+        _build_failures[key] = None if detail is None else (
+            f"OpenCL device {device.name.strip()!r} ({device.platform.version.split('  ')[0].strip()}) "
+            f"cannot compile kernels ({detail}): its compiler does not support this machine; install a "
+            f"newer OpenCL runtime for it (for a CPU, your distribution's PoCL, e.g. Debian/Ubuntu "
+            f"'apt-get install pocl-opencl-icd'), or use backend='warp' or 'numpy'")
     return _build_failures[key]
 
 

@@ -1,0 +1,70 @@
+"""The wide-vector probe of CPU OpenCL devices (gfgpu.backends.opencl.probe): a compiler that
+builds a trivial kernel may still abort the process on 16-wide vectors (PyOpenCL's bundled PoCL
+3.0 on an AVX-512 AMD EPYC: "LLVM ERROR: Do not know how to scalarize this operator's operand!"),
+so the probe runs in a child process and keeps its verdict on disk."""
+
+import subprocess
+
+import pytest
+
+pytest.importorskip("pyopencl")
+from gfgpu.backends.opencl import backend as clb  # noqa: E402
+from gfgpu.backends.opencl import probe  # noqa: E402
+
+
+def _cpu_device():
+    if clb.unavailable_reason() is not None:
+        pytest.skip(f"no usable OpenCL device: {clb.unavailable_reason()}")
+    cpus = [d for _, d, k in clb.opencl_devices() if k == "cpu" and clb.build_failure(d) is None]
+    if not cpus:
+        pytest.skip("no usable OpenCL CPU device")
+    return cpus[0]
+
+
+def test_a_working_device_passes_and_its_verdict_is_kept(tmp_path, monkeypatch):
+    dev = _cpu_device()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert probe.wide_vector_failure(dev) is None
+    kept = list((tmp_path / "gfgpu" / "opencl-probe").iterdir())
+    assert len(kept) == 1 and kept[0].read_text() == ""
+
+    def no_child(*args, **kwargs):
+        raise AssertionError("probed again although the verdict is kept")
+
+    monkeypatch.setattr(subprocess, "run", no_child)
+    assert probe.wide_vector_failure(dev) is None
+
+
+def test_a_failing_kernel_is_reported_kept_and_refuses_the_device(tmp_path, monkeypatch):
+    dev = _cpu_device()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    # a kernel the compiler rejects stands for one that aborts the child
+    monkeypatch.setattr(probe, "_KERNEL", probe._KERNEL.replace("vstore16(", "no_such_builtin(", 1))
+    reason = probe.wide_vector_failure(dev)
+    assert reason and "rror" in reason
+    (kept,) = (tmp_path / "gfgpu" / "opencl-probe").iterdir()
+    assert kept.read_text() == reason
+    monkeypatch.delitem(clb._build_failures, dev.int_ptr, raising=False)
+    message = clb.build_failure(dev)
+    assert "16-wide vectors" in message and reason in message and "pocl-opencl-icd" in message
+    monkeypatch.delitem(clb._build_failures, dev.int_ptr)
+
+
+def test_a_child_that_does_not_finish_refuses_the_device_without_a_verdict(tmp_path, monkeypatch):
+    dev = _cpu_device()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+
+    def hangs(cmd, **kwargs):
+        raise subprocess.TimeoutExpired(cmd, kwargs["timeout"])
+
+    monkeypatch.setattr(subprocess, "run", hangs)
+    assert "did not finish within 60 s" in probe.wide_vector_failure(dev)
+    assert not (tmp_path / "gfgpu" / "opencl-probe").exists() or not any(
+        (tmp_path / "gfgpu" / "opencl-probe").iterdir())
+
+
+def test_the_verdict_depends_on_the_cpu_and_the_runtime(monkeypatch):
+    dev = _cpu_device()
+    before = probe._verdict_path(dev)
+    monkeypatch.setattr(probe, "_cpu_flags", lambda: "flags : fpu sse2")
+    assert probe._verdict_path(dev) != before
