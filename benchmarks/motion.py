@@ -514,11 +514,13 @@ def oblique_accuracy(bench):
                 stack = refs.centroid_planes(v, psf, bench.opts.phases)
                 for b in bench.opts.backends:
                     out, err2 = (None, err) if ref is None else guarded(
-                        lambda b=b: motion_blur(img.astype(np.float32), v, psf=psf, mode="wrap", backend=b))
+                        lambda b=b, img=img, v=v, psf=psf: motion_blur(img.astype(np.float32), v, psf=psf, mode="wrap",
+                                                                   backend=b))
                     value = None if out is None else refs.rel_l2(out, ref, MARGIN)
                     accuracy_row(bench, section, str(v), f"psf='{psf}', {b}: vs continuous direction (Fourier), "
                                  f"{img.shape[0]}x{img.shape[1]} torus", value, OBLIQUE_TRANSFER, error=err2)
-                    out, err3 = guarded(lambda b=b: motion_blur(stack[0], v, psf=psf, mode="constant", backend=b))
+                    out, err3 = guarded(lambda b=b, stack=stack, v=v, psf=psf: motion_blur(stack[0], v, psf=psf,
+                                                                                    mode="constant", backend=b))
                     value = None if out is None else refs.centroid_error(out, stack[1], stack[2])
                     accuracy_row(bench, section, str(v), f"psf='{psf}', {b}: impulse centroid, {len(stack[0])} phases",
                                  value, CENTROID_PX, unit="px", error=err3)
@@ -532,7 +534,8 @@ def rendered_oblique(bench, v, side):
         cells = refs.time_cells(psf, length, bench.opts.min_copies)
         ref = refs.render(img, refs.translate(v), cells, "wrap")
         for b in bench.opts.backends:
-            out, err = guarded(lambda b=b: motion_blur(img.astype(np.float32), v, psf=psf, mode="wrap", backend=b))
+            out, err = guarded(lambda b=b, psf=psf: motion_blur(img.astype(np.float32), v, psf=psf, mode="wrap",
+                                                                backend=b))
             value = None if out is None else refs.rel_l2(out, ref, MARGIN)
             accuracy_row(bench, "accuracy, oblique", str(v), f"psf='{psf}', {b}: vs rendering ({len(cells[0])} copies)",
                          value, RENDER, target=f"<= {RENDER * 100:g} % (issue 15)", error=err)
@@ -548,7 +551,8 @@ def field_accuracy(bench):
         ref = refs.render(img, lambda yy, xx, t: (yy - t * field[0], xx - t * field[1]), cells, "wrap")
         outs = {}
         for b in bench.opts.backends:
-            out, err = guarded(lambda b=b: motion_blur(img.astype(np.float32), field, psf=psf, mode="wrap", backend=b))
+            out, err = guarded(lambda b=b, psf=psf: motion_blur(img.astype(np.float32), field, psf=psf, mode="wrap",
+                                                                 backend=b))
             outs[b] = out
             value = None if out is None else refs.rel_l2(out, ref, MARGIN)
             accuracy_row(bench, section, f"{n}x{n}, |v| <= {FIELD_MAX:g}",
@@ -593,8 +597,8 @@ def polar_accuracy(bench):
         label = f"spin {SPIN_DEGREES:g} deg" if kind == "rotation" else f"zoom {ZOOM_U1:g}"
         ref = refs.render(img, pre, cells, "reflect")
         for b in bench.opts.backends:
-            out, err = guarded(lambda b=b: motion_blur(img.astype(np.float32), value, kind=kind, psf=psf,
-                                                       mode="reflect", backend=b))
+            out, err = guarded(lambda b=b, value=value, kind=kind, psf=psf: motion_blur(
+                img.astype(np.float32), value, kind=kind, psf=psf, mode="reflect", backend=b))
             rel = None if out is None else refs.rel_l2(out, ref, MARGIN)
             accuracy_row(bench, section, f"{label}, {n}x{n}",
                          f"psf='{psf}', {b}: vs rendering ({len(cells[0])} copies)", rel, RENDER,

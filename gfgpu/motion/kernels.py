@@ -52,9 +52,10 @@ _POLAR = f"{__package__}.polar_kernels"
 #: *out.shape[1:], mode, cval)`` (``out`` (B, n_r, n_phi): radius ``r0 + i`` on axis 1, angle on axis 2)
 to_polar = register("motion.to_polar", specs.to_polar_reference, **_launchers("to_polar", _POLAR))
 
-#: ``from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None)``: ``out = from_polar_reference(pcoef,
-#: base, cy, cx, r0, r_lo, r_hi, wcoef)`` (``base``, ``out`` (B, H, W); ``out`` may be ``base``, which each
-#: pixel reads before it is written; ``wcoef`` a host array (n_r,) or None)
+#: ``from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None, only_band=False)``: ``out =
+#: from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef, out if only_band else None)`` (``base``, ``out``
+#: (B, H, W); ``out`` may be ``base``, which each pixel reads before it is written; ``wcoef`` a host array (n_r,)
+#: or None; ``only_band``: the pixels beyond the radii ``[r_lo, r_hi)`` are not written)
 from_polar = register("motion.from_polar", specs.from_polar_reference, **_launchers("from_polar", _POLAR))
 
 #: ``add_rows(be, src, dst, scale)``: ``dst = add_rows_reference(src, dst, scale)`` (``src``, ``dst`` (B, N, M),

@@ -195,16 +195,27 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
             work.append(be.empty((most,), dtype))
         return be.reshape(work[k][:math.prod(part_shape)], part_shape)
 
-    fits = math.prod(planes) <= most
+    size = math.prod(planes)
+    fits = size <= most
     tmp = carve(0, planes) if fits else None
-    # one band (the zooms): the image's coefficients are read only by its to_polar, so they take the
-    # workspace's second array, which the blur's scratch reuses after it (one image-sized block fewer
-    # to allocate: on a new shape each new page costs about 1 ms per MB on the shared 2-core VM)
-    out = carve(1, planes) if fits and len(bands) == 1 else None
+    # the image's coefficients are read only by the bands' to_polar, so they take the workspace's second
+    # array, which the blur's scratch reuses after them (one image-sized block fewer to allocate: on a new
+    # shape each new page costs 0.1-4 ms per MB on the shared 2-core VM): one band (the zooms) from its
+    # start; split bands at its end, the outermost band (the largest, whose scratch needs the whole array)
+    # run last and the inner ones' scratch before the coefficients
+    inner = max((planes[0] * n_r * n_phi for _, n_r, n_phi, _, _ in bands[1:]), default=0)
+    tail = (most - size) // 64 * 64         # on a 256-byte boundary, as the arrays' starts
+    if fits and len(bands) == 1:
+        out = carve(1, planes)
+    elif fits and inner <= tail:
+        out = be.reshape(work[1][tail:tail + size], planes)
+        bands = bands[1:] + bands[:1]
+    else:
+        out = None
     coef = spline_coefficients(be, data, dtype, planes, (mode, mode), cval, tmp=tmp, out=out)
     del tmp, out
     result = job.result_buffer()
-    out, base = be.reshape(result, planes), data
+    out = be.reshape(result, planes)
     keep = min(abs(rate) / _KEEP_LENGTH, _KEEP_SLOPE)
     for r0, n_r, n_phi, r_lo, r_hi in bands:
         pshape = (planes[0], n_r, n_phi)        # radius on axis 1, angle on axis 2 (contiguous)
@@ -220,9 +231,9 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
         spare = scratch if change is not scratch else polar
         pcoef = spline_coefficients(be, change, dtype, pshape, ("mirror", "wrap"), tmp=spare, out=change)
         del polar, scratch, spare
-        # the outermost band writes every pixel; the inner ones add theirs in place
-        from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef)
-        base = out
+        # each band writes its own pixels, the radii [r_lo, r_hi): together they cover [0, inf) once (each
+        # pixel reads only its own image value, so out may be the image itself)
+        from_polar(be, pcoef, data, out, cy, cx, r0, r_lo, r_hi, wcoef, only_band=True)
     return job.finish(result)
 
 

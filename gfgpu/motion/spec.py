@@ -49,7 +49,7 @@ __all__ = ["MODE_CODES", "PSF_CODES", "GREEN_TAIL", "NARROW", "SPLINE_POLE", "NE
            "RULE_END", "GREEN_NODE_PX", "GREEN_GRADE", "GREEN_RULE_INTERVALS", "rule_support", "green_spacing",
            "green_index", "green_index_inverse", "rule_limits", "EUCLIDEAN_RULES", "rule_length", "rule_count",
            "gauss_rule", "rule_table", "field_rule_reference", "to_polar_reference",
-           "from_polar_reference", "add_rows_reference"]
+           "band_pixels", "from_polar_reference", "add_rows_reference"]
 
 #: point-spread functions in ``t`` (fraction of the velocity): box (uniform exposure) and the
 #: chapter's G_u; ``+ 2`` for the centred (displace=False) variants
@@ -530,10 +530,19 @@ def to_polar_reference(coef, cy, cx, r0, n_r, n_phi, mode, cval):
     return out.astype(np.asarray(coef).dtype)
 
 
-def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef=None):
+def band_pixels(shape, cy, cx, r_lo, r_hi):
+    """The pixels of an image of ``shape`` (H, W) whose distance from ``(cy, cx)`` lies in ``[r_lo, r_hi)``: what
+    :func:`from_polar_reference` changes."""
+    yy, xx = np.mgrid[:shape[0], :shape[1]].astype(np.float64)
+    r = np.hypot(yy - cy, xx - cx)
+    return (r >= r_lo) & (r < r_hi)
+
+
+def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef=None, outside=None):
     """``base`` (B, H, W), where the pixel's radius ``r`` lies in ``[r_lo, r_hi)`` weighted by the
     radial cubic spline of ``wcoef`` (n_r,) (1 if None) and plus the polar spline ``pcoef``
-    (B, n_r, n_phi) of a band whose first ring has radius ``r0``.
+    (B, n_r, n_phi) of a band whose first ring has radius ``r0``; elsewhere ``outside`` (B, H, W)
+    if given (what the output held: the launchers' ``only_band``), else ``base``.
 
     Pixel ``(y, x)`` reads ``r = hypot(y - cy, x - cx)``, ``phi = atan2(cy - y, x - cx)``, i.e. ring
     ``r - r0``; the radius mirrors at both ends of the band (the callers keep ``[r_lo, r_hi)`` far
@@ -551,8 +560,10 @@ def from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef=None):
     yy, xx = np.mgrid[:height, :width].astype(np.float64)
     r = np.hypot(yy - cy, xx - cx)
     phi = np.mod(np.arctan2(cy - yy, xx - cx), 2.0 * np.pi) * (n_phi / (2.0 * np.pi))
-    inside = (r >= r_lo) & (r < r_hi)
+    inside = band_pixels((height, width), cy, cx, r_lo, r_hi)
     out = np.array(base, np.float64)
+    if outside is not None:
+        out[:, ~inside] = np.asarray(outside, np.float64)[:, ~inside]
     weight = 1.0
     if wcoef is not None:
         wcoef = np.asarray(wcoef, np.float64).reshape(-1)

@@ -68,6 +68,49 @@ def test_from_polar_on_every_launch_shape(backend, rng, width):
                 _close(be, same, ref, dtype)
 
 
+@pytest.mark.parametrize("width", [40, 45, 7])
+def test_from_polar_only_band_leaves_every_other_pixel_alone(backend, rng, width):
+    """``only_band``: the band's pixels from ``base`` (not the output), every other pixel of the output
+    untouched, including those that share a vector of 8 with the band's (the spin's bands each write their
+    own radii into one output, in any order)."""
+    for be in _backends(backend):
+        for dtype in _dtypes(be):
+            pcoef = rng.standard_normal((2, 32, 96)).astype(dtype)
+            base = rng.standard_normal((2, 33, width)).astype(dtype)
+            held = rng.standard_normal((2, 33, width)).astype(dtype)
+            cy, cx = 16.37, width / 2.0 - 0.29
+            for r0, r_lo, r_hi, keep in ((0, 0.0, 6.5, None), (3, 5.5, 13.0, rng.uniform(0.2, 1.0, 32)),
+                                         (2, 9.0, math.inf, rng.uniform(0.2, 1.0, 32))):
+                ref = kernels.from_polar.spec(pcoef, base, cy, cx, r0, r_lo, r_hi, keep, held)
+                out = be.asarray(held.copy())
+                kernels.from_polar(be, be.asarray(pcoef), be.asarray(base), out, cy, cx, r0, r_lo, r_hi, keep,
+                                   only_band=True)
+                _close(be, out, ref, dtype)
+                yy, xx = np.mgrid[:33, :width]
+                beyond = ~((np.hypot(yy - cy, xx - cx) >= r_lo) & (np.hypot(yy - cy, xx - cx) < r_hi))
+                assert np.array_equal(be.to_host(out).reshape(held.shape)[:, beyond], held[:, beyond])
+
+
+@pytest.mark.parametrize("shape, center", [((300, 300), None), ((211, 333), (20.5, 300.2))])
+@pytest.mark.parametrize("psf", ["green", "box"])
+def test_spin_bands_write_every_pixel_once(backend, shape, center, psf):
+    """The bands of a spin each write their own radii into the output (:func:`gfgpu.motion.polar._run_polar`):
+    together every pixel, whatever the output held (NaN here), and the same values as into a fresh result
+    or into the image itself."""
+    import gfgpu
+    img = np.random.default_rng(4).random(shape).astype(np.float32)
+    kw = {} if center is None else {"center": center}
+    cy, cx = ((shape[0] - 1) / 2, (shape[1] - 1) / 2) if center is None else center
+    assert len(polar.polar_bands(*shape, cy, cx, split=True)) > 1
+    ref = gfgpu.motion_blur(img, 10.0, kind="rotation", psf=psf, backend=backend.name, **kw)
+    held = np.full(shape, np.nan, np.float32)
+    got = gfgpu.motion_blur(img, 10.0, kind="rotation", psf=psf, backend=backend.name, output=held, **kw)
+    assert np.isfinite(got).all() and np.array_equal(got, ref)
+    same = img.copy()
+    got = gfgpu.motion_blur(same, 10.0, kind="rotation", psf=psf, backend=backend.name, output=same, **kw)
+    assert np.array_equal(got, ref)
+
+
 @pytest.mark.parametrize("m", [64, 200, 9])
 def test_add_rows_on_every_launch_shape(backend, rng, m):
     for be in _backends(backend):

@@ -215,6 +215,19 @@ def plain(be, a, name, dtype=None, output=False):
     return a.copy()
 
 
+def starting(be, a, name):
+    """``a`` as an array that starts its own buffer: a C-contiguous offset view becomes a sub-buffer of
+    the same memory where the device's base-address alignment allows (no copy: :func:`plain` would copy
+    a 16 MB view per call), else :func:`plain`'s copy (pooled buffers have no sub-buffers)."""
+    if (a.offset and a.flags.c_contiguous and hasattr(a.base_data, "get_sub_region")
+            and a.offset % max(1, be.cl_device.mem_base_addr_align // 8) == 0):
+        import pyopencl.array as cl_array
+        sub = a.base_data.get_sub_region(a.offset, a.nbytes)
+        sub.gfgpu_memory = a.base_data      # the parent buffer (and its host memory) lives as long
+        return cl_array.Array(be.queue, a.shape, a.dtype, data=sub)
+    return plain(be, a, name)
+
+
 def written(be, a, name):
     """``(buffer, offset in elements)`` of an output array: C-contiguous, any whole-element offset
     (a caller's ``output=`` may be wrapped from an aligned address below it).

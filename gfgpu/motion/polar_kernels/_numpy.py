@@ -11,8 +11,13 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     return out
 
 
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
-    out[...] = specs.from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef)
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None, only_band=False):
+    ref = specs.from_polar_reference(pcoef, base, cy, cx, r0, r_lo, r_hi, wcoef)
+    if only_band:       # the band's pixels only (what out holds elsewhere is not read)
+        inside = specs.band_pixels(out.shape[1:], cy, cx, r_lo, r_hi)
+        out[:, inside] = ref[:, inside]
+    else:
+        out[...] = ref
     return out
 
 

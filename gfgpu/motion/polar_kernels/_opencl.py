@@ -3,6 +3,7 @@ specifications: :mod:`gfgpu.motion.spec`."""
 
 from __future__ import annotations
 
+import threading
 from collections import OrderedDict
 
 import numpy as np
@@ -17,6 +18,10 @@ _LOCAL = None
 #: work-group size, and its own choice follows the global size, so with the driver's choice each new
 #: image shape rebuilt the kernels (0.2-1 s each: a first spin on a new 2048^2 shape took 3.5-6 s)
 _CPU_GROUP = (8, 1)
+
+#: whether from_polar computes each pixel's angle in the kernel on a CPU (float positions), instead of
+#: reading an angle map of the image's shape (:func:`launch_from_polar`)
+_INLINE_ANGLE = True
 
 #: angles per work-item of the scalar to_polar on a CPU
 _CHUNK = 16
@@ -40,20 +45,40 @@ _PAD = 32
 #: about a centre (:func:`_kept`); few, since each is a few tens of MB at most
 _KEPT = OrderedDict()
 _KEPT_MAX = 6
+_KEPT_LOCK = threading.Lock()
 
 
-def _kept(be, key, make):
+#: small device arrays (a ring's cosines and sines, ring weights, per-ring scales: tens of kB at most) kept
+#: by their content: every call on one shape uploads the same ones, and each upload is a blocking copy that
+#: waits for every queued kernel (the host could not prepare the next launches meanwhile)
+_SMALL = OrderedDict()
+_SMALL_MAX = 64
+
+
+def _kept(be, key, make, cache=None, most=None):
     """The device array ``make()`` for ``key`` on ``be``'s context, made once (a bounded LRU): the
     plans of the polar grid every call about one centre on one shape shares."""
+    cache = _KEPT if cache is None else cache
+    most = _KEPT_MAX if most is None else most
     key = (be.context, *key)
-    hit = _KEPT.get(key)
-    if hit is None:
-        hit = _KEPT[key] = make()
-        if len(_KEPT) > _KEPT_MAX:
-            _KEPT.popitem(last=False)
-    else:
-        _KEPT.move_to_end(key)
+    with _KEPT_LOCK:            # calls from several threads share the caches
+        hit = cache.get(key)
+        if hit is not None:
+            cache.move_to_end(key)
+            return hit
+    hit = make()
+    with _KEPT_LOCK:
+        cache[key] = hit
+        while len(cache) > most:
+            cache.popitem(last=False)
     return hit
+
+
+def _uploaded(be, host):
+    """``host`` (a small array) on the device, uploaded once per content (:data:`_SMALL`)."""
+    host = np.ascontiguousarray(host)
+    key = ("small", host.dtype.str, host.shape, host.tobytes())
+    return _kept(be, key, lambda: be.asarray(host), _SMALL, _SMALL_MAX)
 
 
 def _constants():
@@ -103,7 +128,7 @@ def _global(size):
 
 
 def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
-    coef = ocl.plain(be, coef, "coef")
+    coef = ocl.starting(be, coef, "coef")
     obuf, ooff = ocl.written(be, out, "out")
     dtype, pos = _setup(be, coef)
     grid = _grid(dtype, pos)
@@ -112,7 +137,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     def make_trig():
         phi = 2.0 * np.pi * np.arange(n_phi) / n_phi
         return be.asarray(np.stack([np.cos(phi), np.sin(phi)], axis=1).astype(grid).reshape(-1))
-    trig = _kept(be, ("trig", n_phi, np.dtype(grid).str), make_trig)
+    trig = _kept(be, ("trig", n_phi, np.dtype(grid).str), make_trig, _SMALL, _SMALL_MAX)
     fast = {}
     if mode in ("constant", "nearest"):
         # the extension materialised _PAD coefficients beyond every border, then read clamped
@@ -144,7 +169,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     return out
 
 
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None, only_band=False):
     pcoef = ocl.plain(be, pcoef, "pcoef")
     obuf, ooff = ocl.written(be, out, "out")
     bbuf, boff = ocl.written(be, base, "base")      # base may be out
@@ -155,7 +180,9 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
     x0, y0, x1, y1 = 0, 0, w, h
     reach = min(float(r_hi), 4.0 * (h + w))     # beyond every pixel: the centre lies within 2 diagonals
     in_place = bbuf == obuf and boff == ooff
-    if in_place:        # only the pixels within r_hi of the centre change
+    # pixels beyond the band's radii keep out's values (in place: base's): none but the band's are written
+    only_band = bool(only_band) or in_place
+    if only_band:        # only the pixels within r_hi of the centre change
         x0, y0 = max(0, int(np.floor(cx - reach))), max(0, int(np.floor(cy - reach)))
         x1, y1 = min(w, int(np.ceil(cx + reach)) + 1), min(h, int(np.ceil(cy + reach)) + 1)
         if x1 <= x0 or y1 <= y0:
@@ -168,30 +195,39 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
         # the ring weights' coefficients with their mirror extension (rings -1 .. n_r + 1)
         wcoef = np.asarray(wcoef, np.float64).reshape(-1)
         weights = wcoef[boundary.extend_index(np.arange(-1, n_r + 2), n_r, "mirror")].astype(dtype)
-    weights = be.asarray(np.ascontiguousarray(weights))
+    weights = _uploaded(be, weights)
 
     def make_angles():
         angles = be.empty((h, w), grid)
         ocl.launch(be, _kernel(be, "angle_map", dtype, pos, grid), *_range(be, (w, h)), [], [angles],
                    (angles.data, np.int32(h), np.int32(w), grid(cy), grid(cx)))
         return angles
-    angles = _kept(be, ("angles", h, w, float(cy), float(cx), np.dtype(grid).str), make_angles)
+    vector = bool(fast) and _vector(be)
+    # a CPU with float positions computes each pixel's angle in the kernel, in vectors (angle_of_v: the
+    # map's values to the bit): a map of the image's size is new memory and a pass on every new shape or
+    # centre (16 MB and 11-90 ms at 2048^2, a third of a first spin's extra time), read back at every call
+    inline = vector and grid == np.float32 and _INLINE_ANGLE
+    if inline:
+        angles = _kept(be, ("no angles",), lambda: be.empty((16,), grid))     # an unused argument
+    else:
+        angles = _kept(be, ("angles", h, w, float(cy), float(cx), np.dtype(grid).str), make_angles)
     common = (np.int32(h), np.int32(w), np.int32(n_r), np.int32(n_phi), np.int32(bsz), grid(cy), grid(cx),
               np.int32(r0), grid(r_lo), grid(reach))
-    if fast and _vector(be):
+    if vector:
         # a CPU: _VW adjacent pixels of a row in explicit vectors (a box's last columns one by one), _RB rows
         # in turn (whose polar taps lie about a pixel apart: cached); pixels beyond the band keep base (in
         # place: rewritten unchanged)
-        ocl.launch(be, _kernel(be, "from_polar_vec", dtype, pos, grid, RB=_RB, **fast),
+        ocl.launch(be, _kernel(be, "from_polar_vec", dtype, pos, grid, RB=_RB, INLINE_ANGLE=int(inline), **fast),
                    *_range(be, (-(-(x1 - x0) // _VW), -(-(y1 - y0) // _RB))), [pcoef, base, weights, angles], [out],
                    (pcoef.data, bbuf, obuf, ooff, *common, np.int32(x0), np.int32(y0), np.int32(x1 - x0),
-                    np.int32(y1 - y0), boff, weights.data, np.int32(wcoef is not None), angles.data, np.int32(w)))
+                    np.int32(y1 - y0), boff, weights.data, np.int32(wcoef is not None), angles.data, np.int32(w),
+                    np.int32(not only_band)))
         return out
     ocl.launch(be, _kernel(be, "from_polar", dtype, pos, grid, **fast), *_range(be, (x1 - x0, y1 - y0)),
                [pcoef, base, weights, angles], [out],
                (pcoef.data, bbuf, obuf, ooff, *common,
                 np.int32(x0), np.int32(y0), np.int32(x1 - x0), np.int32(y1 - y0), boff, weights.data,
-                np.int32(wcoef is not None), np.int32(not in_place), angles.data))
+                np.int32(wcoef is not None), np.int32(not only_band), angles.data))
     return out
 
 
@@ -200,7 +236,7 @@ def launch_add_rows(be, src, dst, scale):
     dbuf, doff = ocl.written(be, dst, "dst")
     dtype, pos = _setup(be, dst)
     bsz, n, m = (int(s) for s in dst.shape)
-    weights = be.asarray(np.ascontiguousarray(scale, dtype))
+    weights = _uploaded(be, np.asarray(scale, dtype))
     if _vector(be):        # 64 elements of a row per work-item, in explicit vectors
         ocl.launch(be, _kernel(be, "add_rows_vec", dtype, pos), *_range(be, (-(-m // 64), bsz * n)), [src, weights],
                    [dst],

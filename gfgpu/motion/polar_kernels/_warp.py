@@ -41,10 +41,11 @@ def to_polar(coef: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int
 @wp.kernel
 def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.array(dtype=Any), h: int, w: int,
                n_r: int, n_phi: int, cy: wp.float64, cx: wp.float64, r0: int, r_lo: wp.float64, r_hi: wp.float64,
-               wcoef: wp.array(dtype=Any), weighted: int):
+               wcoef: wp.array(dtype=Any), weighted: int, only_band: int):
     """One thread per pixel (from_polar_reference): ``base``, at the radii ``[r_lo, r_hi)`` weighted
     by the radial spline of ``wcoef`` (if ``weighted``) plus the polar spline of a band from ring
-    ``r0``, whose radius mirrors and angle wraps (``out`` may be ``base``)."""
+    ``r0``, whose radius mirrors and angle wraps (``out`` may be ``base``); beyond those radii ``base``,
+    or nothing written (``only_band``)."""
     t = wp.tid()
     plane = t / (h * w)
     pix = t - plane * h * w
@@ -58,6 +59,8 @@ def from_polar(pcoef: wp.array(dtype=Any), base: wp.array(dtype=Any), out: wp.ar
         phi = phi + _TWO_PI
     jf = phi * wp.float64(n_phi) / _TWO_PI
     value = base[t]
+    if only_band != 0 and not (r >= r_lo and r < r_hi):
+        return
     if r >= r_lo and r < r_hi:
         ring = r - wp.float64(r0)
         change = spline_at(pcoef, plane * n_r * n_phi, n_r, n_phi, ring, jf, MIRROR, WRAP, pcoef.dtype(0.0))
@@ -103,7 +106,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     return out
 
 
-def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
+def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None, only_band=False):
     bsz, n_r, n_phi = (int(s) for s in pcoef.shape)
     h, w = int(out.shape[1]), int(out.shape[2])
     real = np.float64 if be.dtype_of(pcoef) == np.float64 else np.float32
@@ -111,7 +114,7 @@ def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None):
     wpl.launch(be, from_polar, dim=bsz * h * w,
                inputs=[_flat(be, pcoef), _flat(be, base), _flat(be, out), h, w, n_r, n_phi, wp.float64(cy),
                        wp.float64(cx), int(r0), wp.float64(r_lo), wp.float64(min(float(r_hi), 1e300)),
-                       weights, int(wcoef is not None)])
+                       weights, int(wcoef is not None), int(bool(only_band))])
     return out
 
 def launch_add_rows(be, src, dst, scale):

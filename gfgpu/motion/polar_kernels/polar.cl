@@ -15,6 +15,13 @@
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #endif
 
+#ifndef INLINE_ANGLE
+#define INLINE_ANGLE 0      // 1: from_polar computes each pixel's angle (float positions), no angle map
+#endif
+#if INLINE_ANGLE && !GRID_IS_FLOAT
+#error "INLINE_ANGLE takes float positions (the polynomial arctangent of angle_of)"
+#endif
+
 #ifndef CHUNK
 #define CHUNK 1      // angles per work-item in to_polar
 #endif
@@ -161,10 +168,11 @@ __kernel void angle_map(__global GRID *angles, const int h, const int w, const G
 // One work-item per pixel of the box (x0, y0) + (bw, bh): where the pixel's radius r lies in [r_lo, r_hi),
 // base weighted by the ring weights' radial spline plus the polar spline of a band of rings from r0, at
 // the pixel's ring (rows, mirrored at the band's ends) and angle (columns, wrapped); elsewhere base
-// itself (copy = 1) or nothing (copy = 0: out is base, bands of rings that split the radii each write
-// their own pixels).  Only the band's pixels pay for the angle and the 16 taps (the launcher limits the
-// box to the band's radii), and each pixel's angle is read from angles (angle_map: an arctangent costs about
-// as much as the 16 taps, and every band of every call about one centre reads the same).  wcoef holds the weights' coefficients with their mirror extension, one
+// itself (copy = 1) or nothing (copy = 0: out keeps its values, bands of rings that split the radii each
+// write their own pixels).  Only the band's pixels pay for the angle and the 16 taps (the launcher limits
+// the box to the band's radii); each pixel's angle is computed (INLINE_ANGLE: the CPU's vector kernel, float
+// positions) or read from angles (angle_map: every band of every call about one centre reads the same).
+// wcoef holds the weights' coefficients with their mirror extension, one
 // before ring 0 and two beyond ring n_r - 1 (the launcher pads them: no index arithmetic here).
 // from_polar's work at pixel (x, y) (its angle in angles[y * w + x])
 INLINE void from_polar_pixel(__global const REAL *pcoef, __global const REAL *base, __global REAL *out,
@@ -184,7 +192,11 @@ INLINE void from_polar_pixel(__global const REAL *pcoef, __global const REAL *ba
             }
         return;
     }
+#if INLINE_ANGLE
+    GRID jf = angle_of(dy, dx) * ((GRID)n_phi / (GRID)6.283185307179586);   // computed here (no angle map)
+#else
     GRID jf = angles[(long)y * w + x] * ((GRID)n_phi / (GRID)6.283185307179586);   // read (angle_map)
+#endif
     jf = jf >= (GRID)n_phi ? jf - (GRID)n_phi : jf;     // rounding at 2 pi
     const GRID ring = r - (GRID)r0;
     REAL weight = (REAL)1;
@@ -284,6 +296,28 @@ INLINE void bweights4_v(const REALV t, REALV *w0, REALV *w1, REALV *w2, REALV *w
     *w3 = t3 * sixth;
 }
 
+#if INLINE_ANGLE
+// angle_of on lanes (float positions): the same operations in the same order, as selects, so every lane
+// is the scalar's angle to the bit (fabs, fmax and fmin of non-NaN values are exact whichever way they
+// are written; the quotients of lanes with hi = 0 are discarded)
+INLINE GRIDV angle_of_v(const GRID dy1, const GRIDV dx)
+{
+    const GRIDV dy = (GRIDV)dy1;
+    const GRIDV ax = as_float8(as_int8(dx) & 0x7fffffff), ay = as_float8(as_int8(dy) & 0x7fffffff);
+    const GRIDV hi = select(ay, ax, ax > ay), lo = select(ax, ay, ax > ay);
+    GRIDV t = select((GRIDV)0.0f, lo / hi, hi > 0.0f);
+    const MASKV big = t > 0.41421356237309503f;
+    t = select(t, (t - 1.0f) / (t + 1.0f), big);
+    const GRIDV z = t * t;
+    GRIDV a = ((((8.05374449538e-2f * z - 1.38776856032e-1f) * z + 1.99777106478e-1f) * z - 3.33329491539e-1f) * z)
+              * t + t;
+    a = select(a, a + 0.78539816339744831f, big);
+    a = select(a, 1.5707963267948966f - a, ay > ax);
+    a = select(a, 3.1415926535897932f - a, dx < 0.0f);
+    return select(a, 6.2831853071795865f - a, dy < 0.0f);
+}
+#endif
+
 // the lanes' values at the lanes' indices (PoCL makes the loads; a gather on AVX-512)
 #define GATHER8(p, i) ((REALV)((p)[(i).s0], (p)[(i).s1], (p)[(i).s2], (p)[(i).s3], (p)[(i).s4], (p)[(i).s5], \
                                (p)[(i).s6], (p)[(i).s7]))
@@ -370,13 +404,14 @@ __kernel void to_polar_vec(__global const REAL *coef, __global REAL *out, const 
 // from_polar with VW adjacent pixels of a row per work-item, RB rows after rows (the polar taps of the
 // next row lie about a pixel from this row's: in the L1 cache); the last columns of a box that VW does
 // not divide pixel by pixel, in the same build (no second kernel to build on a new shape).  angles has
-// rows of `astride` (>= w) values.
+// rows of `astride` (>= w) values.  copy: pixels beyond the band's radii take base (0: they keep out's values,
+// and groups of VW pixels all beyond them are not touched).
 __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *base, __global REAL *out,
                              const long out_off, const int h, const int w, const int n_r, const int n_phi,
                              const int planes, const GRID cy, const GRID cx, const int r0, const GRID r_lo,
                              const GRID r_hi, const int x0, const int y0, const int bw, const int bh,
                              const long base_off, __global const REAL *wcoef, const int weighted,
-                             __global const GRID *angles, const int astride)
+                             __global const GRID *angles, const int astride, const int copy)
 {
     const int gx = get_global_id(0) * VW, gy0 = get_global_id(1) * RB;
     if (gx >= bw || gy0 >= bh)
@@ -386,7 +421,7 @@ __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *ba
         for (int y = y0 + gy0; y < y0 + IMIN(gy0 + RB, bh); ++y)
             for (int xl = x; xl < x0 + bw; ++xl)
                 from_polar_pixel(pcoef, base, out, out_off, h, w, n_r, n_phi, planes, cy, cx, r0, r_lo, r_hi, xl, y,
-                                 base_off, wcoef, weighted, 1, angles);
+                                 base_off, wcoef, weighted, copy, angles);
         return;
     }
     const GRIDV dx = TO_GRIDV((INTV)(0, 1, 2, 3, 4, 5, 6, 7) + x) - cx;
@@ -396,13 +431,19 @@ __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *ba
         const GRIDV r = SQRT8(dx * dx + dy * dy);
         const MASKV inside = r >= r_lo && r < r_hi;
         if (!any(inside)) {
+            if (!copy)      // in place: the pixels keep their values (no load and store of each)
+                continue;
             for (int b = 0; b < planes; ++b) {
                 const long pix = ((long)b * h + y) * w + x;
                 vstore8(vload8(0, base + base_off + pix), 0, out + out_off + pix);    // a no-op in place
             }
             continue;
         }
+#if INLINE_ANGLE
+        GRIDV jf = angle_of_v(dy, dx) * scale;
+#else
         GRIDV jf = vload8(0, angles + (long)y * astride + x) * scale;
+#endif
         jf = select(jf, jf - (GRID)n_phi, jf >= (GRID)n_phi);
         // pixels beyond the band's radii read a clamped ring (in range) and keep base
         GRIDV ring = r - (GRID)r0;
@@ -421,8 +462,9 @@ __kernel void from_polar_vec(__global const REAL *pcoef, __global const REAL *ba
             const long pix = ((long)b * h + y) * w + x;
             const REALV value = vload8(0, base + base_off + pix);
             const REALV change = spline2_near_v(pcoef + (long)b * n_r * n_phi, n_r, n_phi, ring, jf);
-            vstore8(select(value, weight * value + change, inside), 0,
-                    out + out_off + pix);
+            // lanes beyond the band: base, or (copy = 0) what out holds (base itself in place)
+            const REALV keep = copy ? value : vload8(0, out + out_off + pix);
+            vstore8(select(keep, weight * value + change, inside), 0, out + out_off + pix);
         }
     }
 }
