@@ -26,7 +26,7 @@ memory-bound) for, on a SIZE x SIZE float32 image:
 and the cold compile time of each backend (a fresh process with empty kernel caches).
 
 Usage:  python benchmarks/filters.py [--size 4096] [--repeat 5] [--backends numpy,warp,opencl]
-                                    [--no-cold] [--no-accuracy]
+                                    [--no-cold] [--no-accuracy] [--no-first] [--first-only]
 
 A backend may name its device as ``GFGPU_BACKEND`` does: ``--backends warp:cuda:0,opencl:1``.
 """
@@ -228,7 +228,18 @@ def main(argv=None):
     ap.add_argument("--no-cold", action="store_true", help="skip the cold-compile measurement")
     ap.add_argument("--no-accuracy", action="store_true", help="skip the shift accuracy table")
     ap.add_argument("--no-first", action="store_true", help="skip the first-call-at-a-new-shape table")
+    ap.add_argument("--first-only", action="store_true",
+                    help="print only the first-call-at-a-new-shape table (run it in a fresh process)")
     args = ap.parse_args(argv)
+    if args.first_only:
+        for spec in filter(None, args.backends.split(",")):
+            name, _, device = spec.partition(":")
+            if name == "numpy":
+                continue
+            be = get_backend(name, device or None)
+            print(f"\n{be.name} ({be.device}), load {os.getloadavg()[0]:.1f}\n")
+            print("\n".join(first_calls(be, max(2, args.repeat // 2))))
+        return
 
     n = args.size
     mpix = n * n / 1e6

@@ -41,11 +41,14 @@ more than its pixels, so more than :data:`LAYOUT_PER_PIXEL` samples per pixel (b
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
 
+from . import lines as _lines
 from .lines import direction, shear_geometry, shear_maps, shear_offsets
 from .recursion import TOL, line_plans, plan_pass
 from .translation import crop_index, decay_length, step_offset, translate_index, without_offset
@@ -114,26 +117,93 @@ def column_delays(steps, gamma, dtype_str="<f8"):
 
     ``stages``: list of ``(lam, kap, tap)`` arrays over the columns, one per cascaded section;
     ``margin``: lines after which the cascade's response has decayed below the plan tolerance
-    of ``dtype_str`` (the sum of the stages' decay lengths).
+    of ``dtype_str`` (the sum of the stages' decay lengths).  Read-only views of the direction's
+    per-column table (:func:`_direction_columns`): column ``t`` depends on ``gamma`` and ``t``
+    alone, so an image of another size reuses the columns already designed.
     """
-    _, d = shear_offsets(steps, gamma)
-    moving = d != 0
+    table = _direction_columns(int(steps), gamma, dtype_str)
+    moving = table.moving[:steps]
+    d = table.delay[:steps]
+    if not moving.any():
+        return [], d, 0
     stages = []
     margin = 0
+    for (lam, kap, tap), decay in zip(table.stages, table.decay):
+        margin += max(int(np.max(decay[:steps][moving])), 0) + 1
+        stages.append((lam[:steps], kap[:steps], tap[:steps]))
+    return stages, d, margin
+
+
+class _Columns:
+    """The per-column design of a direction for its first ``steps`` columns (:func:`_direction_columns`)."""
+
+    def __init__(self, steps, delay, moving, stages, decay):
+        self.steps, self.delay, self.moving, self.stages, self.decay = steps, delay, moving, stages, decay
+
+
+_DIRECTIONS = 16            # directions whose column tables are kept (least recently used dropped)
+_directions = OrderedDict()  # (gamma, dtype, design) -> _Columns
+_directions_lock = threading.Lock()
+
+
+def _direction_columns(steps, gamma, dtype_str):
+    """The column delays of direction ``gamma`` for at least ``steps`` columns: delay ``d``,
+    ``moving = d != 0``, per stage ``(lam, kap, tap)`` and the decay length of each column's
+    section (``ceil(log(tol / max(|kap|, 1)) / log |lam|)``, where it moves).
+
+    Every value of column ``t`` is computed from ``gamma * t`` alone, by element-wise operations
+    and one 3 x 3 eigenvalue problem per column, so the table of the longest image seen serves
+    every shorter one and a longer one designs only its extra columns; tables are made a quarter
+    longer than asked, so an image that grows a little designs none.  At most
+    :data:`_DIRECTIONS` directions are kept, each about 1.25 times as long as the longest image
+    seen along it (about 100 bytes per column).
+    """
+    # the design in use is part of the key (a design study may swap the filter or the delay range)
+    key = (float(gamma), dtype_str, allpass_delay, _lines.DELAY_MIN)
+    with _directions_lock:
+        hit = _directions.get(key)
+        if hit is not None:
+            _directions.move_to_end(key)
+    if hit is not None and hit.steps >= steps:
+        return hit
+    have = 0 if hit is None else hit.steps
+    # a quarter more columns than asked (whole 64s): an image that grows a little later designs none
+    steps = -(-(steps + steps // 4) // 64) * 64
+    _, d = shear_offsets(steps, gamma)
+    moving = d != 0
+    new = moving[have:]
     tol = TOL[np.dtype(dtype_str)]
-    for lam_m, kap_m, tap_m in allpass_delay(d[moving]) if moving.any() else []:
+    designed = allpass_delay(d[have:][new]) if new.any() else []
+    count = len(hit.stages) if hit is not None and hit.stages else len(designed)
+    stages, decay = [], []
+    for i in range(count):
+        # columns that do not move: the identity (lam = kap = 0, tap = 1), no decay
         lam = np.zeros(steps, np.complex128)
         kap = np.zeros(steps, np.complex128)
         tap = np.ones(steps)
-        lam[moving], kap[moving], tap[moving] = lam_m, kap_m, tap_m
-        mag = np.maximum(np.abs(lam_m), 1e-300)
-        scale = np.maximum(np.abs(kap_m), 1.0)
-        margin += max(int(np.max(np.ceil(np.log(tol / scale) / np.log(mag)))), 0) + 1
-        for arr in (lam, kap, tap):
+        dec = np.full(steps, -np.inf)
+        if hit is not None and hit.stages:
+            for arr, old in zip((lam, kap, tap, dec), (*hit.stages[i], hit.decay[i])):
+                arr[:have] = old
+        if designed:
+            lam_m, kap_m, tap_m = designed[i]
+            part = slice(have, steps)
+            lam[part][new], kap[part][new], tap[part][new] = lam_m, kap_m, tap_m
+            mag = np.maximum(np.abs(lam_m), 1e-300)
+            scale = np.maximum(np.abs(kap_m), 1.0)
+            dec[part][new] = np.ceil(np.log(tol / scale) / np.log(mag))
+        for arr in (lam, kap, tap, dec):
             arr.setflags(write=False)
         stages.append((lam, kap, tap))
+        decay.append(dec)
     d.setflags(write=False)
-    return stages, d, margin
+    moving.setflags(write=False)
+    table = _Columns(steps, d, moving, stages, decay)
+    with _directions_lock:
+        _directions[key] = table
+        if len(_directions) > _DIRECTIONS:
+            _directions.popitem(last=False)
+    return table
 
 
 @lru_cache(maxsize=16)

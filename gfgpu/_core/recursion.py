@@ -28,6 +28,9 @@ for float64 and 1e-10 for float32, i.e. far below each type's rounding).
 from __future__ import annotations
 
 import math
+import struct
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -37,7 +40,7 @@ from .boundary import MODES, check_mode, extend_index
 from .boundary import period as mode_period
 from .passes import LinePass
 
-__all__ = ["MODES", "TOL", "check_mode", "PassPlan", "plan_pass", "run_reference", "block_powers",
+__all__ = ["MODES", "TOL", "check_mode", "PassPlan", "plan_pass", "invariant_window", "run_reference", "block_powers",
            "packed_block_powers", "run_reference_blocks",
            "LinePlans", "plan_lines", "line_plans", "run_reference_lines"]
 
@@ -65,7 +68,10 @@ class PassPlan:
     def packed(self, dtype):
         """Real arrays for device kernels: (S, n, 2) lam and kap, (S, L, 2) omega, (S, 2) omega_c."""
         def split(z):
-            return np.ascontiguousarray(np.stack([z.real, z.imag], axis=-1).astype(dtype))
+            out = np.empty(z.shape + (2,), dtype)
+            out[..., 0] = z.real        # (the cast of astype: round to nearest)
+            out[..., 1] = z.imag
+            return out
         return split(self.lam), split(self.kap), split(self.omega), split(self.omega_c)
 
 
@@ -76,9 +82,7 @@ def _initial_weights(section, n, mode, tol):
     series), so cost and accuracy do not depend on how slowly the section decays.
     """
     if section.shift_invariant:
-        omega, omega_c = _line_initial_weights(np.array([complex(section.lam)]), np.array([complex(section.kap)]),
-                                               n, mode, tol)
-        return omega[0], complex(omega_c[0])
+        return _invariant_weights(complex(section.lam), complex(section.kap), n, mode, tol)[:2]
     # shift-variant: Kc(0, x0) = (Π_{x0<x<0} lam[x]) kap[x0], over the domain x0 > x_min
     lo = section.x_min
     count = _MAX_EXTENSION if not math.isfinite(lo) else int(math.ceil(-lo)) - 1
@@ -99,10 +103,184 @@ def _initial_weights(section, n, mode, tol):
     return omega, 0j
 
 
+@lru_cache(maxsize=256)
+def _reach(lam, tol):
+    """``cut + 1`` of :func:`_line_initial_weights` for one pole: the initial window of a line
+    longer than it holds every term above ``tol`` (computed by the same operations)."""
+    mag = np.abs(np.array([lam]))
+    safe = np.where((mag > 0) & (mag < 1), mag, 0.5)
+    cut = np.where(mag > 0, np.ceil(np.log(tol) / np.log(safe)) + 1, 1)
+    return float(cut[0] + 1)
+
+
+_CACHE_SIZE = 1024          # sections' weights and passes' assembled windows kept (least recently used dropped)
+_weights = OrderedDict()    # what a section's weights depend on -> (row, omega_c, tail)
+_windows = OrderedDict()    # the weights' keys of a pass's sections -> its (omega, omega_c)
+_cache_lock = threading.Lock()
+
+
+def _cached(table, key, make):
+    """``table[key]``, made by ``make()`` on a miss; at most :data:`_CACHE_SIZE` entries."""
+    with _cache_lock:
+        hit = table.get(key)
+        if hit is not None:
+            table.move_to_end(key)
+            return hit
+    hit = make()
+    with _cache_lock:
+        table[key] = hit
+        if len(table) > _CACHE_SIZE:
+            table.popitem(last=False)
+    return hit
+
+
+def _bits(*values):
+    """The bytes of complex ``values``: a cache key that tells -0.0 from 0.0 (which compare equal)."""
+    return struct.pack(f"<{2 * len(values)}d", *(x for z in values for x in (z.real, z.imag)))
+
+
+def _pole(lam, kap):
+    """One section's coefficients as the one-line arrays of :func:`_line_initial_weights`, their
+    bytes (a key) and the logarithm :func:`_powers` takes of ``lam``."""
+    return _pole_cached(_bits(lam, kap))
+
+
+@lru_cache(maxsize=256)
+def _pole_cached(key):
+    lam_r, lam_i, kap_r, kap_i = struct.unpack("<4d", key)
+    lam_a, kap_a = np.array([complex(lam_r, lam_i)]), np.array([complex(kap_r, kap_i)])
+    log = np.log(lam_a) if lam_a[0] != 0 else None
+    for a in (lam_a, kap_a) + ((log,) if log is not None else ()):
+        a.setflags(write=False)
+    return lam_a, kap_a, key, log
+
+
+def _pole_power(lam_a, log, k):
+    """``_powers(lam_a, [k])[:, 0]`` by the same operations, with the pole's logarithm taken once."""
+    if log is None:
+        return _powers(lam_a, [k])[:, 0]
+    return np.exp(log[:, None] * np.asarray([k], np.float64)[None, :])[:, 0]
+
+
+def _invariant_weights(lam, kap, n, mode, tol):
+    """``(row, omega_c, key)``: omega and omega_c of one shift-invariant section on lines of
+    ``n``, what :func:`_line_initial_weights` gives for that one line, cached by ``key``, what
+    they depend on (None: computed in full, uncached).
+
+    A line longer than the section's reach depends on ``n`` only through the period's power
+    ``lam^period`` (in ``amp = kap / (1 - lam^period)``), for ``wrap`` through where the window
+    sits (the line's last samples) and for ``mirror`` through its first weight
+    (``amp lam^(period - 1)``, set here); ``constant`` and ``nearest`` not at all.  Those
+    scalars are computed here by the same operations, and a new line length whose ``amp`` is
+    bit-equal to a seen one's reuses its row (so a plan at a new image size costs a few scalar
+    operations per section, not the geometric series).  Short lines (``n`` within the reach)
+    are computed in full.
+    """
+    lam_a, kap_a, pole, log = _pole(lam, kap)
+    if mode in ("constant", "nearest") or n == 1:
+        key = (mode, n == 1, pole, tol)
+    else:
+        if n <= _reach(lam, tol):
+            omega, omega_c = _line_initial_weights(lam_a, kap_a, n, mode, tol)
+            return omega[0], complex(omega_c[0]), None
+        period = mode_period(n, mode)
+        amp = kap_a / (1 - _pole_power(lam_a, log, period))
+        key = (mode, pole, tol, amp.tobytes())
+
+    def make():
+        omega, omega_c = _line_initial_weights(lam_a, kap_a, n, mode, tol)
+        row = omega[0]
+        # wrap: the window is the line's last samples (zeros before them), kept as that tail
+        tail = mode == "wrap" and n > 1
+        if tail:
+            row = row[n - int(_reach(lam, tol)):].copy()
+        row.setflags(write=False)
+        return row, complex(omega_c[0]), tail
+
+    row, omega_c, tail = _cached(_weights, key, make)
+    if tail:
+        full = np.zeros(n, row.dtype)
+        full[n - len(row):] = row
+        return full, omega_c, key
+    if mode == "mirror" and n > 1:
+        # the first sample's weight is the one term of the far end (m = 2n - 2): lam^(period - 1),
+        # the one value of a long line's window that depends on n beyond amp
+        corner = amp * _pole_power(lam_a, log, period - 1)
+        row = row.copy()
+        row[0] = corner[0]
+        row.setflags(write=False)
+        return row, omega_c, key + (corner.tobytes(),)
+    return row, omega_c, key
+
+
+def _window(omegas, omega_cs, tol):
+    """The initial states of a pass from its sections' (omega, omega_c): omega ``(S, L)``, cut after
+    the last sample whose weight exceeds ``tol`` relative to the largest, and omega_c ``(S,)``."""
+    length = max(len(o) for o in omegas)
+    omega = np.zeros((len(omegas), length), np.complex128)
+    for s, o in enumerate(omegas):
+        omega[s, :len(o)] = o
+    if length:
+        big = np.abs(omega).max(axis=0)
+        keep = np.nonzero(big > tol * max(big.max(), 1e-300))[0]
+        omega = omega[:, : (keep[-1] + 1 if keep.size else 0)]
+    omega_c = np.array(omega_cs, np.complex128)
+    for arr in (omega, omega_c):
+        arr.setflags(write=False)
+    return omega, omega_c
+
+
+def _invariant_window(sections, n, mode, tol):
+    """omega and omega_c of a pass of shift-invariant ``sections`` on lines of ``n``: its window
+    from the sections' cached weights, itself cached by their keys where no section needs the
+    line's length (not ``wrap``, no line within a section's reach)."""
+    weights = [_invariant_weights(complex(sec.lam), complex(sec.kap), n, mode, tol) for sec in sections]
+    keys = tuple(w[2] for w in weights)
+    omegas, omega_cs = [w[0] for w in weights], [w[1] for w in weights]
+    if mode != "wrap" and None not in keys:
+        return _cached(_windows, (keys, tol), lambda: _window(omegas, omega_cs, tol))
+    return _window(omegas, omega_cs, tol)
+
+
+def invariant_window(sections, n, mode, dtype):
+    """``(omega, omega_c)`` of :func:`plan_pass` for a pass of the shift-invariant ``sections``
+    (any sense: the window does not depend on it) on lines of ``n``, without the plan's
+    per-sample coefficients; read-only, shared between calls."""
+    check_mode(mode)
+    return _invariant_window(sections, int(n), mode, TOL[np.dtype(dtype)])
+
+
+def _columns(sections):
+    """``(S, 1)`` lam and kap of shift-invariant sections (read-only)."""
+    return _columns_cached(_bits(*(z for sec in sections for z in (complex(sec.lam), complex(sec.kap)))))
+
+
+@lru_cache(maxsize=256)
+def _columns_cached(key):
+    values = np.frombuffer(key, np.complex128).reshape(-1, 2)
+    lam, kap = np.array(values[:, :1]), np.array(values[:, 1:])
+    for arr in (lam, kap):
+        arr.setflags(write=False)
+    return lam, kap
+
+
+def _invariant_plan(lp, n, mode, tol):
+    """The :class:`PassPlan` of a shift-invariant pass (traversal coordinates): lam and kap
+    ``(S, n)`` are read-only views of one column repeated along the line (no memory per line
+    length)."""
+    omega, omega_c = _invariant_window(lp.sections, n, mode, tol)
+    lam, kap = _columns(lp.sections)
+    S = len(lp.sections)
+    return PassPlan(np.broadcast_to(lam, (S, n)), np.broadcast_to(kap, (S, n)), omega, omega_c, float(lp.tap),
+                    bool(lp.reverse), True)
+
+
 @lru_cache(maxsize=512)
 def _plan_cached(line_pass, n, mode, dtype_str):
     tol = TOL[np.dtype(dtype_str)]
     lp = line_pass.mirrored(n)
+    if lp.sections and lp.shift_invariant:
+        return _invariant_plan(lp, n, mode, tol)
     positions = np.arange(n, dtype=np.float64)
     lams, kaps, omegas, omega_cs = [], [], [], []
     for sec in lp.sections:
@@ -112,17 +290,10 @@ def _plan_cached(line_pass, n, mode, dtype_str):
         om, oc = _initial_weights(sec, n, mode, tol)
         omegas.append(om)
         omega_cs.append(oc)
-    length = max(len(o) for o in omegas)
-    omega = np.zeros((len(omegas), length), np.complex128)
-    for s, o in enumerate(omegas):
-        omega[s, :len(o)] = o
-    if length:
-        big = np.abs(omega).max(axis=0)
-        keep = np.nonzero(big > tol * max(big.max(), 1e-300))[0]
-        omega = omega[:, : (keep[-1] + 1 if keep.size else 0)]
-    plan = PassPlan(np.array(lams), np.array(kaps), omega, np.array(omega_cs, np.complex128),
-                    float(lp.tap), bool(lp.reverse), lp.shift_invariant)
-    for arr in (plan.lam, plan.kap, plan.omega, plan.omega_c):
+    omega, omega_c = _window(omegas, omega_cs, tol)
+    plan = PassPlan(np.array(lams), np.array(kaps), omega, omega_c, float(lp.tap), bool(lp.reverse),
+                    lp.shift_invariant)
+    for arr in (plan.lam, plan.kap):
         arr.setflags(write=False)
     return plan
 

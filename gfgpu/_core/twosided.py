@@ -24,13 +24,16 @@ executable specification; it equals the sum of the passes by
 
 from __future__ import annotations
 
+import struct
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from .passes import LinePass, Section
-from .recursion import check_mode, plan_pass
+from .recursion import check_mode, invariant_window
 
 __all__ = ["TwoSidedPlan", "plan_two_sided", "run_two_sided_reference", "MAX_SECTIONS"]
 
@@ -108,6 +111,30 @@ def plan_two_sided(outputs, n, mode, dtype):
 
 @lru_cache(maxsize=128)
 def _plan_cached(key, n, mode, dtype_str):
+    head = _weights(key)
+    if head is None:
+        return None
+    poles, lam, causal, anticausal, tap = head
+    nin, S = lam.shape
+    # the unit sections' initial weights, in traversal order of each direction (a shift-invariant
+    # pass's window does not depend on its sense: both directions hold the same one)
+    windows = [[invariant_window((Section(lam=lam[i, s], kap=1.0 + 0j),), n, mode, dtype_str)
+                if s < len(poles[i]) else None for s in range(S)] for i in range(nin)]
+    omega, omega_c = _states(windows)
+    return TwoSidedPlan(lam, causal, anticausal, tap, tuple(i for i, _ in key), omega, omega_c, n)
+
+
+def _weights(key):
+    """The part of a step's plan that does not depend on the lines: ``(poles, lam, causal,
+    anticausal, tap)``, or None where no plan expresses the step (read-only arrays); cached by the
+    values' bits too (passes compare equal across -0.0 and 0.0)."""
+    values = [complex(x) for _, passes in key for lp in passes
+              for x in (lp.tap, *(z for sec in lp.sections for z in (sec.lam, sec.kap)))]
+    return _weights_cached(key, struct.pack(f"<{2 * len(values)}d", *(v for z in values for v in (z.real, z.imag))))
+
+
+@lru_cache(maxsize=64)
+def _weights_cached(key, bits):
     nin = max(i for i, _ in key) + 1
     if nin > 2 or sorted({i for i, _ in key}) != list(range(nin)):
         return None
@@ -136,26 +163,43 @@ def _plan_cached(key, n, mode, dtype_str):
             weights = anticausal if lp.reverse else causal
             for sec in lp.sections:
                 weights[o, poles[i].index(complex(sec.lam))] += complex(sec.kap)
-    # the unit sections' initial weights, in traversal order of each direction
-    omegas = np.empty((nin, 2, S), object)
-    omega_c = np.zeros((nin, 2, S), np.complex128)
-    for i in range(nin):
-        for d in range(2):
-            for s in range(S):
-                if s >= len(poles[i]):
-                    omegas[i, d, s] = np.zeros(0, np.complex128)
-                    continue
-                plan = plan_pass(LinePass((Section(lam=lam[i, s], kap=1.0 + 0j),), 0.0, bool(d)), n, mode, dtype_str)
-                omegas[i, d, s] = plan.omega[0]
-                omega_c[i, d, s] = plan.omega_c[0]
-    L = max(len(w) for w in omegas.flat)
-    omega = np.zeros((nin, 2, S, L), np.complex128)
-    for idx, w in np.ndenumerate(omegas):
-        omega[idx][:len(w)] = w
-    plan = TwoSidedPlan(lam, causal, anticausal, tap, tuple(i for i, _ in key), omega, omega_c, n)
-    for arr in (plan.lam, plan.causal, plan.anticausal, plan.tap, plan.omega, plan.omega_c):
+    for arr in (lam, causal, anticausal, tap):
         arr.setflags(write=False)
-    return plan
+    return poles, lam, causal, anticausal, tap
+
+
+_STATES_CACHE_SIZE = 64
+_states_cache = OrderedDict()    # ids of the unit windows -> (windows, omega, omega_c)
+_states_lock = threading.Lock()
+
+
+def _states(windows):
+    """``omega (NIN, 2, S, L)`` and ``omega_c (NIN, 2, S)`` from the unit sections' windows
+    (None: no such section), cached by the windows' identities (the windows of a line length
+    beyond their reach are shared, :func:`~gfgpu._core.recursion.invariant_window`; the entry
+    keeps them, so their ids stay theirs)."""
+    key = tuple(None if w is None else (id(w[0]), id(w[1])) for row in windows for w in row)
+    with _states_lock:
+        hit = _states_cache.get(key)
+        if hit is not None:
+            _states_cache.move_to_end(key)
+            return hit[1], hit[2]
+    nin, S = len(windows), len(windows[0])
+    L = max(0 if w is None else w[0].shape[1] for row in windows for w in row)
+    omega = np.zeros((nin, 2, S, L), np.complex128)
+    omega_c = np.zeros((nin, 2, S), np.complex128)
+    for i, row in enumerate(windows):
+        for s, w in enumerate(row):
+            if w is not None:
+                omega[i, :, s, :w[0].shape[1]] = w[0][0]
+                omega_c[i, :, s] = w[1][0]
+    for arr in (omega, omega_c):
+        arr.setflags(write=False)
+    with _states_lock:
+        _states_cache[key] = (windows, omega, omega_c)
+        if len(_states_cache) > _STATES_CACHE_SIZE:
+            _states_cache.popitem(last=False)
+    return omega, omega_c
 
 
 def run_two_sided_reference(inputs, plan, cvals=(0.0, 0.0)):

@@ -8,8 +8,8 @@ import subprocess
 import pytest
 
 pytest.importorskip("pyopencl")
-from gfgpu.backends.opencl import backend as clb  # noqa: E402
-from gfgpu.backends.opencl import probe  # noqa: E402
+from gfgpu.backends.opencl import backend as clb
+from gfgpu.backends.opencl import probe
 
 
 def _cpu_device():
@@ -63,8 +63,11 @@ def test_a_child_that_does_not_finish_refuses_the_device_without_a_verdict(tmp_p
         (tmp_path / "gfgpu" / "opencl-probe").iterdir())
 
 
-def test_the_verdict_depends_on_the_cpu_and_the_runtime(monkeypatch):
+def test_the_verdict_depends_on_the_python_and_the_probe(monkeypatch):
     dev = _cpu_device()
     before = probe._verdict_path(dev)
-    monkeypatch.setattr(probe, "_cpu_flags", lambda: "flags : fpu sse2")
+    monkeypatch.setattr(probe.sys, "executable", "/elsewhere/python")
+    assert probe._verdict_path(dev) != before
+    monkeypatch.undo()
+    monkeypatch.setattr(probe, "_KERNEL", probe._KERNEL + " ")
     assert probe._verdict_path(dev) != before

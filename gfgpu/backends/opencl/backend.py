@@ -154,12 +154,10 @@ _build_failures = {}       # device pointer -> None (it compiles) or the reason 
 def build_failure(device):
     """Why ``device`` cannot compile OpenCL C, or None if it can (probed once per process).
 
-    A device can be listed and still fail every build: a PoCL whose LLVM predates the CPU
-    (AMD Zen 5 under the PoCL 3.0 that PyOpenCL's wheels bundle: "unknown target CPU
-    'generic'") -- every gfgpu call would then fail at its first kernel.  Or it builds a
-    trivial kernel and aborts the process on 16-wide vectors (the same PoCL on an AVX-512 AMD
-    EPYC, :mod:`gfgpu.backends.opencl.probe`, run in a child process once per machine for a
-    CPU device).  Such a device is never chosen by default, and choosing it names the reason.
+    A device can be listed and fail every build (PyOpenCL's bundled PoCL 3.0 on AMD Zen 5:
+    "unknown target CPU 'generic'"), or build this probe and abort the process on 16-wide
+    vectors (:mod:`~gfgpu.backends.opencl.probe`, for CPU devices).  Such a device is never
+    chosen by default, and choosing it names the reason.
 
     Parameters
     ----------
@@ -529,7 +527,12 @@ class OpenCLBackend(Backend):
     def asarray(self, host):
         host = np.ascontiguousarray(host)
         self._check_dtype(host.dtype)
-        return self._array.to_device(self.queue, host)
+        if host.nbytes == 0:
+            return self._array.to_device(self.queue, host)
+        # copied as the buffer is made: to_device's blocking write waits for the whole queue
+        mf = self._cl.mem_flags
+        buf = self._cl.Buffer(self.context, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=host)
+        return self._array.Array(self.queue, host.shape, host.dtype, data=buf)
 
     def to_host(self, array):
         host = getattr(array, "gfgpu_host", None)
