@@ -436,7 +436,7 @@ def _band_sweeps(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, co
 
 
 def launch_match(be, census_left, census_right, disp, disp_right, margin, first_step, n_disp, steps, block,
-                 p1, p2, paths, uniqueness, budget=None, workspace=None, left_right=None):
+                 p1, p2, paths, uniqueness, budget=None, workspace=None, left_right=None, speckles=None):
     cl_ = ocl.plain(be, census_left, "census_left", np.uint64)
     cr = ocl.plain(be, census_right, "census_right", np.uint64)
     for a, name, dt in ((disp, "disp", np.float32), (disp_right, "disp_right", np.int32),
@@ -448,6 +448,9 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         raise ValueError(f"p1 and p2 must be 0..{_PENALTY_MAX} (int16 path costs), got p1={p1}, p2={p2}")
     if not 1 <= steps <= 4:
         raise ValueError(f"steps must be 1..4 (select_disparity's build options), got {steps}")
+    if speckles is not None and be.kind != "cpu":
+        # (a union-find on two work-items: a GPU would run it on two of its threads)
+        raise ValueError(f"speckles runs on CPU devices only, got a {be.kind} device")
     if be.kind != "cpu":
         # GPUs: a work-group per line with the samples across its work-items, a uint8 cost and
         # one int16 sum volume (_opencl_groups.py; disparity() checks the device's memory before
@@ -587,6 +590,9 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             select(y0, rows)
     if left_right is not None and lr_fused is None:
         launch_left_right(be, disp, disp_right, margin, steps, left_right)
+    if speckles is not None:
+        # the right view's winners (not read again) are the union-find's scratch
+        launch_speckles(be, disp, margin, disp_right, *speckles)
     return disp, disp_right, margin
 
 
@@ -622,3 +628,62 @@ def launch_sweep(be, state, left_shifted, right_shifted, gain_left, gain_right, 
                  (state.data, ls.data, rs.data, gl.data, gr.data, np.int32(h), np.int32(w),
                   np.int32(offset), np.float32(d), np.int32(radius)))
     return state
+
+
+def launch_speckles(be, disp, margin, parent, max_size, max_diff):
+    """The speckle filter of ``disp`` in place on a CPU device: bit for bit the map of
+    :func:`gfgpu.stereo.postfilter.filter_speckles` and the confidence of
+    :func:`~gfgpu.stereo.postfilter.apply_postfilter` (``margin`` 0 wherever the map is not finite).
+
+    stereo.cl's union-find: two work-items label the two halves of the rows, one joins them at
+    row ``h // 2``, a work-item per row marks the small regions.
+
+    Parameters
+    ----------
+    disp : (H, W) float32 device array
+        Disparities (px), NaN where invalid; filtered in place.
+    margin : (H, W) float32 device array
+        The confidence; set to 0 in place wherever the filtered map is not finite.
+    parent : (H, W) int32 device array
+        Scratch (overwritten: the union-find's trees).
+    max_size : int
+        Largest region (pixels) that is removed, >= 0 (0: only the confidence is set).
+    max_diff : float
+        Largest step (px) between 4-neighbours of one region, finite and >= 0 (compared in float64).
+
+    Returns
+    -------
+    (disp, margin)
+
+    Raises
+    ------
+    ValueError
+        Shapes differ, ``max_size`` < 0, ``max_diff`` negative or not finite, or H W >= 2**31 - 1.
+    TypeError
+        An array of another dtype, or a device without ``cl_khr_fp64``.
+    """
+    for a, name, dt in ((disp, "disp", np.float32), (margin, "margin", np.float32), (parent, "parent", np.int32)):
+        ocl.plain(be, a, name, dt, output=True)
+    h, w = disp.shape
+    if margin.shape != (h, w) or parent.shape != (h, w):
+        raise ValueError(f"margin and parent must have disp's shape {(h, w)}, got {margin.shape} and {parent.shape}")
+    if not be.supports_float64:
+        raise TypeError("the speckle filter's joins are float64 differences: this OpenCL device has no cl_khr_fp64")
+    if h * w >= 2**31 - 1:
+        raise ValueError(f"the speckle filter's labels are int32: at most 2**31 - 2 pixels, got {h * w}")
+    if int(max_size) != max_size or max_size < 0:
+        raise ValueError(f"max_size must be an integer >= 0 pixels, got {max_size!r}")
+    if not (np.isfinite(max_diff) and max_diff >= 0):
+        raise ValueError(f"max_diff must be finite and >= 0 px, got {max_diff!r}")
+    if disp.size == 0:
+        return disp, margin
+    # (a region has at most h w pixels: a larger size removes every region, as it does on the host)
+    size = np.int32(min(int(max_size), h * w))
+    diff = np.float64(max_diff)
+    ocl.launch(be, _build(be, "speckle_label", SPECKLES=1), (2,), (1,), [disp], [parent],
+               (disp.data, parent.data, np.int32(h), np.int32(w), diff))
+    ocl.launch(be, _build(be, "speckle_seam", SPECKLES=1), (1,), (1,), [disp], [parent],
+               (disp.data, parent.data, np.int32(h), np.int32(w), diff))
+    ocl.launch(be, _build(be, "speckle_mark", SPECKLES=1), (h,), (1,), [parent], [disp, margin],
+               (disp.data, margin.data, parent.data, np.int32(h), np.int32(w), size))
+    return disp, margin

@@ -51,7 +51,9 @@ select = register("stereo.select", specs.select_disparity_reference, **_launcher
 #: image only if that fits ``budget`` bytes (None: no limit); ``workspace=dict`` (keyword, Warp and
 #: OpenCL) keeps the launcher's own buffers in that dict across calls (:class:`StereoMatcher`);
 #: ``left_right=tol`` (keyword, OpenCL) returns the maps checked as ``left_right`` checks them (the
-#: CPU band matcher in its selection, row by row)
+#: CPU band matcher in its selection, row by row); ``speckles=(max_size, max_diff)`` (keyword, OpenCL
+#: CPU devices with fp64) returns the map speckle-filtered as ``postfilter.filter_speckles`` filters
+#: it (bit for bit) and the confidence 0 wherever that map is NaN, ``disp_right`` overwritten
 match = register("stereo.match", specs.semi_global_match_reference, **_launchers("match"))
 
 #: ``left_right(be, disp, disp_right, margin, steps, tol)``: ``disp, margin =

@@ -577,8 +577,19 @@ def _planes_on_device(be, dtype, steps):
     return dtype == np.float32 and steps > 1 and be.name == "opencl" and be.supports_float64
 
 
+def _device_speckles(be, shape, post, subpixel):
+    """Whether :func:`disparity` runs the speckle filter of ``post`` (:func:`postfilter.check_postfilter`)
+    on the device, in the matcher's launch (``kernels.match``'s ``speckles``: ``_opencl.launch_speckles``,
+    the host's map bit for bit): OpenCL CPU devices with fp64, a sub-pixel map (whole-pixel maps
+    are rounded on the host first) and no confidence threshold (applied before the filter, on the
+    host).  A union-find on one core per half of the rows: 1.1 against the host's 1.5 ms on
+    tsukuba's map, 12 against 13.5 ms at 1000 x 1500 (docs/stereo.md, "Speckles on the device")."""
+    return (post[0] > 0 and post[2] == 0 and subpixel and be.name == "opencl" and be.kind == "cpu"
+            and be.supports_float64 and shape[0] * shape[1] < 2**31 - 1)
+
+
 def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, paths, uniqueness,
-         lr_check, progress, buffers=None, workspace=None):
+         lr_check, progress, buffers=None, workspace=None, speckles=None):
     h, w = left.shape
     n_disp = (d_max - d_min) * steps + 1
     one_shot = buffers is None
@@ -589,11 +600,15 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
         buffers = workspace = _kept_buffers(be, kept_key)
     views = _exact_views(left, right)
     if _planes_on_device(be, views[0].dtype, steps):
-        lft, rgt = _scaled_views(*views)
+        # the right view first: its planes run on the device while the host scales the left view
+        # (the device's first launch came after both views were scaled)
+        exp = _scale_exponent(*views)
+        rgt = _flush(_scale2(views[1], exp))
         planes = _empty(be, buffers, "planes", (steps, h, w), np.float32)
         # host_view: a CPU device reads the (page-aligned) host view in place, no blocking upload
         kernels.planes(be, be.host_view(rgt), planes, steps)
         del rgt
+        lft = _flush(_scale2(views[0], exp))
     else:
         lft, planes = matching_views(*views, steps)
     on_device = not isinstance(planes, np.ndarray)
@@ -628,6 +643,9 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
     fused_check = lr_check and be.name == "opencl"
     if fused_check:
         extra["left_right"] = LR_TOLERANCE
+    if speckles is not None:
+        # (size, range): the speckle filter of the finished maps on the device (_device_speckles)
+        extra["speckles"] = speckles
     kernels.match(be, cen_l, cen_r, disp, right_steps, margin, d_min * steps, n_disp, steps, block, p1, p2,
                   paths, uniqueness, None if budget is None else budget - _sgm_base((h, w), steps), **extra)
     progress(1)
@@ -645,8 +663,12 @@ def _sgm(be, left, right, d_min, d_max, steps, census_radius, block, p1, p2, pat
 
 #: disparity() keeps the device buffers of its last call on each backend (census codes, the band
 #: matcher's volumes and states) for the next call of the same size and range where they take at
-#: most this many bytes: their ~15 allocations cost 1-2 ms of a 20 ms call at 384 x 288
-_KEPT_BYTES = 64 * 2**20
+#: most this many bytes: their ~15 allocations cost 1-2 ms of a 20 ms call at 384 x 288.  Was
+#: 64 MiB: the 1000 x 1500 x 192 call's ~150 MB were made anew at each call, their fresh pages
+#: faulted in by the first kernel to touch them (sgm_guards: 41 of 1372 ms), and the peak RSS of
+#: repeated calls then depends on the host pool's reuse (docs/stereo.md, "Speckles on the device":
+#: 401 -> 411 MB with one pool, 493 -> 442 MB with another that allocates 2x a request)
+_KEPT_BYTES = 256 * 2**20
 
 _KEPT = {}          # backend -> (key, {buffers}): taken by one call at a time
 os.register_at_fork(after_in_child=_KEPT.clear)     # a forked child has devices of its own
@@ -923,8 +945,13 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
         window, steps, radius, p1, p2, paths, uniq = _sgm_options(window, subpixel_steps, census_radius, p1, p2,
                                                                   paths, uniqueness)
         _check_memory(be, lft.shape, d_max, d_min, method, steps, paths, window)
+        # the speckle filter on the device where it can run there (the same map): not a serial
+        # host step after the kernels
+        on_device = _device_speckles(be, lft.shape, post, subpixel)
         disp, conf = _sgm(be, lft, rgt, d_min, d_max, steps, radius, window, p1, p2, paths,
-                          uniq, lr_check, report)
+                          uniq, lr_check, report, speckles=post[:2] if on_device else None)
+        if on_device:
+            post = (0, post[1], post[2])
         if not subpixel:
             disp = np.rint(disp * steps) / steps
         disp = disp.astype(np.float32)
@@ -946,7 +973,11 @@ def _finish(disp, conf, post, return_confidence, left):
     # the post-filters on the host (the same numpy code for every backend's map), then the
     # caller's array kind
     if post[0] or post[2]:
-        disp, conf = postfilter.apply_postfilter(disp, conf, *post)
+        # the confidence is filtered only where it is returned or thresholded (a pass and a copy
+        # of the map fewer)
+        keep_conf = return_confidence or post[2] > 0
+        disp, filtered = postfilter.apply_postfilter(disp, conf if keep_conf else None, *post)
+        conf = filtered if keep_conf else conf
     return as_kind((disp, conf) if return_confidence else disp, kind_of(left), left)
 
 

@@ -376,7 +376,7 @@ __kernel void group_select(__global const short *sum, __global float *disp, __gl
                 }
             }
             const int keep = unique && !cut;
-            disp[(size_t)y * w + x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : NAN;
+            disp[(size_t)y * w + x] = keep ? ((float)t0 + (float)kb + delta) / (float)steps : as_float(0x7fc00000u);
             margin[(size_t)y * w + x] = keep ? (float)(second - best) / (float)second : 0.0f;
         }
     }

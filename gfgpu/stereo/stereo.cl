@@ -124,7 +124,7 @@ static inline void left_right_pixel(__global float *drow, __global const int *rr
     if (ok) {
         mrow[x] = (float)((double)mrow[x] * (1.0 - diff / (2.0 * tol)));
     } else {
-        drow[x] = NAN;
+        drow[x] = as_float(0x7fc00000u);       // numpy's NaN (OpenCL's NAN is 0x7fffffff)
         mrow[x] = 0.0f;
     }
 }
@@ -1265,7 +1265,7 @@ static ALWAYS_INLINE void select_left(__global const short *agg, __global const 
     }
     const int keep = unique && !cut;
     // (the build's STEPS, the launch's steps: a constant divisor, a multiplication for 1, 2 and 4)
-    drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)STEPS : NAN;
+    drow[x] = keep ? ((float)t0 + (float)kb + delta) / (float)STEPS : as_float(0x7fc00000u);   // numpy's NaN
     mrow[x] = keep ? (float)(second - best) / (float)second : 0.0f;
 }
 
@@ -1478,3 +1478,105 @@ __kernel void left_right(__global float *disp, __global const int *right, __glob
         left_right_pixel(disp + (size_t)y * w, right + (size_t)y * w, margin + (size_t)y * w, x, w, steps, tol);
 }
 #endif  // LEFT_RIGHT
+
+// Speckle filter of a finished map (built with -D SPECKLES; specification: filter_speckles of
+// postfilter.py, which it gives bit for bit): 4-connected regions of valid pixels whose
+// neighbours differ by at most max_diff px (the difference in float64, as numpy takes it) of at
+// most max_size pixels become NaN.  A union-find over the pixels (parent >= 0: a pixel of the
+// same region nearer its root; a root holds -its region's size): speckle_label joins each half of
+// the rows in a work-item of its own, speckle_seam the two halves, speckle_mark then reads the
+// trees (no writes: any number of work-items) and sets the small regions' pixels to NaN and the
+// confidence to 0 wherever the map is not finite.
+#ifdef SPECKLES
+static inline int speckle_joined(const float a, const float b, const double max_diff)
+{
+    return fabs((double)a - (double)b) <= max_diff;       // NaN joins nothing
+}
+
+// the root of i's tree, halving the path on the way (only the trees of one work-item's pixels)
+static inline int speckle_root(__global int *parent, int i)
+{
+    while (parent[i] >= 0) {
+        const int q = parent[i], g = parent[q];
+        if (g < 0)
+            return q;
+        parent[i] = g;
+        i = g;
+    }
+    return i;
+}
+
+// the regions of roots a and b made one (the larger one's root keeps its place)
+static inline void speckle_union(__global int *parent, int a, int b)
+{
+    if (a == b)
+        return;
+    if (parent[a] > parent[b]) {       // sizes are negative: a is the smaller region
+        const int t = a;
+        a = b;
+        b = t;
+    }
+    parent[a] += parent[b];
+    parent[b] = a;
+}
+
+__kernel void speckle_label(__global const float *disp, __global int *parent, const int h, const int w,
+                            const double max_diff)
+{
+    const int k = get_global_id(0);
+    if (k > 1)
+        return;
+    const int ya = k == 0 ? 0 : h / 2, yb = k == 0 ? h / 2 : h;
+    for (int y = ya; y < yb; ++y)
+        for (int x = 0; x < w; ++x) {
+            const size_t i = (size_t)y * w + x;
+            const float d = disp[i];
+            parent[i] = -1;
+            if (x > 0 && speckle_joined(d, disp[i - 1], max_diff)) {
+                const int r = speckle_root(parent, (int)i - 1);
+                parent[r] -= 1;
+                parent[i] = r;
+            }
+            if (y > ya && speckle_joined(d, disp[i - w], max_diff))
+                speckle_union(parent, speckle_root(parent, (int)i), speckle_root(parent, (int)(i - w)));
+        }
+}
+
+__kernel void speckle_seam(__global const float *disp, __global int *parent, const int h, const int w,
+                           const double max_diff)
+{
+    const int y = h / 2;
+    if (get_global_id(0) != 0 || y == 0)
+        return;
+    for (int x = 0; x < w; ++x) {
+        const size_t i = (size_t)y * w + x;
+        if (speckle_joined(disp[i], disp[i - w], max_diff))
+            speckle_union(parent, speckle_root(parent, (int)i), speckle_root(parent, (int)(i - w)));
+    }
+}
+
+__kernel void speckle_mark(__global float *disp, __global float *margin, __global const int *parent, const int h,
+                           const int w, const int max_size)
+{
+    const int y = get_global_id(0);
+    if (y >= h)
+        return;
+    for (int x = 0; x < w; ++x) {
+        const size_t i = (size_t)y * w + x;
+        // finite pixels only, as the host's filter (an infinite one joins nothing and stays; its
+        // confidence 0, as every non-finite pixel's): the exponent field not all ones
+        int finite = (as_uint(disp[i]) & 0x7f800000u) != 0x7f800000u;
+        if (finite) {
+            int r = (int)i;
+            while (parent[r] >= 0)
+                r = parent[r];
+            if (-parent[r] <= max_size) {
+                disp[i] = as_float(0x7fc00000u);         // numpy's NaN
+                finite = 0;
+            }
+        }
+        if (!finite)
+            margin[i] = 0.0f;
+    }
+}
+#endif  // SPECKLES

@@ -117,6 +117,21 @@ def test_confidence_threshold():
         postfilter.invalidate_low_confidence(d, conf[:3], 0.4)
 
 
+def test_postfilter_without_confidence():
+    """``disparity`` passes no confidence where it returns none: the same map, None back, and a
+    threshold that needs the confidence refused."""
+    d = random_map(3)
+    conf = np.random.default_rng(3).random(d.shape).astype(np.float32)
+    with_conf, filtered = postfilter.apply_postfilter(d, conf, 4, 1.0, 0.0)
+    without, none = postfilter.apply_postfilter(d, None, 4, 1.0, 0.0)
+    assert none is None
+    np.testing.assert_array_equal(without, with_conf)
+    np.testing.assert_array_equal(without, flood_fill_speckles(d, 4, 1.0))
+    np.testing.assert_array_equal(filtered, np.where(np.isfinite(with_conf), conf, 0))
+    with pytest.raises(ValueError, match="min_confidence"):
+        postfilter.apply_postfilter(d, None, 4, 1.0, 0.2)
+
+
 @pytest.mark.parametrize("kwargs,error,match", [
     ({"speckle_size": -1}, ValueError, "speckle_size"),
     ({"speckle_size": 10.0}, TypeError, "speckle_size"),
