@@ -695,7 +695,9 @@ def _two_sided_steps(job, steps, mode):
     plans = []
     for outputs, axis in steps:
         view, line = axis_view_shape(job.shape, axis)
-        plan = plan_two_sided(outputs, view[line], mode, job.dtype) if takes(job.backend, view, line) else None
+        nin = len({i for i, _ in outputs})
+        fits = takes(job.backend, view, line, job.dtype, nin, len(outputs))
+        plan = plan_two_sided(outputs, view[line], mode, job.dtype) if fits else None
         plans.append(None if plan is None else (plan, view, line))
     return plans
 

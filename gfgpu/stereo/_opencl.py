@@ -377,7 +377,10 @@ def _fused_tolerance(be, tol):
     (stereo.cl's select_disparity with -D SELECT_LR, built where the device has fp64), or None
     where it cannot: no ``tol``, no fp64, or a ``tol`` that a float32 argument does not hold
     exactly (the check then runs as the left_right kernel after the matcher)."""
-    if tol is None or not be.supports_float64 or float(np.float32(tol)) != float(tol) or not tol > 0:
+    # (the range test first: a float32 cast of a larger tolerance overflows with a RuntimeWarning)
+    if tol is None or not be.supports_float64 or not 0 < tol <= float(np.finfo(np.float32).max):
+        return None
+    if float(np.float32(tol)) != float(tol):
         return None
     return float(tol)
 

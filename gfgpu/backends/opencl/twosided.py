@@ -52,14 +52,33 @@ def _buffers(be, plan, dtype):
     return bufs
 
 
-def takes(be, shape, axis):
-    """True when :func:`run_two_sided` runs a step along ``axis`` of a ``(B, N, M)`` view on
-    ``be``: columns always; rows when there are enough to fill every core's lanes (8 work-items'
-    worth) and each fits the work-item's scratch (:data:`MAX_ROW` samples)."""
+def _layout(be, shape, axis, dtype, nin, nout):
+    """``(work-items, lanes, scratch vectors per line sample per work-item)`` of a step."""
+    b, n, m = shape
+    if axis == 2:
+        lanes = 32 // dtype.itemsize      # a 256-bit vector of rows
+        items, per_step = -(-(b * n) // lanes), nout + nin      # scratch: the transposed samples too
+    else:
+        lanes = _CACHE_LINE // dtype.itemsize
+        items, per_step = b * -(-m // (lanes * BAND)), BAND * nout
+    return max(1, min(items, ITEMS_PER_CORE * int(be.cl_device.max_compute_units))), lanes, per_step
+
+
+def takes(be, shape, axis, dtype=np.float32, nin=1, nout=1):
+    """True when :func:`run_two_sided` runs a step along ``axis`` of a ``(B, N, M)`` view of
+    ``dtype`` with ``nin`` inputs and ``nout`` outputs on ``be``: rows when there are enough to
+    fill every core's lanes (8 work-items' worth) and each fits the work-item's scratch
+    (:data:`MAX_ROW` samples); both axes when the scratch is no larger than the inputs and
+    outputs together (a band holds whole vectors of :data:`BAND` cache lines per row: a narrow,
+    tall image would need many times its size, 9.5 GiB for a (2e7, 2) float32 one, and runs the
+    generic passes instead)."""
     if not runs_on(be) or axis not in (1, 2):
         return False
     b, n, m = shape
-    return axis == 1 or (b * n >= 8 * int(be.cl_device.max_compute_units) and m <= MAX_ROW)
+    if axis == 2 and not (b * n >= 8 * int(be.cl_device.max_compute_units) and m <= MAX_ROW):
+        return False
+    items, lanes, per_step = _layout(be, shape, axis, np.dtype(dtype), nin, nout)
+    return items * shape[axis] * per_step * lanes <= (nin + nout) * b * n * m
 
 
 def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
@@ -94,16 +113,12 @@ def run_two_sided(be, srcs, dsts, axis, plan, cvals=(0.0, 0.0), check=False):
     coef, omega = _buffers(be, plan, dtype)
     config = dict(SECTIONS=plan.sections, NIN=nin, NOUT=nout, REAL_POLES=int(plan.real), CHECK=int(bool(check)))
     flag = be.asarray(np.zeros(2, np.int32))     # the check's flag, the work-items' counter
+    items, lanes, per_step = _layout(be, first.shape, axis, dtype, nin, nout)
     if axis == 2:
-        lanes = 32 // dtype.itemsize      # a 256-bit vector of rows
-        items, per_step = -(-(b * n) // lanes), nout + nin      # scratch: the transposed samples too
         knl = launch.kernel(be, __package__, "twosided.cl", "two_sided_rows", dtype, ROWS=1, LANES=lanes, **config)
     else:
-        lanes = _CACHE_LINE // dtype.itemsize
-        items, per_step = b * -(-m // (lanes * BAND)), BAND * nout
         knl = launch.kernel(be, __package__, "twosided.cl", "two_sided", dtype, LANES=lanes, BAND=BAND, AHEAD=AHEAD,
                             **config)
-    items = max(1, min(items, ITEMS_PER_CORE * int(be.cl_device.max_compute_units)))
     scratch = be.empty((items * plan.n * per_step, lanes), dtype)
     item, real = dtype.itemsize, dtype.type
     s0, s1, d0, d1 = srcs[0], srcs[-1], dsts[0], dsts[-1]
