@@ -42,6 +42,12 @@ so a field whose paths need more cells runs with its exact cells when their tota
 budget on average or within :data:`FIELD_TOTAL` samples, and is refused before any work
 otherwise (:func:`field_cells`).  A field whose longest path exceeds the Gauss rule's tables also
 runs the exact cells (one rule per call).  The prefilter is two recursions per axis.
+
+On OpenCL the Gauss rule samples from the coefficients' rows side by side in pairs with a margin of
+the image extended by the mode around them, as wide as the field's farthest node (:func:`reach`
+sizes it; ``gfgpu.motion.field_kernels._opencl.margin``), so a path that leaves the image samples as
+one inside it (no boundary test per node); results equal the unpadded kernel's within float32
+rounding.
 """
 
 from __future__ import annotations
@@ -55,7 +61,7 @@ from .kernels import field_rule as rule_kernel
 from .spline import spline_coefficients
 
 __all__ = ["FIELD_MAX", "FIELD_DENSITY", "FIELD_CELLS", "FIELD_TOTAL", "FIELD_RULES", "is_field", "check_field",
-           "field_cells", "check_quadrature", "rule_fits", "apply_field"]
+           "field_cells", "check_quadrature", "reach", "rule_fits", "apply_field"]
 
 #: the rules a field is blurred with: ``"gauss"`` (the default: a Gauss rule of a few nodes per path,
 #: :func:`gfgpu.motion.spec.field_rule_reference`) and ``"exact"`` (cells of at most one pixel,
@@ -140,14 +146,20 @@ def check_quadrature(quadrature):
     return quadrature
 
 
-def rule_fits(field, code):
+def reach(field):
+    """The largest ``|component|`` of ``field`` in px (0 for an empty field)."""
+    return float(max(-np.min(field), np.max(field))) if np.size(field) else 0.0
+
+
+def rule_fits(field, code, dominant=None):
     """Whether every path of ``field`` fits in the Gauss rule's tables (its most nodes or cells):
-    a field with a longer path runs the exact cells (all of it: one rule per call)."""
+    a field with a longer path runs the exact cells (all of it: one rule per call).  ``dominant``:
+    :func:`reach` of ``field`` where the caller has it."""
     from .spec import rule_length, rule_limits
     first, most, per_px, extra = rule_limits(code)
     if not np.size(field):
         return True
-    dominant = float(max(-np.min(field), np.max(field)))
+    dominant = reach(field) if dominant is None else dominant
     fits = lambda length: max(first, math.ceil(length * per_px - 1e-9) + extra) <= most
     if fits(dominant * math.sqrt(2.0) * (1 + 1e-15)):     # no length exceeds it: no float64 pass over the field
         return True
@@ -157,16 +169,18 @@ def rule_fits(field, code):
 def apply_field(job, field, code, mode, cval, quadrature="gauss"):
     """Blur ``job``'s image planes along the per-pixel velocities ``field`` (checked) with the
     rule ``quadrature`` (:data:`FIELD_RULES`; the exact cells where a path outgrows the Gauss
-    rule's tables)."""
+    rule's tables).  The Gauss rule's kernel gets the field's :func:`reach` (its OpenCL launcher
+    sizes the paired coefficients' margin by it)."""
     be, dtype, shape = job.backend, job.dtype, job.shape
     planes = (math.prod(shape[:-2]),) + tuple(shape[-2:])
-    gauss = quadrature == "gauss" and rule_fits(field, code)
+    dominant = reach(field) if quadrature == "gauss" else None
+    gauss = quadrature == "gauss" and rule_fits(field, code, dominant)
     most = None if gauss else field_cells(field, code, planes[0])     # refusals before any work
     coef = spline_coefficients(be, be.reshape(job.data, planes), dtype, planes, (mode, mode), cval)
     dev_field = be.host_view(np.ascontiguousarray(field, dtype=dtype))     # read in place where the device can
     result = job.result_buffer()
     if gauss:
-        rule_kernel(be, coef, dev_field, be.reshape(result, planes), code, mode, cval)
+        rule_kernel(be, coef, dev_field, be.reshape(result, planes), code, mode, cval, reach=dominant)
     else:
         field_blur(be, coef, dev_field, be.reshape(result, planes), code, FIELD_DENSITY, mode, cval, most)
     return job.finish(result)

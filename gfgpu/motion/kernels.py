@@ -39,9 +39,10 @@ field_blur = register("motion.field_blur", specs.field_blur_reference,
                       **{**_launchers("field_blur", f"{__package__}.field_kernels"),
                          "warp": f"{__package__}.field_kernels._warp_exact:launch_field_blur"})
 
-#: ``field_rule(be, coef, field, out, psf, mode, cval, most=None)``: ``out = field_rule_reference(coef, field, psf,
-#: mode, cval, most)``: the fields' default rule, ``quadrature="gauss"`` (same shapes as ``field_blur``; the
-#: launchers read the rule tables of ``spec.rule_table``)
+#: ``field_rule(be, coef, field, out, psf, mode, cval, most=None, reach=None)``: ``out = field_rule_reference(coef,
+#: field, psf, mode, cval, most)``: the fields' default rule, ``quadrature="gauss"`` (same shapes as ``field_blur``;
+#: the launchers read the rule tables of ``spec.rule_table``; ``reach``, the field's largest component in pixels,
+#: sizes OpenCL's margin of extended coefficients and changes no value)
 field_rule = register("motion.field_rule", specs.field_rule_reference,
                       **_launchers("field_rule", f"{__package__}.field_kernels"))
 

@@ -251,7 +251,9 @@ def test_stack_planes_are_blurred_alike(backend):
 # --------------------------------------------------------------------------------------
 # the kernels against the specification, every branch
 # --------------------------------------------------------------------------------------
-def _kernel_against_spec(be, shape, scale, seed):
+def _kernel_against_spec(be, shape, scale, seed, reach=None):
+    """``reach``: None (no margin), ``"field"`` (the field's largest component: every path in the paired rows'
+    margin on OpenCL) or a number of px (a margin too small for the longest paths)."""
     rng = np.random.default_rng(seed)
     for dtype in (np.float32, np.float64) if be.supports_float64 else (np.float32,):
         coef = rng.standard_normal(shape).astype(dtype)
@@ -261,7 +263,8 @@ def _kernel_against_spec(be, shape, scale, seed):
         for psf, mode, most in ((0, "wrap", None), (1, "nearest", None), (2, "constant", 5), (3, "reflect", None),
                                 (0, "mirror", 5), (1, "constant", 9), (2, "nearest", None), (3, "wrap", 17)):
             out = be.empty(shape, dtype)
-            kernels.field_rule(be, be.asarray(coef), be.asarray(field), out, psf, mode, 0.3, most)
+            extent = float(np.abs(field).max()) if reach == "field" else reach
+            kernels.field_rule(be, be.asarray(coef), be.asarray(field), out, psf, mode, 0.3, most, reach=extent)
             ref = spec.field_rule_reference(coef, field, psf, mode, 0.3, most)
             got = be.to_host(out).reshape(ref.shape)
             tol = 1e-11 if dtype == np.float64 else 2e-5
@@ -275,6 +278,78 @@ def test_kernel_matches_specification(backend):
         pytest.skip("the numpy launcher is the specification")
     _kernel_against_spec(backend, (2, 37, 45), 2.0, 21)
     _kernel_against_spec(backend, (1, 14, 17), 25.0, 22)
+
+
+def test_kernel_matches_specification_given_the_reach(backend):
+    """With the field's reach (``apply_field`` passes it: OpenCL samples every path from the paired rows
+    and their margin of extended coefficients), and with a reach too short for the longest paths (those
+    sample node by node): against the specification, every PSF code and mode."""
+    if backend.name == "numpy":
+        pytest.skip("the numpy launcher is the specification")
+    _kernel_against_spec(backend, (2, 37, 45), 2.0, 26, reach="field")
+    _kernel_against_spec(backend, (1, 14, 17), 25.0, 27, reach="field")
+    _kernel_against_spec(backend, (1, 14, 17), 25.0, 28, reach=4.0)
+
+
+def test_opencl_motion_blur_pairs_with_the_fields_margin(monkeypatch, require_backend):
+    """``motion_blur`` hands the field's reach to the kernel: OpenCL pairs the coefficients with the margin
+    that holds every path (``margin``: the farthest node, max |t| velocities, plus the window), drops it when it
+    would grow a small image more than ``MARGIN_GROWTH`` times, and the result is the specification's."""
+    from gfgpu.motion.field_kernels import _opencl
+    require_backend("opencl")          # skips where OpenCL is not available
+    assert _opencl.margin(1, None) == 0 and _opencl.margin(1, 0.0) == 0
+    assert _opencl.margin(0, 2.5) == 3 + 4 and _opencl.margin(1, 2.5) == 15 + 4 and _opencl.margin(3, 2.5) == 8 + 4
+    seen = []
+    paired = _opencl._paired
+    monkeypatch.setattr(_opencl, "_paired", lambda be, coef, real, pad, *a: seen.append(pad) or paired(be, coef, real,
+                                                                                                          pad, *a))
+    img = texture(48, seed=8)
+    field = smooth_field(48, 6.0, seed=9)
+    peak = float(np.abs(field).max())
+    for psf, code in (("box", 0), ("green", 1)):
+        seen.clear()
+        out = motion_blur(img, field, psf=psf, mode="mirror", backend="opencl")
+        assert seen == [_opencl.margin(code, peak)] and seen[0] > 0, (psf, seen)
+        ref = motion_blur(img, field, psf=psf, mode="mirror", backend="numpy")      # the specification
+        tol = 1e-9 if out.dtype == np.float64 else 2e-6
+        assert np.abs(out - ref).max() <= tol * np.abs(ref).max(), psf
+    seen.clear()
+    far = np.zeros((2, 8, 8))
+    far[1] = 120.0                              # a margin of 6 x 120 + 4 px around 8 x 8: 2.1 M pixels
+    out = motion_blur(img[:8, :8], far, psf="green", mode="mirror", backend="opencl")
+    assert seen == [0]
+    ref = motion_blur(img[:8, :8], far, psf="green", mode="mirror", backend="numpy")
+    assert np.abs(out - ref).max() <= 1e-9 * np.abs(ref).max()
+
+
+@pytest.mark.parametrize("mode", ["constant", "nearest", "wrap", "reflect", "mirror"])
+@pytest.mark.parametrize("shaped", ["cpu", "gpu"])
+def test_opencl_paired_rows_extend_the_image(mode, shaped, require_backend):
+    """``pair_rows`` with a margin: pair (Y, X) holds coefficients (Y - pad, X - pad) and (Y - pad + 1, X - pad)
+    of the image extended by the mode (``coef_taps`` along each axis, ``cval`` in constant mode), copied
+    exactly inside; margins wider than the image, and a single row and column; in the CPU launch shape (a
+    work-item a row) and the GPU's (a work-item a pair)."""
+    from gfgpu._core.bspline import coef_taps
+    from gfgpu.motion.field_kernels import _opencl
+    be = require_backend("opencl") if shaped == "cpu" else gpu_shaped_backend("opencl")
+    rng = np.random.default_rng(29)
+    for shape, pad in (((2, 7, 9), 11), ((1, 1, 5), 3), ((1, 6, 1), 2), ((1, 5, 8), 0)):
+        coef = rng.standard_normal(shape).astype(np.float32)
+        got = be.to_host(_opencl._paired(be, be.asarray(coef), "double", pad, mode, 0.3))
+        b, h, w = shape
+        assert got.shape == (b, h + 2 * pad, 2 * (w + 2 * pad))
+        base = 0.3 if mode == "constant" else 0.0
+        iy = np.arange(-pad, h + pad + 1)
+        jx = np.arange(-pad, w + pad)
+        i0, h0, i1, h1 = coef_taps(iy, h, mode)
+        j0, g0, j1, g1 = coef_taps(jx, w, mode)
+        c = coef.astype(np.float64) - base
+        ext = base + (h0[:, None] * (g0 * c[:, i0[:, None], j0] + g1 * c[:, i0[:, None], j1])
+                      + h1[:, None] * (g0 * c[:, i1[:, None], j0] + g1 * c[:, i1[:, None], j1]))
+        want = np.stack([ext[:, :-1], ext[:, 1:]], axis=-1).reshape(got.shape)
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-6 * np.abs(want).max())
+        inner = got.reshape(b, h + 2 * pad, w + 2 * pad, 2)[:, pad:pad + h - 1, pad:pad + w, 0]
+        np.testing.assert_array_equal(inner, coef[:, :h - 1])
 
 
 def test_kernel_reads_a_field_held_in_place(backend):
@@ -342,6 +417,7 @@ def test_kernel_in_gpu_launch_shapes(name):
     devices, against the specification; sizes not multiples of 16."""
     be = gpu_shaped_backend(name)
     _kernel_against_spec(be, (2, 37, 45), 3.0, 23)
+    _kernel_against_spec(be, (1, 14, 17), 25.0, 30, reach="field")
 
 
 # --------------------------------------------------------------------------------------

@@ -10,6 +10,7 @@ def launch_field_blur(be, coef, field, out, psf, density, mode, cval, most=0):
     return out
 
 
-def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
+def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None, reach=None):
+    # reach (the field's largest component) sizes the OpenCL kernel's margin only: no effect on the result
     out[...] = specs.field_rule_reference(coef, field, psf, mode, cval, most)
     return out

@@ -3,6 +3,7 @@ specification: :func:`gfgpu.motion.spec.field_blur_reference`."""
 
 from __future__ import annotations
 
+import math
 import os
 
 import numpy as np
@@ -17,6 +18,7 @@ from ..spec import (
     PSF_CODES,
     PSF_MIN_CELLS,
     rule_limits,
+    rule_support,
     rule_table,
 )
 
@@ -66,22 +68,59 @@ def _tables(be, psf, dtype, pos):
 #: work-group of the rule kernel on a GPU: 16 x 16 pixels, whose paths read neighbouring coefficients
 GPU_TILE = (16, 16)
 
+#: work-group of the rule kernel on a CPU device (PoCL): one size for every image, so that a new shape builds
+#: nothing (the driver's choice depends on the shape, and each choice is a build of about a second: the first call
+#: on a new 1001 x 1503 shape took 1.6-1.8 s, now 0.15 s); as fast as the driver's groups at 2048^2 (A/B in one
+#: process: within the noise of a shared machine)
+CPU_TILE = (64, 16)
+
+#: work-group of ``pair_rows`` on a CPU device (one work-item a row of pairs; on a GPU one a pair): one build for
+#: every shape
+CPU_ROWS = 16
+
 #: the rule kernel samples from the coefficients' rows in pairs (``pair_rows`` in ``field.cl``: twice their
 #: memory, a window in two loads instead of four) when the coefficients take at most this many bytes
-#: (4096^2 float32); larger images read the four rows apart
+#: (4096^2 float32) with their margin (:func:`margin`), or without it; larger images read the four rows apart
 PAIRED_BYTES = 64 << 20
 
 
-def _paired(be, coef, real):
-    """The coefficients' rows side by side in pairs (``pair_rows``), a new device array."""
+#: the paired rows take a margin (:func:`margin`) while it adds at most this many times the image's pixels (or
+#: up to 2^20 pixels in all): a small image with long paths would otherwise pair a large extended image
+MARGIN_GROWTH = 4
+
+
+def margin(psf, reach):
+    """Coefficients of the extended image around the paired rows, each side, so that every path of a
+    field whose components are at most ``reach`` px lies in them (``None``: no margin): its farthest node
+    ``max |t|`` velocities from the pixel (:func:`gfgpu.motion.spec.rule_support`), its window one
+    coefficient before and two after, one more for the rounding of the nodes' offsets.  The kernel
+    still tests each path against the margin (one beyond it samples node by node)."""
+    if reach is None or not reach > 0:
+        return 0
+    t0, t1 = rule_support(psf)
+    return int(math.ceil(float(reach) * max(abs(t0), abs(t1)))) + 4
+
+
+def _paired(be, coef, real, pad, mode, cval):
+    """The coefficients' rows side by side in pairs with a margin of ``pad`` extended coefficients
+    (``pair_rows``), a new device array ``(B, H + 2 pad, 2 (W + 2 pad))``."""
     bsz, h, w = (int(s) for s in coef.shape)
-    pairs = be.empty((bsz, h, 2 * w), coef.dtype)
+    ph, pw = h + 2 * pad, w + 2 * pad
+    pairs = be.empty((bsz, ph, 2 * pw), coef.dtype)
     knl = ocl.kernel(be, __package__, "field.cl", "pair_rows", coef.dtype, POS=real, GRID=real, **_constants())
-    ocl.launch(be, knl, (w, h, bsz), None, [coef], [pairs], (coef.data, pairs.data, np.int32(h), np.int32(w)))
+    if be.kind == "cpu":         # a work-item a row, in groups of one size for every shape
+        gsize, lsize, chunk = (1, -(-ph // CPU_ROWS) * CPU_ROWS, bsz), (1, CPU_ROWS, 1), pw
+    else:                        # a work-item a pair: neighbouring work-items write neighbouring pairs
+        gsize, lsize, chunk = (pw, ph, bsz), None, 1
+    ocl.launch(be, knl, gsize, lsize, [coef], [pairs],
+               (coef.data, pairs.data, np.int32(h), np.int32(w), np.int32(pad), np.int32(boundary.MODE_CODES[mode]),
+                coef.dtype.type(cval), np.int32(chunk)))
     return pairs
 
 
-def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
+def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None, reach=None):
+    """``reach``: the field's largest component in px (``max |field|``, known to the caller), which sizes the
+    paired rows' margin (:func:`margin`); ``None``: no margin (paths across the border sample node by node)."""
     coef = ocl.plain(be, coef, "coef")
     # the field at an element offset: a host array the device reads in place (host_view) starts at an
     # aligned address below it, and copying its 2 x H x W values would cost a tenth of the kernel
@@ -96,16 +135,17 @@ def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
     first, top, per_px, extra = rule_limits(psf)
     tables = _tables(be, psf, dtype, pos)
     bsz, h, w = (int(s) for s in coef.shape)
-    pairs = _paired(be, coef, real) if coef.nbytes <= PAIRED_BYTES else coef
-    if be.kind == "cpu":
-        gsize, lsize = (w, h), None         # PoCL: the driver's groups (rows of work-items in vector lanes)
-    else:
-        lsize = GPU_TILE
-        gsize = tuple(-(-n // g) * g for n, g in zip((w, h), lsize))
+    pad = margin(psf, reach)
+    padded = (h + 2 * pad) * (w + 2 * pad)
+    if bsz * padded * dtype.itemsize > PAIRED_BYTES or padded > max(MARGIN_GROWTH * h * w, 1 << 20):
+        pad = 0
+    pairs = _paired(be, coef, real, pad, mode, cval) if coef.nbytes <= PAIRED_BYTES else coef
+    lsize = CPU_TILE if be.kind == "cpu" else GPU_TILE
+    gsize = tuple(-(-n // g) * g for n, g in zip((w, h), lsize))
     most = top if most is None else min(max(int(most), first), top)
     ocl.launch(be, knl, gsize, lsize, [coef, pairs, field] + tables, [out],
-               (coef.data, pairs.data, np.int32(pairs is not coef), fbuf, foff, obuf, np.int32(h), np.int32(w),
-                np.int32(bsz), pos(per_px), np.int32(extra), np.int32(first), np.int32(most),
+               (coef.data, pairs.data, np.int32(pairs is not coef), np.int32(pad), fbuf, foff, obuf, np.int32(h),
+                np.int32(w), np.int32(bsz), pos(per_px), np.int32(extra), np.int32(first), np.int32(most),
                 np.int32(psf in EUCLIDEAN_RULES), tables[0].data, tables[1].data, tables[2].data, tables[3].data,
                 np.int32(boundary.MODE_CODES[mode]), dtype.type(cval), ooff))
     return out

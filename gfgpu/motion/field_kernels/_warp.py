@@ -56,7 +56,8 @@ def _flat(be, a):
     return be.reshape(a, (-1,))
 
 
-def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None):
+def launch_field_rule(be, coef, field, out, psf, mode, cval, most=None, reach=None):
+    # reach: the OpenCL kernel's margin only (ignored here)
     bsz, h, w = (int(s) for s in coef.shape)
     real = wpl.real_type(be, coef)
     first, top, per_px, extra = rule_limits(psf)

@@ -150,36 +150,6 @@ INLINE REAL16 spline_inside(__global const REAL *corner, const int w, const OFF 
     return wt.s0123012301230123 * wt.s4444555566667777 * (REAL16)(c0, c1, c2, c3);
 }
 
-// The coefficients' rows side by side in pairs, for field_rule: pairs[(b h + y) 2w + 2x + r] = coef[b, y + r, x]
-// (r = 0, 1; the last row's partner is itself, never read): a window's four rows are then two loads of eight
-// contiguous values, two cache lines or three where there were four or more (the kernel's time is in those
-// loads: 15-30 % less CPU with the pass included, twice the coefficients' memory)
-__kernel void pair_rows(__global const REAL *coef, __global REAL *pairs, const int h, const int w)
-{
-    const int x = get_global_id(0), y = get_global_id(1), b = get_global_id(2);
-    if (x >= w || y >= h)
-        return;
-    const long at = ((long)b * h + y) * w + x;
-    const REAL a = coef[at];
-    pairs[2 * at] = a;
-    pairs[2 * at + 1] = y + 1 < h ? coef[at + w] : a;
-}
-
-// `lanes` plus a node's weight `g` times spline_inside's 16 terms, from the paired rows (pair_rows; `pcorner` the
-// pair of the window's corner at the pixel), lanes in the pairs' order (column-major within each pair of rows):
-// the weight folded into the four x weights, the window added by one multiply-add
-INLINE REAL16 spline_pairs(const REAL16 lanes, const REAL g, __global const REAL *pcorner, const int w, const OFF oy,
-                           const OFF ox)
-{
-    const OFF fy = FLOOR_REAL(oy), fx = FLOOR_REAL(ox);
-    const REAL8 wt = weights6(ox - fx, oy - fy);
-    __global const REAL *line = pcorner + 2 * ((long)(int)fy * w + (int)fx);
-    const REAL8 upper = vload8(0, line), lower = vload8(0, line + 4 * (long)w);
-    const REAL4 gx = wt.lo * g;
-    const REAL8 wx = gx.s00112233;
-    return fma((REAL16)(wx * wt.s45454545, wx * wt.s67676767), (REAL16)(upper, lower), lanes);
-}
-
 // index i of a line of n extended by a periodic mode (wrap, reflect, mirror): by one reflection or shift
 // within a period of the line (no division), else extend()
 INLINE int fold(const int i, const int n, const int mode)
@@ -193,6 +163,92 @@ INLINE int fold(const int i, const int n, const int mode)
     if (mode == MODE_REFLECT)
         return i < 0 ? -1 - i : 2 * n - 1 - i;
     return i < 0 ? -i : 2 * n - 2 - i;
+}
+
+// Coefficient j (any integer) of one row of w coefficients extended along the row by `mode`: the coefficient
+// itself inside, else w0 c[j0] + w1 c[j1] + (1 - w0 - w1) base (coef_taps; base: cval in constant mode, else 0)
+INLINE POS row_extended(__global const REAL *row, const int w, const int j, const int mode, const POS base)
+{
+    if ((unsigned)j < (unsigned)w || IS_PERIODIC(mode))
+        return row[fold(j, w, mode)];
+    POS g0, g1;
+    int j1;
+    const int j0 = coef_taps(j, w, mode, &g0, &j1, &g1);
+    return base + g0 * ((POS)row[j0] - base) + g1 * ((POS)row[j1] - base);
+}
+
+// The coefficients' rows side by side in pairs, for field_rule, on a margin of `pad` coefficients of the image
+// extended by `mode` around each plane: pairs[((b ph + Y) pw + X) 2 + r] = coefficient (Y - pad + r, X - pad) of
+// plane b, extended as spline2 weighs it (coef_taps along each axis; ph = h + 2 pad, pw = w + 2 pad, r = 0, 1),
+// rounded once.  A window's four rows are then two loads of
+// eight contiguous values, two cache lines or three where there were four or more (the kernel's time is in those
+// loads: 15-30 % less CPU with the pass included, twice the coefficients' memory), and a path that leaves the image
+// by at most the margin samples as one inside it (paths across the border, tested and extended node by node, took
+// a fifth of G_u's kernel time on the benchmark field, where 6 % of them leave the image: 12 % less CPU now).
+// Work-item (c, Y, b) writes columns c chunk .. c chunk + chunk - 1 of row Y of plane b (a CPU device: one
+// work-item a row; a GPU: one a pair): two rows of the image (a periodic mode's rows beyond the border are rows of
+// the image) interleaved by a plain loop, the margin's columns extended; a row beyond the border in constant or
+// nearest mode as two rows of the image
+__kernel void pair_rows(__global const REAL *coef, __global REAL *pairs, const int h, const int w, const int pad,
+                        const int mode, const REAL cval, const int chunk)
+{
+    const int c = get_global_id(0), y = get_global_id(1), b = get_global_id(2);
+    const int pw = w + 2 * pad, ph = h + 2 * pad;
+    const int x0 = c * chunk, x1 = IMIN(x0 + chunk, pw);
+    if (y >= ph || x0 >= pw)
+        return;
+    __global const REAL *src = coef + (long)b * h * w;
+    __global REAL *dst = pairs + 2 * ((long)b * ph + y) * pw;
+    const int ia = y - pad, ib = y + 1 - pad;
+    const POS base = mode == MODE_CONSTANT ? (POS)cval : (POS)0;
+    if (IS_PERIODIC(mode) || ((unsigned)ia < (unsigned)h && (unsigned)ib < (unsigned)h)) {
+        __global const REAL *ra = src + (long)fold(ia, h, mode) * w, *rb = src + (long)fold(ib, h, mode) * w;
+        const int m0 = IMAX(x0, pad), m1 = IMIN(x1, pad + w);     // the image's columns
+        for (int x = m0; x < m1; ++x) {
+            dst[2 * x] = ra[x - pad];
+            dst[2 * x + 1] = rb[x - pad];
+        }
+        for (int x = x0; x < IMIN(x1, pad); ++x) {
+            dst[2 * x] = (REAL)row_extended(ra, w, x - pad, mode, base);
+            dst[2 * x + 1] = (REAL)row_extended(rb, w, x - pad, mode, base);
+        }
+        for (int x = IMAX(x0, pad + w); x < x1; ++x) {
+            dst[2 * x] = (REAL)row_extended(ra, w, x - pad, mode, base);
+            dst[2 * x + 1] = (REAL)row_extended(rb, w, x - pad, mode, base);
+        }
+        return;
+    }
+    // a row beyond the border in constant or nearest mode: two rows of the image, h0 and h1 of them (coef_taps;
+    // a row inside is itself), each extended along the row, in POS, rounded once
+    POS ha0, ha1, hb0, hb1;
+    int ia1, ib1;
+    const int ia0 = coef_taps(ia, h, mode, &ha0, &ia1, &ha1), ib0 = coef_taps(ib, h, mode, &hb0, &ib1, &hb1);
+    __global const REAL *a0 = src + (long)ia0 * w, *a1 = src + (long)ia1 * w;
+    __global const REAL *b0 = src + (long)ib0 * w, *b1 = src + (long)ib1 * w;
+    const int a_in = (unsigned)ia < (unsigned)h, b_in = (unsigned)ib < (unsigned)h;
+    for (int x = x0; x < x1; ++x) {
+        const int j = x - pad;
+        const POS ea = row_extended(a0, w, j, mode, base), eb = row_extended(b0, w, j, mode, base);
+        dst[2 * x] = (REAL)(a_in ? ea : base + ha0 * (ea - base) + ha1 * (row_extended(a1, w, j, mode, base) - base));
+        dst[2 * x + 1] = (REAL)(b_in ? eb : base + hb0 * (eb - base) + hb1 * (row_extended(b1, w, j, mode, base) - base));
+    }
+}
+
+// A node's weight `g` times spline_inside's 16 terms added to the two 8-lane sums of a path, `up` (the upper pair
+// of the window's rows) and `low` (the lower), from the paired rows (pair_rows, `pw` pairs a row; `pcorner` the
+// pair of the window's corner at the pixel), lanes in the pairs' order (column-major within each pair of rows):
+// the weight folded into the four x weights, each pair added by one multiply-add (two 8-lane sums, not one of 16
+// lanes: no 16-lane vector to assemble from halves, 7-9 % less CPU for G_u; the same sums, bit for bit)
+INLINE void spline_pairs(REAL8 *up, REAL8 *low, const REAL g, __global const REAL *pcorner, const int pw, const OFF oy,
+                         const OFF ox)
+{
+    const OFF fy = FLOOR_REAL(oy), fx = FLOOR_REAL(ox);
+    const REAL8 wt = weights6(ox - fx, oy - fy);
+    __global const REAL *line = pcorner + 2 * ((long)(int)fy * pw + (int)fx);
+    const REAL4 gx = wt.lo * g;
+    const REAL8 wx = gx.s00112233;
+    *up = fma(wx * wt.s45454545, vload8(0, line), *up);
+    *low = fma(wx * wt.s67676767, vload8(0, line + 4 * (long)pw), *low);
 }
 
 // the 4 x 4 window of one plane at rows y0 .. y0 + 3 and columns x0 .. x0 + 3 of the image extended by a
@@ -241,13 +297,14 @@ static inline POS rule_length(const POS vy, const POS vx, const int euclid)
 // + extra) at most `most`, L = rule_length; the rules' nodes and weights are the host's float64
 // tables (spec.rule_table), rule n at offsets[n - first] .. offsets[n - first + 1], nodes ascending: no
 // transcendental function and no per-cell arithmetic in the loop, only the samples.  A path whose two end
-// nodes (hence all, on a straight line) have their 16 coefficients inside the image samples without the
-// boundary extension (spline_pairs on the paired rows where the launcher built them, `paired`, else
-// spline_inside); a path that leaves the image tests each node and extends only at the nodes that need it
-// (spline_inside there).  A still pixel is the spline at itself.  The field (2, h, w) starts at element
+// nodes (hence all, on a straight line) have their 16 coefficients inside the paired rows where the launcher
+// built them (`paired`: the image and a margin of `pad` extended coefficients, pair_rows) samples them by
+// spline_pairs; else one inside the image samples without the boundary extension (spline_inside); a path that
+// leaves both tests each node and extends only at the nodes that need it (spline_inside there).  A still pixel
+// is the spline at itself.  The field (2, h, w) starts at element
 // field_off of its buffer (a host array read in place), the tables' nodes come in POS (the extension's
 // positions) and in the image's type (tnear: offsets from the pixel).
-__kernel void field_rule(__global const REAL *coef, __global const REAL *pairs, const int paired,
+__kernel void field_rule(__global const REAL *coef, __global const REAL *pairs, const int paired, const int pad,
                          __global const REAL *field, const long field_off,
                          __global REAL *out, const int h, const int w, const int planes, const POS per_px,
                          const int extra, const int first, const int most, const int euclid,
@@ -276,24 +333,30 @@ __kernel void field_rule(__global const REAL *coef, __global const REAL *pairs, 
     // column before the image, read out of bounds)
     const int kb = length > 0 ? k1 - 1 : k0;
     const OFF oya = tnear[k0] * ny, oyb = tnear[kb] * ny, oxa = tnear[k0] * nx, oxb = tnear[kb] * nx;
-    const int inside = length > 0 && y + (int)FLOOR_REAL(fmin(oya, oyb)) >= 1
-                       && y + (int)FLOOR_REAL(fmax(oya, oyb)) <= h - 3 && x + (int)FLOOR_REAL(fmin(oxa, oxb)) >= 1
-                       && x + (int)FLOOR_REAL(fmax(oxa, oxb)) <= w - 3;
+    const int top = y + (int)FLOOR_REAL(fmin(oya, oyb)), bottom = y + (int)FLOOR_REAL(fmax(oya, oyb));
+    const int left = x + (int)FLOOR_REAL(fmin(oxa, oxb)), right = x + (int)FLOOR_REAL(fmax(oxa, oxb));
+    const int inside = length > 0 && top >= 1 && bottom <= h - 3 && left >= 1 && right <= w - 3;
+    const int in_pairs = paired && length > 0 && top >= 1 - pad && bottom <= h - 3 + pad && left >= 1 - pad
+                         && right <= w - 3 + pad;
     // the window's corner at the pixel, (y - 1, x - 1): the samples inside add only their offset
     __global const REAL *corner = coef + ((long)y - 1) * w + (x - 1);
-    __global const REAL *pcorner = pairs + 2 * (((long)y - 1) * w + (x - 1));
+    const int pw = w + 2 * pad;
+    const long phw = (long)(h + 2 * pad) * pw;
+    __global const REAL *pcorner = pairs + 2 * (((long)y - 1 + pad) * pw + (x - 1 + pad));
     for (int b = 0; b < planes; ++b) {
         REAL acc = 0;
         if (length == 0)
             acc = spline2(coef, b * hw, h, w, (POS)y, (POS)x, mode, mode, cval);
+        else if (in_pairs) {
+            REAL8 up = 0, low = 0;
+            for (int k = k0; k < k1; ++k)
+                spline_pairs(&up, &low, weights[k], pcorner + 2 * b * phw, pw, tnear[k] * ny, tnear[k] * nx);
+            acc = lanes_sum((REAL16)(up, low));
+        }
         else if (inside) {
             REAL16 lanes = 0;
-            if (paired)
-                for (int k = k0; k < k1; ++k)
-                    lanes = spline_pairs(lanes, weights[k], pcorner + 2 * b * hw, w, tnear[k] * ny, tnear[k] * nx);
-            else
-                for (int k = k0; k < k1; ++k)
-                    lanes += weights[k] * spline_inside(corner + b * hw, w, tnear[k] * ny, tnear[k] * nx);
+            for (int k = k0; k < k1; ++k)
+                lanes += weights[k] * spline_inside(corner + b * hw, w, tnear[k] * ny, tnear[k] * nx);
             acc = lanes_sum(lanes);
         }
         else {      // a path that leaves the image: its samples with 16 coefficients inside still sample so,
