@@ -26,6 +26,7 @@ _KERNEL = """__kernel void gfgpu_wide(__global float *a, __global int *b) {
 _CHILD = """import sys, numpy as np, pyopencl as cl
 dev = cl.get_platforms()[int(sys.argv[1])].get_devices()[int(sys.argv[2])]
 assert dev.name.strip() == sys.argv[3], "device order changed"
+print("compiling", flush=True)  # what fails after this line is the compiler's (a verdict to keep)
 ctx = cl.Context([dev]); q = cl.CommandQueue(ctx); mf = cl.mem_flags
 a, b = np.arange(32, dtype=np.float32), np.arange(32, dtype=np.int32)
 da, db = (cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=x) for x in (a, b))
@@ -58,9 +59,9 @@ def wide_vector_failure(device, timeout=60):
     import pyopencl as cl
     path = _verdict_path(device)
     try:
-        with open(path) as f:
-            return f.read() or None
-    except OSError:
+        with open(path, encoding="utf-8") as f:
+            return f.read().strip() or None
+    except (OSError, ValueError):       # none yet, or unreadable: probed again
         pass
     where = [(p, plat.get_devices().index(device)) for p, plat in enumerate(cl.get_platforms())
              if plat.int_ptr == device.platform.int_ptr]
@@ -71,16 +72,20 @@ def wide_vector_failure(device, timeout=60):
         return None
     except subprocess.TimeoutExpired:
         return f"a 16-wide vector kernel did not finish within {timeout} s"
+    if "compiling" not in res.stdout.split():
+        return None     # the child failed before the compiler ran (its import, the device list): no verdict
     lines = [line.strip() for line in (res.stderr + res.stdout).splitlines() if line.strip()]
     errors = [line for line in lines if "LLVM ERROR" in line] or [line for line in lines if "rror" in line]
     ok = res.returncode == 0 and lines[-1:] == ["ok"]
     verdict = "" if ok else (errors or lines or [f"exit status {res.returncode}"])[-1]
+    tmp = None
     try:    # atomically: a concurrent process reads the old verdict or the new one, never half
         os.makedirs(os.path.dirname(path), exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=os.path.dirname(path))
-        with os.fdopen(fd, "w") as f:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(verdict)
         os.replace(tmp, path)
     except OSError:     # an unwritable cache: probed again by the next process
-        pass
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
     return verdict or None
