@@ -29,8 +29,6 @@ from __future__ import annotations
 
 import math
 import struct
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -38,6 +36,7 @@ import numpy as np
 
 from .boundary import MODES, check_mode, extend_index
 from .boundary import period as mode_period
+from .lru import LRU
 from .passes import LinePass
 
 __all__ = ["MODES", "TOL", "check_mode", "PassPlan", "plan_pass", "invariant_window", "run_reference", "block_powers",
@@ -114,24 +113,8 @@ def _reach(lam, tol):
 
 
 _CACHE_SIZE = 1024          # sections' weights and passes' assembled windows kept (least recently used dropped)
-_weights = OrderedDict()    # what a section's weights depend on -> (row, omega_c, tail)
-_windows = OrderedDict()    # the weights' keys of a pass's sections -> its (omega, omega_c)
-_cache_lock = threading.Lock()
-
-
-def _cached(table, key, make):
-    """``table[key]``, made by ``make()`` on a miss; at most :data:`_CACHE_SIZE` entries."""
-    with _cache_lock:
-        hit = table.get(key)
-        if hit is not None:
-            table.move_to_end(key)
-            return hit
-    hit = make()
-    with _cache_lock:
-        table[key] = hit
-        if len(table) > _CACHE_SIZE:
-            table.popitem(last=False)
-    return hit
+_weights = LRU(_CACHE_SIZE)     # what a section's weights depend on -> (row, omega_c, tail)
+_windows = LRU(_CACHE_SIZE)     # the weights' keys of a pass's sections -> its (omega, omega_c)
 
 
 def _bits(*values):
@@ -197,7 +180,7 @@ def _invariant_weights(lam, kap, n, mode, tol):
         row.setflags(write=False)
         return row, complex(omega_c[0]), tail
 
-    row, omega_c, tail = _cached(_weights, key, make)
+    row, omega_c, tail = _weights.get(key, make)
     if tail:
         full = np.zeros(n, row.dtype)
         full[n - len(row):] = row
@@ -238,7 +221,7 @@ def _invariant_window(sections, n, mode, tol):
     keys = tuple(w[2] for w in weights)
     omegas, omega_cs = [w[0] for w in weights], [w[1] for w in weights]
     if mode != "wrap" and None not in keys:
-        return _cached(_windows, (keys, tol), lambda: _window(omegas, omega_cs, tol))
+        return _windows.get((keys, tol), lambda: _window(omegas, omega_cs, tol))
     return _window(omegas, omega_cs, tol)
 
 

@@ -3,12 +3,10 @@ specifications: :mod:`gfgpu.motion.spec`."""
 
 from __future__ import annotations
 
-import threading
-from collections import OrderedDict
-
 import numpy as np
 
 from ..._core import boundary
+from ..._core.lru import LRU
 from ...backends.opencl import launch as ocl
 
 #: work-group size of the polar resampling kernels on a GPU (None: the driver's choice)
@@ -43,42 +41,26 @@ _PAD = 32
 
 #: device arrays kept per (context, key): the cosines and sines of a ring's angles, the pixels' angles
 #: about a centre (:func:`_kept`); few, since each is a few tens of MB at most
-_KEPT = OrderedDict()
-_KEPT_MAX = 6
-_KEPT_LOCK = threading.Lock()
+_KEPT = LRU(6)
 
 
 #: small device arrays (a ring's cosines and sines, ring weights, per-ring scales: tens of kB at most) kept
 #: by their content: every call on one shape uploads the same ones, and each upload is a blocking copy that
 #: waits for every queued kernel (the host could not prepare the next launches meanwhile)
-_SMALL = OrderedDict()
-_SMALL_MAX = 64
+_SMALL = LRU(64)
 
 
-def _kept(be, key, make, cache=None, most=None):
+def _kept(be, key, make, cache=None):
     """The device array ``make()`` for ``key`` on ``be``'s context, made once (a bounded LRU): the
     plans of the polar grid every call about one centre on one shape shares."""
-    cache = _KEPT if cache is None else cache
-    most = _KEPT_MAX if most is None else most
-    key = (be.context, *key)
-    with _KEPT_LOCK:            # calls from several threads share the caches
-        hit = cache.get(key)
-        if hit is not None:
-            cache.move_to_end(key)
-            return hit
-    hit = make()
-    with _KEPT_LOCK:
-        cache[key] = hit
-        while len(cache) > most:
-            cache.popitem(last=False)
-    return hit
+    return (_KEPT if cache is None else cache).get((be.context, *key), make)
 
 
 def _uploaded(be, host):
     """``host`` (a small array) on the device, uploaded once per content (:data:`_SMALL`)."""
     host = np.ascontiguousarray(host)
     key = ("small", host.dtype.str, host.shape, host.tobytes())
-    return _kept(be, key, lambda: be.asarray(host), _SMALL, _SMALL_MAX)
+    return _kept(be, key, lambda: be.asarray(host), _SMALL)
 
 
 def _constants():
@@ -137,7 +119,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
     def make_trig():
         phi = 2.0 * np.pi * np.arange(n_phi) / n_phi
         return be.asarray(np.stack([np.cos(phi), np.sin(phi)], axis=1).astype(grid).reshape(-1))
-    trig = _kept(be, ("trig", n_phi, np.dtype(grid).str), make_trig, _SMALL, _SMALL_MAX)
+    trig = _kept(be, ("trig", n_phi, np.dtype(grid).str), make_trig, _SMALL)
     fast = {}
     if mode in ("constant", "nearest"):
         # the extension materialised _PAD coefficients beyond every border, then read clamped
