@@ -49,12 +49,12 @@ def _verdict_path(device):
     return os.path.join(root, "gfgpu", "opencl-probe", hashlib.sha256(key.encode()).hexdigest()[:24])
 
 
-def wide_vector_failure(device, timeout=60):
+def wide_vector_failure(device, timeout=90):
     """Why the CPU ``device`` (``pyopencl.Device``) cannot run 16-wide vector kernels, or None.
 
-    Returns the compiler's last words (e.g. ``"LLVM ERROR: ..."``).  A child that runs past
-    ``timeout`` seconds (seen: a failed PoCL build whose threads spin) refuses the device in this
-    process only; the next process probes again (a loaded machine may just be slow).
+    Returns the compiler's last words (e.g. ``"LLVM ERROR: ..."``), or that a child which reached
+    the compiler ran past ``timeout`` seconds (a tiny kernel: seconds at most, even under load).
+    A kept verdict is dropped by deleting its file (the path: :func:`_verdict_path`).
     """
     import pyopencl as cl
     path = _verdict_path(device)
@@ -68,16 +68,24 @@ def wide_vector_failure(device, timeout=60):
     try:
         res = subprocess.run([sys.executable, "-c", _CHILD, *map(str, where[0]), device.name.strip(), _KERNEL],
                              capture_output=True, text=True, timeout=timeout)
+        out, err = res.stdout, res.stderr
     except OSError:     # no child process here: the device is taken to work
         return None
-    except subprocess.TimeoutExpired:
-        return f"a 16-wide vector kernel did not finish within {timeout} s"
-    if "compiling" not in res.stdout.split():
+    except subprocess.TimeoutExpired as exc:
+        # a verdict too, kept: seen with the bundled PoCL and an empty kernel cache (its threads
+        # spinning); unkept, every later process would wait as long again
+        out, err = (x.decode(errors="replace") if isinstance(x, bytes) else x or "" for x in (exc.stdout, exc.stderr))
+        res = None
+    if "compiling" not in out.split():
         return None     # the child failed before the compiler ran (its import, the device list): no verdict
-    lines = [line.strip() for line in (res.stderr + res.stdout).splitlines() if line.strip()]
+    lines = [line.strip() for line in (err + out).splitlines() if line.strip()]
     errors = [line for line in lines if "LLVM ERROR" in line] or [line for line in lines if "rror" in line]
-    ok = res.returncode == 0 and lines[-1:] == ["ok"]
-    verdict = "" if ok else (errors or lines or [f"exit status {res.returncode}"])[-1]
+    if res is None:
+        verdict = f"a 16-wide vector kernel did not finish within {timeout} s"
+    elif res.returncode == 0 and lines[-1:] == ["ok"]:
+        verdict = ""
+    else:
+        verdict = (errors or lines or [f"exit status {res.returncode}"])[-1]
     tmp = None
     try:    # atomically: a concurrent process reads the old verdict or the new one, never half
         os.makedirs(os.path.dirname(path), exist_ok=True)
