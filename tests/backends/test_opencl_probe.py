@@ -31,7 +31,7 @@ def test_a_working_device_passes_and_its_verdict_is_kept(tmp_path, monkeypatch):
     def no_child(*args, **kwargs):
         raise AssertionError("probed again although the verdict is kept")
 
-    monkeypatch.setattr(subprocess, "run", no_child)
+    monkeypatch.setattr(subprocess, "Popen", no_child)
     assert probe.wide_vector_failure(dev) is None
 
 
@@ -50,28 +50,44 @@ def test_a_failing_kernel_is_reported_kept_and_refuses_the_device(tmp_path, monk
     monkeypatch.delitem(clb._build_failures, dev.int_ptr)
 
 
-def test_a_child_that_hangs_in_the_compiler_refuses_the_device_for_good(tmp_path, monkeypatch):
+class _Hung:
+    """A child that printed ``out`` and then never finishes."""
+
+    def __init__(self, out):
+        self.out, self.killed, self.returncode = out, False, None
+
+    def communicate(self, timeout=None):
+        if self.killed:
+            return self.out, "warning: x\n"
+        raise subprocess.TimeoutExpired("child", timeout)
+
+    def kill(self):
+        self.killed = True
+
+
+def test_a_child_that_hangs_in_the_compiler_refuses_the_device_for_good(tmp_path, monkeypatch, capsys):
     """PyOpenCL's bundled PoCL on an AVX-512 EPYC with an empty kernel cache spins past any
-    timeout: that verdict is kept (each later process would wait as long), one that hangs before
-    the compiler is not a verdict."""
+    timeout: that verdict is kept (each later process would wait as long), and the wait is
+    announced; one that hangs before the compiler is not a verdict."""
     dev = _cpu_device()
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     kept = tmp_path / "gfgpu" / "opencl-probe"
-
-    def hangs_before(cmd, **kwargs):
-        raise subprocess.TimeoutExpired(cmd, kwargs["timeout"], output=b"")
-
-    monkeypatch.setattr(subprocess, "run", hangs_before)
-    assert probe.wide_vector_failure(dev) is None
+    monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: _Hung(""))
+    assert probe.wide_vector_failure(dev, timeout=4) is None
     assert not kept.exists() or not any(kept.iterdir())
-
-    def hangs_compiling(cmd, **kwargs):
-        raise subprocess.TimeoutExpired(cmd, kwargs["timeout"], output=b"compiling\n", stderr=b"warning: x\n")
-
-    monkeypatch.setattr(subprocess, "run", hangs_compiling)
-    assert "did not finish within 90 s" in probe.wide_vector_failure(dev)
+    monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: _Hung("compiling\n"))
+    assert "did not finish within 4 s" in probe.wide_vector_failure(dev, timeout=4)
     (verdict,) = kept.iterdir()
     assert "did not finish" in verdict.read_text()
+    assert "testing the OpenCL device" in capsys.readouterr().err
+
+
+def test_a_dropped_kernel_is_named(tmp_path, monkeypatch):
+    dev = _cpu_device()
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    # a program whose kernel has another name stands for one the compiler dropped
+    monkeypatch.setattr(probe, "_KERNEL", probe._KERNEL.replace("gfgpu_wide(", "another_name(", 1))
+    assert "without its 16-wide vector kernel" in probe.wide_vector_failure(dev)
 
 
 def test_the_verdict_depends_on_the_python_and_the_probe(monkeypatch):

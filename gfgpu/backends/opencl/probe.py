@@ -30,7 +30,10 @@ print("compiling", flush=True)  # what fails after this line is the compiler's (
 ctx = cl.Context([dev]); q = cl.CommandQueue(ctx); mf = cl.mem_flags
 a, b = np.arange(32, dtype=np.float32), np.arange(32, dtype=np.int32)
 da, db = (cl.Buffer(ctx, mf.READ_WRITE | mf.COPY_HOST_PTR, hostbuf=x) for x in (a, b))
-cl.Program(ctx, sys.argv[4]).build().gfgpu_wide(q, (2,), None, da, db)
+prg = cl.Program(ctx, sys.argv[4]).build()
+if "gfgpu_wide" not in prg.get_info(cl.program_info.KERNEL_NAMES).split(";"):
+    sys.exit("error: the compiler built the program without its 16-wide vector kernel")
+prg.gfgpu_wide(q, (2,), None, da, db)
 cl.enqueue_copy(q, a, da); cl.enqueue_copy(q, b, db); q.finish()
 assert np.array_equal(a, np.arange(32) * 2.5) and np.array_equal(b, np.arange(1, 33)), "wrong result"
 print("ok")"""
@@ -66,26 +69,37 @@ def wide_vector_failure(device, timeout=90):
     where = [(p, plat.get_devices().index(device)) for p, plat in enumerate(cl.get_platforms())
              if plat.int_ptr == device.platform.int_ptr]
     try:
-        res = subprocess.run([sys.executable, "-c", _CHILD, *map(str, where[0]), device.name.strip(), _KERNEL],
-                             capture_output=True, text=True, timeout=timeout)
-        out, err = res.stdout, res.stderr
+        child = subprocess.Popen([sys.executable, "-c", _CHILD, *map(str, where[0]), device.name.strip(), _KERNEL],
+                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     except OSError:     # no child process here: the device is taken to work
         return None
-    except subprocess.TimeoutExpired as exc:
-        # a verdict too, kept: seen with the bundled PoCL and an empty kernel cache (its threads
-        # spinning); unkept, every later process would wait as long again
-        out, err = (x.decode(errors="replace") if isinstance(x, bytes) else x or "" for x in (exc.stdout, exc.stderr))
-        res = None
+    code = None
+    try:
+        out, err = child.communicate(timeout=min(3, timeout))
+        code = child.returncode
+    except subprocess.TimeoutExpired:
+        # (a working device answers in about a second: say why the caller waits)
+        print(f"gfgpu: testing the OpenCL device {device.name.strip()!r} once for this machine (up to {timeout} s)",
+              file=sys.stderr, flush=True)
+        try:
+            out, err = child.communicate(timeout=max(0, timeout - 3))
+            code = child.returncode
+        except subprocess.TimeoutExpired:
+            # a verdict too, kept: seen with the bundled PoCL and an empty kernel cache (its threads
+            # spinning); unkept, every later process would wait as long again
+            child.kill()
+            out, err = child.communicate()
+    out, err = out or "", err or ""
     if "compiling" not in out.split():
         return None     # the child failed before the compiler ran (its import, the device list): no verdict
     lines = [line.strip() for line in (err + out).splitlines() if line.strip()]
     errors = [line for line in lines if "LLVM ERROR" in line] or [line for line in lines if "rror" in line]
-    if res is None:
+    if code is None:
         verdict = f"a 16-wide vector kernel did not finish within {timeout} s"
-    elif res.returncode == 0 and lines[-1:] == ["ok"]:
+    elif code == 0 and lines[-1:] == ["ok"]:
         verdict = ""
     else:
-        verdict = (errors or lines or [f"exit status {res.returncode}"])[-1]
+        verdict = (errors or lines or [f"exit status {code}"])[-1]
     tmp = None
     try:    # atomically: a concurrent process reads the old verdict or the new one, never half
         os.makedirs(os.path.dirname(path), exist_ok=True)
