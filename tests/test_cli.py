@@ -482,6 +482,18 @@ def test_a_missing_input_is_a_usage_error_before_the_backend_starts(tmp_path, ca
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.parametrize("argv", [["blur", "--dx", "3"], ["shift", "--dx", "1"], ["canny"], ["gradient"],
+                                  ["frames", "--dx", "3"]])
+def test_a_missing_input_file_is_named_before_the_backend_starts(tmp_path, capsys, argv):
+    """An IMAGE that does not exist: exit 2, one line naming it, no "backend ... on ..." line."""
+    missing = tmp_path / "nosuch.png"
+    assert main([argv[0], str(missing), *argv[1:], "-o", str(tmp_path / "out.png")]) == 2
+    captured = capsys.readouterr()
+    assert "backend" not in captured.out, captured.out
+    assert captured.err.strip() == f"gfgpu {argv[0]}: IMAGE {missing}: no such file"
+    assert sorted(os.listdir(tmp_path)) == []
+
+
 @pytest.mark.parametrize("argv, command, pattern", [
     (["depth", "--example", "camera"], "depth",
      r"unrecognized arguments: --example .*no bundled example"),

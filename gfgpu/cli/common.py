@@ -211,6 +211,10 @@ def announce_backend(args):
     if hasattr(args, "image") and args.image is None and not getattr(args, "example", None):
         # a usage error before the backend starts (and says it runs): no input at all
         raise CommandError(f"give an IMAGE path or --example {io.EXAMPLES[0]}")
+    for name in INPUT_ARGUMENTS:        # (likewise: a missing file is not read after "backend ... on ...")
+        path = getattr(args, name, None)
+        if path and not os.path.exists(path):
+            raise CommandError(f"{name.upper()} {path}: no such file")
     backend, device = getattr(args, "backend", None), getattr(args, "device", None)
     if device is not None and backend is None:
         raise CommandError(f"--device {device}: needs --backend as well (e.g. --backend warp --device cuda:0)")
