@@ -8,12 +8,16 @@ from collections import OrderedDict
 
 __all__ = ["LRU"]
 
+_MISSING = object()
+
 
 class LRU:
     """At most ``most`` entries; :meth:`get` makes a missing one with ``make()`` outside the lock
     (two threads may both make it: the values must be equal, and the last one is kept)."""
 
     def __init__(self, most):
+        if int(most) < 0:
+            raise ValueError(f"most must be >= 0, got {most}")
         self.most = int(most)
         self._table = OrderedDict()
         self._lock = threading.Lock()
@@ -21,8 +25,8 @@ class LRU:
     def get(self, key, make):
         """``table[key]``, made by ``make()`` on a miss."""
         with self._lock:
-            hit = self._table.get(key)
-            if hit is not None:
+            hit = self._table.get(key, _MISSING)
+            if hit is not _MISSING:
                 self._table.move_to_end(key)
                 return hit
         hit = make()

@@ -89,14 +89,23 @@ INPUT_ARGUMENTS = ("image", "left", "right")
 
 
 def check_source(args):
-    """An input file and ``--example`` together are an error (the file would be ignored).
+    """An input file and ``--example`` together are an error (the file would be ignored), and so is
+    an input file that does not exist or is not a regular file (a directory, a FIFO).
 
-    :func:`gfgpu.cli.main` calls it for every command before anything runs; CommandError names both."""
+    :func:`gfgpu.cli.main` calls it for every command before anything runs; CommandError names the
+    argument and the path."""
     example = getattr(args, "example", None)
     files = [getattr(args, name) for name in INPUT_ARGUMENTS if getattr(args, name, None)]
     if example and files:
         raise CommandError(f"give input file(s) or --example {example}, not both (got {' '.join(files)} and "
                            f"--example {example})")
+    for name in INPUT_ARGUMENTS:        # a missing input is a usage error before anything runs
+        path = getattr(args, name, None)
+        if path and not os.path.exists(path):
+            raise CommandError(f"{name.upper()} {path}: no such file")
+        problem = io.regular_file_problem(path) if path else None
+        if problem is not None:
+            raise CommandError(f"{name.upper()} {path}: {problem}, not an image file")
 
 
 def read_input(args):
@@ -211,10 +220,6 @@ def announce_backend(args):
     if hasattr(args, "image") and args.image is None and not getattr(args, "example", None):
         # a usage error before the backend starts (and says it runs): no input at all
         raise CommandError(f"give an IMAGE path or --example {io.EXAMPLES[0]}")
-    for name in INPUT_ARGUMENTS:        # (likewise: a missing file is not read after "backend ... on ...")
-        path = getattr(args, name, None)
-        if path and not os.path.exists(path):
-            raise CommandError(f"{name.upper()} {path}: no such file")
     backend, device = getattr(args, "backend", None), getattr(args, "device", None)
     if device is not None and backend is None:
         raise CommandError(f"--device {device}: needs --backend as well (e.g. --backend warp --device cuda:0)")

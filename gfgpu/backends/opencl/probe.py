@@ -15,6 +15,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 
 __all__ = ["wide_vector_failure"]
 
@@ -52,6 +53,9 @@ def _verdict_path(device):
     return os.path.join(root, "gfgpu", "opencl-probe", hashlib.sha256(key.encode()).hexdigest()[:24])
 
 
+_lock = threading.Lock()     # one probe at a time in a process: a second caller reads the first's verdict
+
+
 def wide_vector_failure(device, timeout=90):
     """Why the CPU ``device`` (``pyopencl.Device``) cannot run 16-wide vector kernels, or None.
 
@@ -59,6 +63,11 @@ def wide_vector_failure(device, timeout=90):
     the compiler ran past ``timeout`` seconds (a tiny kernel: seconds at most, even under load).
     A kept verdict is dropped by deleting its file (the path: :func:`_verdict_path`).
     """
+    with _lock:
+        return _probe(device, timeout)
+
+
+def _probe(device, timeout):
     import pyopencl as cl
     path = _verdict_path(device)
     try:
@@ -92,14 +101,15 @@ def wide_vector_failure(device, timeout=90):
     out, err = out or "", err or ""
     if "compiling" not in out.split():
         return None     # the child failed before the compiler ran (its import, the device list): no verdict
-    lines = [line.strip() for line in (err + out).splitlines() if line.strip()]
+    # the verdict is the compiler's words on stderr (stdout holds only the child's progress)
+    lines = [line.strip() for line in err.splitlines() if line.strip()]
     errors = [line for line in lines if "LLVM ERROR" in line] or [line for line in lines if "rror" in line]
     if code is None:
         verdict = f"a 16-wide vector kernel did not finish within {timeout} s"
-    elif code == 0 and lines[-1:] == ["ok"]:
+    elif code == 0 and "ok" in out.split():
         verdict = ""
     else:
-        verdict = (errors or lines or [f"exit status {code}"])[-1]
+        verdict = (errors or [f"the child stopped with exit status {code}"])[-1]
     tmp = None
     try:    # atomically: a concurrent process reads the old verdict or the new one, never half
         os.makedirs(os.path.dirname(path), exist_ok=True)
