@@ -139,6 +139,20 @@ def cpu_opencl(require_backend):
     return be
 
 
+@pytest.fixture
+def opencl_cpu_device():
+    """A ``pyopencl.Device`` of the CPU that gfgpu would run on (it passes the build probes); for
+    tests of the probe itself.  Skipped where there is none."""
+    pytest.importorskip("pyopencl")
+    from gfgpu.backends.opencl import backend as clb
+    if clb.unavailable_reason() is not None:
+        pytest.skip(f"no usable OpenCL device: {clb.unavailable_reason()}")
+    cpus = [d for _, d, k in clb.opencl_devices() if k == "cpu" and clb.build_failure(d) is None]
+    if not cpus:
+        pytest.skip("no usable OpenCL CPU device")
+    return cpus[0]
+
+
 def pytest_collection_modifyitems(config, items):
     if not DEVICE_RUN:
         return

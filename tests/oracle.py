@@ -92,6 +92,14 @@ def relerr(out, ref):
     return np.linalg.norm(out - ref) / np.linalg.norm(ref)
 
 
+def max_relerr(out, ref):
+    """Largest absolute difference over the largest magnitude of ``ref`` (at least 1; 0 if empty)."""
+    out, ref = np.asarray(out, np.float64), np.asarray(ref, np.float64)
+    if not ref.size:
+        return 0.0
+    return float(np.max(np.abs(out - ref))) / max(1.0, float(np.max(np.abs(ref))))
+
+
 # --------------------------------------------------------------------------------------
 # Fourier transfer functions: the operators along the continuous direction, periodic images
 # --------------------------------------------------------------------------------------

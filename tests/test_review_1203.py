@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 import pytest
+from oracle import max_relerr
 
 import gfgpu
 from gfgpu import stereo
@@ -28,9 +29,7 @@ TOL = {np.float32: 2e-5, np.float64: 1e-11}
 
 def _close(got, want, dtype, what=""):
     """``got`` within float rounding of ``want`` (relative to the largest magnitude, at least 1)."""
-    got = np.asarray(got, np.float64)
-    scale = max(1.0, float(np.max(np.abs(want)))) if np.size(want) else 1.0
-    err = float(np.max(np.abs(got - want))) / scale if np.size(want) else 0.0
+    err = max_relerr(got, want)
     assert err < TOL[dtype], f"{what}: relative error {err:.3g}"
 
 

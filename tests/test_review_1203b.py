@@ -482,24 +482,14 @@ def test_spin_threads_with_different_centres_equal_numpy(backend):
 # 84d795d: the OpenCL probe
 
 
-def _cpu_device():
-    pytest.importorskip("pyopencl")
-    from gfgpu.backends.opencl import backend as clb
-    if clb.unavailable_reason() is not None:
-        pytest.skip(f"no usable OpenCL device: {clb.unavailable_reason()}")
-    cpus = [d for _, d, k in clb.opencl_devices() if k == "cpu" and clb.build_failure(d) is None]
-    if not cpus:
-        pytest.skip("no usable OpenCL CPU device")
-    return cpus[0]
 
 
-def test_probe_in_a_fresh_process_whose_cache_home_is_a_file(tmp_path):
+def test_probe_in_a_fresh_process_whose_cache_home_is_a_file(opencl_cpu_device, tmp_path):
     """XDG_CACHE_HOME pointing to a file from the start: the backend moves its caches to a
     temporary directory, the probe's child runs there, the CPU device is not refused and its
     results equal numpy's."""
     import subprocess
     import sys
-    _cpu_device()
     home = tmp_path / "not-a-dir"
     home.write_text("x")
     code = ("import numpy as np, gfgpu, warnings\n"
@@ -517,13 +507,13 @@ def test_probe_in_a_fresh_process_whose_cache_home_is_a_file(tmp_path):
     assert home.read_text() == "x"
 
 
-def test_probe_a_child_that_cannot_start_does_not_refuse_the_device_for_good(tmp_path, monkeypatch):
+def test_probe_a_child_that_cannot_start_does_not_refuse_the_device_for_good(opencl_cpu_device, tmp_path, monkeypatch):
     """A probe child that fails before it reaches the device (here: its Python finds a pyopencl
     that does not import, as a process whose pyopencl came from sys.path changes at run time
     would) says nothing about the device's compiler: its verdict must not be kept on disk and
     refuse a working device in every later process."""
     from gfgpu.backends.opencl import probe
-    dev = _cpu_device()
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     shim = tmp_path / "shim"
     shim.mkdir()
@@ -534,12 +524,12 @@ def test_probe_a_child_that_cannot_start_does_not_refuse_the_device_for_good(tmp
     assert probe.wide_vector_failure(dev) is None
 
 
-def test_probe_with_an_undecodable_verdict_file_does_not_raise(tmp_path, monkeypatch):
+def test_probe_with_an_undecodable_verdict_file_does_not_raise(opencl_cpu_device, tmp_path, monkeypatch):
     """A verdict file of bytes that are not text (a disk error, another program): the probe
     answers (probing again), it does not raise UnicodeDecodeError out of build_failure."""
     from gfgpu.backends.opencl import backend as clb
     from gfgpu.backends.opencl import probe
-    dev = _cpu_device()
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     path = probe._verdict_path(dev)
     os.makedirs(os.path.dirname(path))
@@ -553,11 +543,11 @@ def test_probe_with_an_undecodable_verdict_file_does_not_raise(tmp_path, monkeyp
         monkeypatch.delitem(clb._build_failures, dev.int_ptr, raising=False)
 
 
-def test_probe_whose_verdict_path_is_a_directory_leaves_no_temporary_files(tmp_path, monkeypatch):
+def test_probe_whose_verdict_path_is_a_directory_leaves_no_temporary_files(opencl_cpu_device, tmp_path, monkeypatch):
     """The verdict's path taken by a directory: the probe answers and leaves no temporary file
     behind in the cache directory (one per process otherwise)."""
     from gfgpu.backends.opencl import probe
-    dev = _cpu_device()
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     path = probe._verdict_path(dev)
     os.makedirs(path)
@@ -566,11 +556,11 @@ def test_probe_whose_verdict_path_is_a_directory_leaves_no_temporary_files(tmp_p
     assert sorted(os.listdir(os.path.dirname(path))) == [os.path.basename(path)]
 
 
-def test_probe_empty_verdict_and_concurrent_probes(tmp_path, monkeypatch):
+def test_probe_empty_verdict_and_concurrent_probes(opencl_cpu_device, tmp_path, monkeypatch):
     """An empty verdict file is 'works'; four threads probing an empty cache at once all answer
     None and leave exactly one verdict."""
     from gfgpu.backends.opencl import probe
-    dev = _cpu_device()
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "a"))
     path = probe._verdict_path(dev)
     os.makedirs(os.path.dirname(path))

@@ -15,6 +15,7 @@ import time
 
 import numpy as np
 import pytest
+from oracle import max_relerr
 
 import gfgpu
 from gfgpu import greens
@@ -26,15 +27,6 @@ from gfgpu.cli import main
 # ---------------------------------------------------------------------------------------------
 
 
-def _cpu_device():
-    pytest.importorskip("pyopencl")
-    from gfgpu.backends.opencl import backend as clb
-    if clb.unavailable_reason() is not None:
-        pytest.skip(f"no usable OpenCL device: {clb.unavailable_reason()}")
-    cpus = [d for _, d, k in clb.opencl_devices() if k == "cpu" and clb.build_failure(d) is None]
-    if not cpus:
-        pytest.skip("no usable OpenCL CPU device")
-    return cpus[0]
 
 
 class _Child:
@@ -65,9 +57,9 @@ class _Child:
 
 
 @pytest.fixture
-def probe_env(tmp_path, monkeypatch):
+def probe_env(opencl_cpu_device, tmp_path, monkeypatch):
     from gfgpu.backends.opencl import probe
-    dev = _cpu_device()
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "cache"))
     _Child.made = []
 
@@ -591,9 +583,7 @@ TOL = {np.float32: 2e-5, np.float64: 1e-11}
 
 
 def _close(got, want, dtype, what=""):
-    got = np.asarray(got, np.float64)
-    scale = max(1.0, float(np.max(np.abs(want)))) if np.size(want) else 1.0
-    err = float(np.max(np.abs(got - want))) / scale if np.size(want) else 0.0
+    err = max_relerr(got, want)
     assert err < TOL[dtype], f"{what}: relative error {err:.3g}"
 
 

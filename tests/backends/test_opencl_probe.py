@@ -12,17 +12,8 @@ from gfgpu.backends.opencl import backend as clb
 from gfgpu.backends.opencl import probe
 
 
-def _cpu_device():
-    if clb.unavailable_reason() is not None:
-        pytest.skip(f"no usable OpenCL device: {clb.unavailable_reason()}")
-    cpus = [d for _, d, k in clb.opencl_devices() if k == "cpu" and clb.build_failure(d) is None]
-    if not cpus:
-        pytest.skip("no usable OpenCL CPU device")
-    return cpus[0]
-
-
-def test_a_working_device_passes_and_its_verdict_is_kept(tmp_path, monkeypatch):
-    dev = _cpu_device()
+def test_a_working_device_passes_and_its_verdict_is_kept(opencl_cpu_device, tmp_path, monkeypatch):
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     assert probe.wide_vector_failure(dev) is None
     kept = list((tmp_path / "gfgpu" / "opencl-probe").iterdir())
@@ -35,8 +26,8 @@ def test_a_working_device_passes_and_its_verdict_is_kept(tmp_path, monkeypatch):
     assert probe.wide_vector_failure(dev) is None
 
 
-def test_a_failing_kernel_is_reported_kept_and_refuses_the_device(tmp_path, monkeypatch):
-    dev = _cpu_device()
+def test_a_failing_kernel_is_reported_kept_and_refuses_the_device(opencl_cpu_device, tmp_path, monkeypatch):
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     # a kernel the compiler rejects stands for one that aborts the child
     monkeypatch.setattr(probe, "_KERNEL", probe._KERNEL.replace("vstore16(", "no_such_builtin(", 1))
@@ -65,11 +56,12 @@ class _Hung:
         self.killed = True
 
 
-def test_a_child_that_hangs_in_the_compiler_refuses_the_device_for_good(tmp_path, monkeypatch, capsys):
+def test_a_child_that_hangs_in_the_compiler_refuses_the_device_for_good(opencl_cpu_device, tmp_path, monkeypatch,
+                                                                         capsys):
     """PyOpenCL's bundled PoCL on an AVX-512 EPYC with an empty kernel cache spins past any
     timeout: that verdict is kept (each later process would wait as long), and the wait is
     announced; one that hangs before the compiler is not a verdict."""
-    dev = _cpu_device()
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     kept = tmp_path / "gfgpu" / "opencl-probe"
     monkeypatch.setattr(subprocess, "Popen", lambda *a, **k: _Hung(""))
@@ -82,16 +74,16 @@ def test_a_child_that_hangs_in_the_compiler_refuses_the_device_for_good(tmp_path
     assert "testing the OpenCL device" in capsys.readouterr().err
 
 
-def test_a_dropped_kernel_is_named(tmp_path, monkeypatch):
-    dev = _cpu_device()
+def test_a_dropped_kernel_is_named(opencl_cpu_device, tmp_path, monkeypatch):
+    dev = opencl_cpu_device
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     # a program whose kernel has another name stands for one the compiler dropped
     monkeypatch.setattr(probe, "_KERNEL", probe._KERNEL.replace("gfgpu_wide(", "another_name(", 1))
     assert "without its 16-wide vector kernel" in probe.wide_vector_failure(dev)
 
 
-def test_the_verdict_depends_on_the_python_and_the_probe(monkeypatch):
-    dev = _cpu_device()
+def test_the_verdict_depends_on_the_python_and_the_probe(opencl_cpu_device, monkeypatch):
+    dev = opencl_cpu_device
     before = probe._verdict_path(dev)
     monkeypatch.setattr(probe.sys, "executable", "/elsewhere/python")
     assert probe._verdict_path(dev) != before
