@@ -129,6 +129,43 @@ def test_each_command_names_its_backend(argv, small_png, tmp_path, capsys):
     assert f"gfgpu {name}: backend numpy on host" in capsys.readouterr().out
 
 
+@pytest.fixture
+def wide_png16(tmp_path):
+    import imageio.v3 as iio
+    path = tmp_path / "wide16.png"
+    iio.imwrite(path, (np.random.default_rng(4).random((40, 52)) * 65535).astype(np.uint16))
+    return path
+
+
+@pytest.mark.parametrize("argv, pattern", [
+    (("blur", "{img}", "-o", "{out}.png", "--zoom", 5), r"--zoom must lie in .*got 5\.0"),
+    (("blur", "{img}", "-o", "{out}.png", "--zoom", -0.9), r"--zoom must lie in .*got -0\.9"),
+    (("blur", "{img}", "-o", "{out}.png", "--rotate", 400), r"--rotate must lie in \[-360, 360\].*got 400"),
+    (("frames", "{img}", "-o", "{out}", "--zoom", 2, "-n", 3), r"--zoom must lie in"),
+    (("frames", "{img}", "-o", "{out}", "--rotate", -361, "-n", 3), r"--rotate must lie in"),
+    (("shift", "{img16}", "-o", "{out}.jpg", "--dx", 1), r"-o .*\.jpg: JPEG holds 8-bit samples.*16-bit"),
+    (("blur", "{img16}", "-o", "{out}.jpg", "--dx", 3), r"-o .*\.jpg: JPEG holds 8-bit samples"),
+    (("frames", "{img16}", "-o", "{out}", "--dx", 3, "-n", 3), None),
+    (("disparity", "{img}", "{img16}", "-o", "{out}.png", "--max-disparity", 4),
+     r"LEFT and RIGHT must have one size, got 40 x 48 and 40 x 52 \(rows x cols\)"),
+])
+def test_a_refused_command_never_says_a_backend_ran(tmp_path, capsys, small_png, wide_png16, argv, pattern):
+    """Every check of the input and the options comes before the backend line (which says work started):
+    out-of-range motion values, an output format that would lose the input's depth, a pair of two sizes."""
+    args = [str(a).format(img=small_png, img16=wide_png16, out=tmp_path / "result") for a in argv]
+    code = cli([*args, "--backend", "numpy"])
+    if pattern is None:         # frames are PNGs (16-bit kept): this one runs, and says its backend
+        assert code == 0, capsys.readouterr().err
+        assert "frames: backend numpy on host" in capsys.readouterr().out
+        return
+    import re
+    out = capsys.readouterr()
+    err = out.err.strip()
+    assert "backend" not in out.out, out.out
+    assert code == 2 and "\n" not in err and err.startswith(f"gfgpu {argv[0]}: ") and re.search(pattern, err), err
+    assert sorted(os.listdir(tmp_path)) == ["small.png", "wide16.png"]
+
+
 # --------------------------------------------------------------------------------------
 # files and the command line (issue 16, items 9-11)
 # --------------------------------------------------------------------------------------

@@ -48,9 +48,9 @@ def add_parser(subparsers):
 def run(args):
     check_motion(args)
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT)])
-    be = announce_backend(args)
     image, img, alpha, label, kw = motion_input(args)
     conversion = check_image_output("-o", args.output, image)
+    be = announce_backend(args)     # after every check: a refused command never says it ran
     velocity = kw.pop("velocity")
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu blur", unit="image", disable=None, leave=False) as bar:

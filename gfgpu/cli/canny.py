@@ -87,9 +87,9 @@ def run(args):
         raise CommandError("give --low and --high together (quantiles), or neither (absolute defaults)")
     # every option checked before the image is read or a device started
     check_arguments(args.u, args.low, args.high, use_quantiles=True, mode=args.mode)
-    be = announce_backend(args)
     image, label = read_input(args)
     img = grey_image(image)
+    be = announce_backend(args)
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu canny", unit="image", disable=None, leave=False) as bar:
         edges = canny(img, args.u, args.low, args.high, use_quantiles=True, mode=args.mode, backend=be)

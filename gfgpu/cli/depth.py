@@ -104,7 +104,6 @@ def run(args):
     light = _light(args.light)
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--relief", args.relief, IMAGE_OUTPUT),
                                  ("--npy", args.npy, NPY_OUTPUT)])
-    be = announce_backend(args)
     image = io.read_image(args.image)
     img = np.asarray(image)
     if img.ndim == 3:
@@ -114,6 +113,7 @@ def run(args):
         img /= 255.0
     elif image.dtype == np.uint16:
         img /= 65535.0
+    be = announce_backend(args)     # after the input is read: a refused command never says it ran
     kw = dict(light=light, backend=be)
     direction = None if args.direction is None else math.radians(args.direction)
     t0 = time.perf_counter()

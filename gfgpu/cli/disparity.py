@@ -139,6 +139,9 @@ def run(args):
     if args.max_disparity is not None:
         _check_png16(args, args.max_disparity)
     left, right, label, default_max = _read_pair(args)
+    if np.shape(left)[:2] != np.shape(right)[:2]:      # before the backend starts (and says it runs)
+        (hl, wl), (hr, wr) = np.shape(left)[:2], np.shape(right)[:2]
+        raise CommandError(f"LEFT and RIGHT must have one size, got {hl} x {wl} and {hr} x {wr} (rows x cols)")
     q = _q_matrix(args, np.shape(left)[:2]) if args.ply else None      # before any work or file
     be = announce_backend(args)
     t0 = time.perf_counter()

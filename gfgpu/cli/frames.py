@@ -74,9 +74,9 @@ def run(args):
         if args.image and same_file(path, args.image):
             raise CommandError(f"-o {folder}: {path} would overwrite the input {args.image}; choose another "
                                f"folder")
-    be = announce_backend(args)
     image, img, alpha, label, kw = motion_input(args)
     conversion = check_image_output("-o", paths[0], image)
+    be = announce_backend(args)     # after every check: a refused command never says it ran
     velocity = kw.pop("velocity")
     t0 = time.perf_counter()
     with tqdm(total=args.frames, desc="gfgpu frames", unit="frame", disable=None, leave=False) as bar:

@@ -47,8 +47,8 @@ def add_parser(subparsers):
 
 def run(args):
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
-    be = announce_backend(args)
     image, label = read_input(args)
+    be = announce_backend(args)
     img = drop_alpha(image).astype(working_dtype(image))
     if img.ndim == 3:
         img = img.mean(axis=-1)   # luminance-like average: one gradient per pixel

@@ -92,6 +92,9 @@ def check_motion(args):
         # gfgpu.motion_blur ignores displace=False for the Green zoom (its kernel is one-sided)
         raise CommandError("--keep-position does not apply to --zoom with --psf green (the Green zoom always "
                            "displaces the content); use --psf box for an in-place zoom blur")
+    # the value's range too (ValueError in the library's terms, reported in the command's: CLI_TERMS),
+    # so that an out-of-range --zoom or --rotate is refused before the backend starts
+    MOTIONS[kind].parse(_options_of(kind)[2](args))
     return kind
 
 

@@ -57,9 +57,9 @@ def run(args):
         raise CommandError("give a shift: --dx (right) and/or --dy (down), pixels")
     dx, dy = args.dx or 0.0, args.dy or 0.0
     check_outputs([args.image], [("-o", args.output, IMAGE_OUTPUT), ("--npy", args.npy, NPY_OUTPUT)])
-    be = announce_backend(args)
     image, label = read_input(args)
     conversion = check_image_output("-o", args.output, image)
+    be = announce_backend(args)     # after every check: a refused command never says it ran
     work, alpha = split_alpha_work(image)
     t0 = time.perf_counter()
     with tqdm(total=1, desc="gfgpu shift", unit="image", disable=None, leave=False) as bar:
