@@ -19,7 +19,7 @@ from functools import cache
 
 import numpy as np
 
-from ..._core import boundary, bspline
+from ..._core import boundary, bspline, waiting
 
 __all__ = ["REALS", "GPU_GROUP", "kernel", "launch", "PresetLaunch", "group_size", "check_dtype", "plain",
            "written", "copy_bytes", "forget_programs"]
@@ -36,6 +36,7 @@ _kernels = {}              # (context, anchor, source, defines, name) -> pyopenc
 # launching one kernel at once could enqueue each other's arguments (seen under a tiny
 # sys.setswitchinterval: wrong pixels in shift and disparity) -- every launch holds this lock
 _LAUNCH_LOCK = threading.RLock()
+BUILD_NOTICE_S = 3.0       # a build longer than this says why the caller waits
 _KERNEL_LOCK = threading.RLock()   # one kernel object per key, also when threads build at once
 
 
@@ -73,7 +74,10 @@ def _program(context, anchor, source, defines):
         # no fast-math: accuracy relies on IEEE arithmetic.  -w: PoCL warns on every 512-bit
         # vector argument (an x86 ABI note), which PyOpenCL would surface as CompilerWarning.
         options = [f"-D{k}={v}" for k, v in defines] + ["-w"]
-        prog = cl.Program(context, _source(anchor, source)).build(options=options)
+        with waiting.notice_after(BUILD_NOTICE_S, lambda: f"gfgpu: building OpenCL kernels ({source}) for "
+                                  f"{context.devices[0].name.strip()}: the first run on this machine compiles "
+                                  f"them (a minute or more); later runs read them from PoCL's cache", "build"):
+            prog = cl.Program(context, _source(anchor, source)).build(options=options)
         _programs[key] = prog
     return prog
 
