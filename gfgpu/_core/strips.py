@@ -345,16 +345,24 @@ def _size(shape, dtype):
 def run_job(job, program, mode, cval):
     """Run ``program`` on a host job in strips (called by the operators of :mod:`gfgpu.filters`)."""
     limit = get_working_set(job.backend)
-    out = job.output if job.output is not None else np.empty(job.shape, job.dtype)
-    source = ArrayStore(job.source)     # checked: job.scale_exp set beyond the range limit
+    src = job.source                    # checked: job.scale_exp set beyond the range limit
+    # strips are read after earlier strips are written: an output over the input (in place, a
+    # shifted or reversed view, a memmap filtered into itself) would read results as input
+    out = job.output
+    own = out is None or np.may_share_memory(out, src)
+    buf = np.empty(job.shape, job.dtype) if own else out
+    source = ArrayStore(src)
     cval = job.scaled(cval)
     if job.scale_exp:
         source = ScaledStore(source, job.scale_exp)
-    Strips(job.backend, job.dtype, mode, cval).run(program, source, ArrayStore(out), limit)
+    Strips(job.backend, job.dtype, mode, cval).run(program, source, ArrayStore(buf), limit)
     if job.scale_exp:
         with np.errstate(over="ignore"):
-            np.ldexp(out, -job.scale_exp, out=out)
-    return out
+            np.ldexp(buf, -job.scale_exp, out=buf)
+    if out is not None and own:
+        out[...] = buf
+        return out
+    return buf
 
 
 class ScaledStore:
