@@ -258,6 +258,11 @@ def direction_steps(ndim, passes, angle, axes):
 
 def per_axis(value, axes, name):
     """One float per axis in ``axes`` from a scalar or a sequence (array-axis order)."""
+    if isinstance(value, np.ndarray) and value.ndim != 1:
+        if value.ndim == 0:         # what numpy.asarray makes of a scalar: the scalar (as scipy)
+            return [finite_scalar(name, value[()])] * len(axes)
+        raise ValueError(f"{name} must be a scalar or one value per axis ({len(axes)}), got an array of shape "
+                         f"{value.shape}")
     if isinstance(value, (Sequence, np.ndarray)) and not isinstance(value, str):
         vals = [finite_scalar(name, v) for v in value]
         if len(vals) != len(axes):

@@ -91,7 +91,7 @@ def work_dtype(dtype, name="input"):
         return np.dtype(dtype.type)          # native byte order: the devices compute natively
     if wide_integer(dtype):
         return np.dtype(np.float64)          # float32 rounds integers above 2**24
-    if dtype.kind in "biu" or dtype == np.float16:
+    if dtype.kind in "biu" or (dtype.kind == "f" and dtype.itemsize == 2):     # float16 of either byte order
         return np.dtype(np.float32)
     raise TypeError(f"{name} must have a real numeric dtype (float32/float64, or integer/bool: up to 16 "
                     f"bits converted to float32, wider integers to float64); got {dtype}")
