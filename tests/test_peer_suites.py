@@ -857,16 +857,9 @@ def test_canny_image_must_be_2d(backend, shape):
         gfgpu.canny(np.zeros(shape), 1.0, backend=backend.name)
 
 
-def test_canny_quantile_one_marks_the_maximum(backend, request):
+def test_canny_quantile_one_marks_the_maximum(backend):
     """skimage: ``high_mask = magnitude >= high_threshold``; with ``high_threshold=1.0`` quantile
     the threshold is the largest magnitude, so an interior maximum that NMS keeps is an edge."""
-    if backend.name != "numpy":
-        request.applymarker(pytest.mark.xfail(
-            strict=True, reason="bug: with use_quantiles=True the device compares its own magnitude (rounded "
-                                "differently from the host's np.hypot the quantile is taken from) with the "
-                                "threshold: the interior global maximum, kept by NMS, with magnitude == quantile "
-                                "1.0, is an edge on numpy and not on warp (seed 7) / opencl (seeds 4, 7); "
-                                "skimage: seeds are magnitude >= high"))
     for seed in (4, 7):
         x = np.random.default_rng(seed).random((50, 60)).astype(np.float32)
         edges, mag, _ = gfgpu.canny(x, 1.0, 1.0, 1.0, use_quantiles=True, return_gradient=True,

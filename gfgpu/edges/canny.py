@@ -417,8 +417,8 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     # thresholds in the normalised image's units; quantiles partition one scratch copy in place
     # (the second partition starts from the first's order), one scalar q at a time: a q array
     # would interpolate in float64, not in the magnitude's dtype
-    if low_q or high_q:
-        scratch = magnitude.reshape(-1) if not return_gradient else magnitude.ravel().copy()
+    if low_q or high_q:     # a copy: the magnitude itself classifies below
+        scratch = magnitude.ravel().copy()
     low = float(np.percentile(scratch, 100.0 * low, overwrite_input=True)) if low_q else float(np.ldexp(low, -exponent))
     high = (float(np.percentile(scratch, 100.0 * high, overwrite_input=True)) if high_q
             else float(np.ldexp(high, -exponent)))
@@ -431,8 +431,17 @@ def canny(image, u=1.0, low_threshold=None, high_threshold=None, *, mask=None, u
     low_t, floor_t = class_thresholds(job.dtype, low, floor)
     bound, strict = (floor_t, True) if low_t <= floor_t else (low_t, False)
     classes = be.empty(job.shape, np.uint8)
-    kernels.nms_classes(be, gy, gx, classes, bound, high, strict)
+    # a quantile is a value of the host's magnitude (quantile 1: its maximum): compared with the
+    # device's own magnitude, which may round differently, a pixel at the threshold could fall on
+    # either side. Then the device keeps the crests only and the host compares its magnitude
+    on_host = low_q or high_q
+    kernels.nms_classes(be, gy, gx, classes, floor_t if on_host else bound, np.inf if on_host else high,
+                        True if on_host else strict)
     cls = np.asarray(be.to_host(classes))
+    if on_host:
+        high_t = class_thresholds(job.dtype, high, high)[0]
+        weak = (cls != 0) & (magnitude > floor_t) & (magnitude >= low_t)
+        cls = weak.view(np.uint8) | ((weak & (magnitude >= high_t)).view(np.uint8) << 1)
     if mask is not None:        # candidates inside the eroded mask only
         cls = cls * ndimage.binary_erosion(mask, np.ones((3, 3), bool), border_value=0)
     # the suppressed magnitude is 0 on the border: clearing it again keeps _grow's neighbours inside
