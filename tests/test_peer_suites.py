@@ -1038,3 +1038,11 @@ def test_shape_from_shading_along_an_axis_streams(backend):
     with gfgpu.working_set("16K"):
         out = gfgpu.shape_from_shading(img, light=(1, 0, 1), backend=backend.name)
     np.testing.assert_allclose(out, ref, rtol=0, atol=1e-5 * np.abs(ref).max())
+
+
+def test_matcher_takes_a_shape_array(backend):
+    """libSGM/OpenCV users pass ``numpy.array(img.shape[:2])``: a 1-D array of two integers is a shape."""
+    m = gfgpu.StereoMatcher(np.array([H, W]), 16, backend=backend.name)
+    assert m.shape == (H, W)
+    with pytest.raises(ValueError, match=r"shape must be \(H, W\)"):
+        gfgpu.StereoMatcher(np.array([[H, W]]), 16, backend=backend.name)

@@ -86,7 +86,8 @@ class StereoMatcher:
                  subpixel_steps=2, census_radius=3, p1=None, p2=None, paths=4, uniqueness=10,
                  speckle_size=postfilter.SPECKLE_SIZE, speckle_range=postfilter.SPECKLE_RANGE, min_confidence=0.0,
                  backend=None, device=None):
-        shp = tuple(shape) if isinstance(shape, (tuple, list)) else None
+        # a tuple, list or 1-D array of two integers (numpy.array(img.shape[:2]) is one)
+        shp = tuple(shape) if isinstance(shape, (tuple, list)) or np.ndim(shape) == 1 else None
         if shp is None or len(shp) != 2:
             raise ValueError(f"shape must be (H, W), got {shape!r}")
         h, w = (matching._int_arg(v, "shape") for v in shp)

@@ -870,7 +870,7 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     Raises
     ------
     ValueError
-        Shape mismatch, disparity range outside ``(-W, W)`` or empty, NaN/inf input, or a
+        Shape mismatch, an empty or over-long disparity range (see ``max_disparity``), NaN/inf input, or a
         parameter outside its range (named in the message).
     TypeError
         Non-numeric images or non-integer disparity bounds.
