@@ -776,9 +776,10 @@ def disparity(left, right, max_disparity, *, min_disparity=0, method="sgm", wind
     Parameters
     ----------
     left, right : (H, W) or (H, W, C) array_like
-        The rectified pair, grey or colour (C = 3 or 4; colour is matched on its Rec. 601
-        luminance, alpha ignored).  Integer images are converted to float32; NaN/inf are
-        rejected.
+        The rectified pair, grey or colour (C = 3 or 4, channels in RGB(A) order, as
+        imageio/skimage read them; colour is matched on its Rec. 601 luminance, alpha ignored;
+        OpenCV's BGR arrays: reverse the channels, ``img[..., ::-1]``, for the same
+        luminance).  Integer images are converted to float32; NaN/inf are rejected.
     max_disparity : int
         Largest disparity searched (px), ``min_disparity < max_disparity <= min_disparity +
         4096``; it may reach or exceed the width (those candidates are never in view).
