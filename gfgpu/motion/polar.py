@@ -188,7 +188,17 @@ def _run_polar(job, cy, cx, reach, blur, mode, cval, what, rate, split=False):
     # is the image prefilter's scratch: a call takes each new page once (a first call on a new shape
     # pays for every new page it touches: ~5 ms per MB on a shared 2-core VM, as much as the blur)
     most = planes[0] * max(n_r * n_phi for _, n_r, n_phi, _, _ in bands)
-    work = [be.empty((most,), dtype), be.empty((most,), dtype)]
+    if split:
+        # the split grid's two arrays are the halves of one block (work[1], which kernels that take plain
+        # pointers read, first): its largest band is about half the one-band grid of the zooms, so the block
+        # is of the size class of each zoom array, and a zoom after a spin (or a spin after a zoom) takes
+        # its pages from the pool instead of new ones (a first call's main cost; docs/motion.md)
+        stride = -(-most // 64) * 64        # the second array on a 256-byte boundary, as the arrays' starts
+        block = be.empty((2 * stride,), dtype)
+        work = [block[stride:stride + most], block[:most]]
+        del block
+    else:
+        work = [be.empty((most,), dtype), be.empty((most,), dtype)]
 
     def carve(k, part_shape):
         while k >= len(work):

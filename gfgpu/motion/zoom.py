@@ -122,14 +122,19 @@ def _mean_correction(lam_full, kap_full, kap_own, s, u1):
     from running the recursion on ``1`` and on ``s`` (float64, O(n)).
     """
     n = len(s)
-    m0, m1, m_first = np.empty(n), np.empty(n), np.empty(n)
+    # a sequential recursion (no vectorised form with the same rounding), run on Python floats and
+    # complexes: the same IEEE operations as on numpy scalars, ~8x faster (4 ms -> 0.5 ms for the
+    # 1456 rings of a 2048^2 zoom, a plan each new shape computes)
+    lam, kap, owns, ss = lam_full.tolist(), kap_full.tolist(), kap_own.real.tolist(), s.tolist()
+    m0, m1, m_first = [0.0] * n, [0.0] * n, [0.0] * n
     f0 = f1 = f_first = 0j
     for k in range(n):
-        own = kap_own[k].real
-        m0[k], m1[k], m_first[k] = f0.real + own, f1.real + own * s[k], f_first.real + (own if k == 0 else 0.0)
-        f0 = lam_full[k] * f0 + kap_full[k]
-        f1 = lam_full[k] * f1 + kap_full[k] * s[k]
-        f_first = lam_full[k] * f_first + (kap_full[k] if k == 0 else 0.0)
+        own, lk, kk, sk = owns[k], lam[k], kap[k], ss[k]
+        m0[k], m1[k], m_first[k] = f0.real + own, f1.real + own * sk, f_first.real + (own if k == 0 else 0.0)
+        f0 = lk * f0 + kk
+        f1 = lk * f1 + kk * sk
+        f_first = lk * f_first + (kk if k == 0 else 0.0)
+    m0, m1, m_first = np.array(m0), np.array(m1), np.array(m_first)
     excess = 1.0 - m0
     prev = np.empty(n)
     prev[1:] = s[:-1]

@@ -152,7 +152,7 @@ def launch_to_polar(be, coef, out, cy, cx, r0, mode, cval):
 
 
 def launch_from_polar(be, pcoef, base, out, cy, cx, r0, r_lo, r_hi, wcoef=None, only_band=False):
-    pcoef = ocl.plain(be, pcoef, "pcoef")
+    pcoef = ocl.starting(be, pcoef, "pcoef")     # an offset view (the spin's workspace block) without a copy
     obuf, ooff = ocl.written(be, out, "out")
     bbuf, boff = ocl.written(be, base, "base")      # base may be out
     dtype, pos = _setup(be, pcoef)
