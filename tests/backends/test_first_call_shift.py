@@ -16,6 +16,7 @@ here.
 
 import numpy as np
 import pytest
+from counters import fresh_pool_blocks, program_builds
 
 import gfgpu
 from gfgpu._core import program, recursion, translation
@@ -27,20 +28,7 @@ STEPS = 2                    # translated steps of SHIFT on a 2-D image, one pas
 SHAPES = [(200, 240), (220, 260), (203, 259), (240, 219), (195, 266), (250, 262)]
 
 
-def _builds(be):
-    """Programs built so far for ``be`` (OpenCL), or None where builds are not counted here."""
-    if be.name != "opencl":
-        return None
-    from gfgpu.backends.opencl import launch
-    return sum(1 for key in launch._programs if key[0] == be.context)
-
-
-def _fresh_blocks(be):
-    pool = getattr(be, "_host_pool", None)
-    return None if pool is None else pool.stats["fresh"]
-
-
-def _index_builds():
+def _indexprogram_builds():
     """Window or gather indices computed so far (cache misses of their builders)."""
     return sum(f.cache_info().misses for f in (program.line_window, translation.translate_index,
                                                 translation.crop_index))
@@ -81,18 +69,18 @@ class _Counts:
         be = self.be
         be.synchronize()
         self.series.clear()
-        self._start = (_builds(be), _fresh_blocks(be), recursion._plan_cached.cache_info().misses,
-                       _index_builds(), None if self.uploads is None else dict(self.uploads))
+        self._start = (program_builds(be), fresh_pool_blocks(be), recursion._plan_cached.cache_info().misses,
+                       _indexprogram_builds(), None if self.uploads is None else dict(self.uploads))
         return self
 
     def __exit__(self, *exc):
         be = self.be
         be.synchronize()
         builds, fresh, plans, indices, uploads = self._start
-        self.builds = None if builds is None else _builds(be) - builds
-        self.fresh = None if fresh is None else _fresh_blocks(be) - fresh
+        self.builds = None if builds is None else program_builds(be) - builds
+        self.fresh = None if fresh is None else fresh_pool_blocks(be) - fresh
         self.plans = recursion._plan_cached.cache_info().misses - plans
-        self.indices = _index_builds() - indices
+        self.indices = _indexprogram_builds() - indices
         self.summed = len(self.series)
         if uploads is None:
             self.plan_uploads = self.index_uploads = None

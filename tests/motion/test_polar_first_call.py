@@ -11,6 +11,7 @@ this is the page faults of memory the process never touched (the first large cal
 
 import numpy as np
 import pytest
+from counters import fresh_pool_blocks, program_builds
 
 import gfgpu
 from gfgpu._core import recursion
@@ -24,19 +25,6 @@ CASES = [("rotation", 10.0, "green"), ("rotation", 10.0, "box"), ("zoom", 0.1, "
 # of 16 rings: a one-band spin grid (images up to ~180^2) with 8 mod 16 rings runs, and builds once, the
 # box kernel's partial-group variant (docs/motion.md)
 SHAPES = [(150, 140), (144, 144), (130, 130)]
-
-
-def _builds(be):
-    """Programs built so far for ``be`` (OpenCL), or None where builds are not counted here."""
-    if be.name != "opencl":
-        return None
-    from gfgpu.backends.opencl import launch
-    return sum(1 for key in launch._programs if key[0] == be.context)
-
-
-def _fresh_blocks(be):
-    pool = getattr(be, "_host_pool", None)
-    return None if pool is None else pool.stats["fresh"]
 
 
 def _workspace_bytes(shape, kind, value, itemsize):
@@ -63,7 +51,7 @@ class _Counts:
         self.be, self.uploads = be, uploads
 
     def _now(self):
-        return (_builds(self.be), _fresh_blocks(self.be), recursion._plan_cached.cache_info().misses,
+        return (program_builds(self.be), fresh_pool_blocks(self.be), recursion._plan_cached.cache_info().misses,
                 zoom._segment_terms.cache_info().misses, len(self.uploads))
 
     def __enter__(self):
@@ -176,7 +164,7 @@ def test_a_zoom_after_a_spin_takes_one_of_its_workspace_arrays_from_the_spins_bl
     out = np.empty_like(x)          # the caller's output: no pooled result block
     gfgpu.motion.motion_blur(x, 10.0, kind="rotation", backend=be, output=out)
     be.synchronize()
-    before = _fresh_blocks(be)
+    before = fresh_pool_blocks(be)
     gfgpu.motion.motion_blur(x, 0.1, kind="zoom", psf="green", backend=be, output=out)
     be.synchronize()
-    assert _fresh_blocks(be) - before == 1
+    assert fresh_pool_blocks(be) - before == 1
