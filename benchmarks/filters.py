@@ -7,8 +7,8 @@ memory-bound) for, on a SIZE x SIZE float32 image:
   primitive on device-resident arrays (``backend.recurse``) and the public
   ``green_filter`` call (which also checks the input is finite);
 * ``gfgpu.shift`` by (1.5, 2.5) (two passes) and ``gfgpu.gradient`` (u = 1: 8 passes on numpy and
-  Warp; on OpenCL CPU devices the finite check, one two-sided column step writing both column
-  results, and two fused pairs of row passes);
+  Warp; on OpenCL CPU devices one two-sided row step writing both row results (P and D along the
+  rows, the finite check fused), then one two-sided column step for each output);
 * ``gfgpu.canny`` (u = 1, numpy in and out) beside OpenCV's GaussianBlur + Canny (uint8);
 * the public ``gfgpu.shift`` by (3.25, -7.5), numpy in and numpy out, with the Green and the
   cubic fractional part, beside ``scipy.ndimage.shift`` (order 1 and 3);
@@ -102,7 +102,7 @@ def bench_backend(be, img, repeat, record):
         lambda: gfgpu.shift(dev, (1.5, 2.5), backend=be), repeat, sync), "2 passes")
     record(f"{tag}: gradient u=1", best_time(
         lambda: gfgpu.gradient(dev, 1.0, backend=be), repeat, sync),
-        "8 passes (OpenCL CPU: two-sided column step + 2 row-pass pairs), 2 outputs")
+        "8 passes (OpenCL CPU: a two-output row step + 2 column steps, each two-sided), 2 outputs")
     host_out = np.empty_like(img)
     # host in/out of one pass: the integer translation (0, 3), public call and primitive
     line_axis = 2

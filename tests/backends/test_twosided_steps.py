@@ -195,6 +195,16 @@ def test_refusals(cpu_opencl, rng):
     assert not takes(gfgpu.backends.get_backend("numpy"), (1, 64, 64), 1)
 
 
+def separable_direct(img, d_axis, axes, mode, cval, P, D):
+    """P along the other axes, then D along ``d_axis`` (the program's order), by direct sums in float64."""
+    out = img.astype(np.float64)
+    for ax in [a for a in axes if a != d_axis] + [d_axis]:
+        lines = np.moveaxis(out, ax, 0)
+        summed = direct(lines.reshape(lines.shape[0], -1), D if ax == d_axis else P, mode, cval)
+        out = np.moveaxis(summed.reshape(lines.shape), 0, ax)
+    return out
+
+
 @pytest.mark.parametrize("mode", MODES)
 def test_public_calls_match_direct_sums(cpu_opencl, mode, rng):
     """derivative (both axes, into output=) and gradient of an image and a 3-D stack on the
@@ -203,13 +213,8 @@ def test_public_calls_match_direct_sums(cpu_opencl, mode, rng):
     cval = 1.3
     P, D = greens.projection_passes(1.2), greens.derivative_passes(1.2)
 
-    def ref(img, d_axis, axes):     # the program's order: P along the other axes, then D
-        out = img.astype(np.float64)
-        for ax in [a for a in axes if a != d_axis] + [d_axis]:
-            lines = np.moveaxis(out, ax, 0)
-            summed = direct(lines.reshape(lines.shape[0], -1), D if ax == d_axis else P, mode, cval)
-            out = np.moveaxis(summed.reshape(lines.shape), 0, ax)
-        return out
+    def ref(img, d_axis, axes):
+        return separable_direct(img, d_axis, axes, mode, cval, P, D)
 
     img = (rng.random((45, 77)) * 10).astype(np.float32)
     for axis in (0, 1):

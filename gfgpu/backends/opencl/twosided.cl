@@ -11,7 +11,7 @@
  * per input), NIN, NOUT (1 or 2), REAL_POLES (real poles and weights: real states), BAND, AHEAD
  * (columns), ROWS, CHECK (OR flag[0] with 1 if a sample of input 0 is NaN, infinite or beyond the
  * range limit).  coef, omega: TwoSidedPlan.packed.  No overlaps between arrays.  No fast-math
- * (contraction to fma allowed).
+ * (contraction to fma allowed; the recursions and readouts are explicit fma chains).
  */
 #ifdef cl_khr_fp64
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
@@ -95,21 +95,22 @@ INLINE void load_plan(plan_t *p, __global const REAL *c)
     }
 }
 
-/* states fr, fi: state (i, s) of vector v at (i * SECTIONS + s) * W + v */
-/* y = sum_s Re(w[o, s] F_(IN(o), s)) for output o, vector v (anti: the anticausal weights) */
+/* states fr, fi: state (i, s) of vector v at (i * SECTIONS + s) * W + v.  The sums are written as
+ * explicit fma chains: contraction alone left a multiply, an fma and an add per complex term (the
+ * row kernel is bound by its floating-point operations: 4096^2 float32, A/B in one process, the
+ * chains ran its steps in 0.87-0.9x the CPU time; the column kernel, bound by memory, alike) */
+/* init + sum_s Re(w[o, s] F_(IN(o), s)) for output o, vector v (anti: the anticausal weights) */
 INLINE VT readout(const plan_t *p, const VT *fr, const VT *fi, const int o, const int anti,
-                  const int v, const int W)
+                  const int v, const int W, VT y)
 {
-    VT y = (VT)(0);
 #pragma unroll
     for (int s = 0; s < SECTIONS; ++s) {
         const int q = (IN(o) * SECTIONS + s) * W + v;
         const REAL wr = anti ? p->ar[o * SECTIONS + s] : p->cr[o * SECTIONS + s];
-#if REAL_POLES
-        y += wr * fr[q];
-#else
+        y = fma((VT)(wr), fr[q], y);
+#if !REAL_POLES
         const REAL wi = anti ? p->ai[o * SECTIONS + s] : p->ci[o * SECTIONS + s];
-        y += wr * fr[q] - wi * fi[q];
+        y = fma((VT)(-wi), fi[q], y);
 #endif
     }
     return y;
@@ -123,10 +124,10 @@ INLINE void advance(const plan_t *p, VT *fr, VT *fi, const int i, const VT x, co
         const int q = (i * SECTIONS + s) * W + v;
         const int c = i * SECTIONS + s;
 #if REAL_POLES
-        fr[q] = p->lr[c] * fr[q] + x;
+        fr[q] = fma((VT)(p->lr[c]), fr[q], x);
 #else
-        const VT r = p->lr[c] * fr[q] - p->li[c] * fi[q] + x;
-        fi[q] = p->lr[c] * fi[q] + p->li[c] * fr[q];
+        const VT r = fma((VT)(p->lr[c]), fr[q], fma((VT)(-p->li[c]), fi[q], x));
+        fi[q] = fma((VT)(p->lr[c]), fi[q], p->li[c] * fr[q]);
         fr[q] = r;
 #endif
     }
@@ -173,9 +174,10 @@ INLINE void start_states(const plan_t *p, VT *fr, VT *fi, const int d, const REA
  * AHEAD steps ahead are prefetched: no hardware prefetcher follows a few cache lines a row, a row
  * apart), with the check, and keeps the band's anticausal parts in the work-item's scratch (N x
  * BAND x NOUT vectors, reused by its next band: in the caches); the forward sweep reads the band
- * again from the caches and writes each output once as (tap_o X[k] + causal) + anticausal, bit
- * for bit the sums of the blocked kernel it replaced (a backward sweep storing states every 32
- * rows, then blocks restarting it: a third sweep, 1.3-1.7x this one's CPU time at 4096^2 float32). */
+ * again from the caches and writes each output once as (tap_o X[k] + causal) + anticausal, the
+ * causal readout chained onto tap_o X[k] (the blocked kernel it replaced, a backward sweep storing
+ * states every 32 rows, then blocks restarting it, ran a third sweep: 1.3-1.7x this one's CPU time
+ * at 4096^2 float32). */
 #ifndef BAND
 #define BAND 1
 #endif
@@ -269,7 +271,7 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
                         PREFETCH(src[i] + row - AHEAD * (long)M + v * LANES);
 #pragma unroll
                 for (int o = 0; o < NOUT; ++o)
-                    a[v * NOUT + o] = readout(&p, fr, fi, o, 1, v, BAND);
+                    a[v * NOUT + o] = readout(&p, fr, fi, o, 1, v, BAND, (VT)(0));
 #pragma unroll
                 for (int i = 0; i < NIN; ++i) {
                     const VT x = load_cols(src[i] + row + v * LANES, VALID(v));
@@ -293,7 +295,7 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
 #pragma unroll
                 for (int o = 0; o < NOUT; ++o)
                     store_cols(dst[o] + row + v * LANES,
-                               (p.tap[o] * x[IN(o)] + readout(&p, fr, fi, o, 0, v, BAND)) + a[v * NOUT + o],
+                               readout(&p, fr, fi, o, 0, v, BAND, p.tap[o] * x[IN(o)]) + a[v * NOUT + o],
                                VALID(v), nt);
 #pragma unroll
                 for (int i = 0; i < NIN; ++i)
@@ -317,8 +319,11 @@ __kernel void two_sided(__global const REAL *src0, __global const REAL *src1, __
  * the work-item's scratch (M x (NOUT + NIN) vectors, time major, reused: in the cache; 4096 float32
  * rows: 256 KiB); forward: from the scratch (re-reading and transposing the rows instead took 1.5x
  * the CPU time), each output = (tap X + causal) + anticausal as the column kernel sums it,
- * transposed back and written once (plain stores: streamed ones, 32 bytes of 8 rows at a time, ran
- * the 4096^2 float32 step 1.3-1.7x slower).  The interior runs in chunks of a cache line of every
+ * transposed back and written once: with `stream`, a row's whole cache line at a time by
+ * non-temporal stores (no read for ownership; 4096^2 float32, A/B in one process: 0.92-0.98x the CPU
+ * time of plain stores with one output, 0.75-0.78x with two; streamed 32 bytes of 8 rows at a time
+ * instead ran 1.3-1.7x slower).  More vectors of rows side by side per work-item (2: independent
+ * chains) ran no faster, 4 spilled (1.5x).  The interior runs in chunks of a cache line of every
  * row (CH steps), aligned to dst0 where every row shares its alignment (M a multiple of CH); the
  * ends go sample by sample. */
 #if ROWS
@@ -357,7 +362,7 @@ INLINE void back_step(const plan_t *p, VT *fr, VT *fi, __global VT *a, const VT 
 {
 #pragma unroll
     for (int o = 0; o < NOUT; ++o)
-        a[o] = readout(p, fr, fi, o, 1, 0, 1);
+        a[o] = readout(p, fr, fi, o, 1, 0, 1, (VT)(0));
 #pragma unroll
     for (int i = 0; i < NIN; ++i)
         advance(p, fr, fi, i, x[i], 0, 1);
@@ -374,7 +379,7 @@ INLINE void fwd_step(const plan_t *p, VT *fr, VT *fi, __global const VT *a, cons
 {
 #pragma unroll
     for (int o = 0; o < NOUT; ++o)
-        y[o] = (p->tap[o] * x[IN(o)] + readout(p, fr, fi, o, 0, 0, 1)) + a[o];
+        y[o] = readout(p, fr, fi, o, 0, 0, 1, p->tap[o] * x[IN(o)]) + a[o];
 #pragma unroll
     for (int i = 0; i < NIN; ++i)
         advance(p, fr, fi, i, x[i], 0, 1);
@@ -395,9 +400,14 @@ __kernel void two_sided_rows(__global const REAL *src0, __global const REAL *src
     const int lead = M % CH ? 0 : IMIN(M, (int)((CH - ((ulong)(dst0 + dst0_off) / sizeof(REAL)) % CH) % CH));
     const int tail = lead + (M - lead) / CH * CH;
     VT chk = (VT)(0), fr[NS], fi[NS], x[NIN], y[NOUT], t[(NIN > NOUT ? NIN : NOUT) * CH];
-    (void)stream;
+    /* streamed chunks: a large output (`stream`) whose chunks start on a cache line in every output
+     * and row */
+    int aligned = stream && tail > lead && M % CH == 0;
+#pragma unroll
+    for (int o = 0; o < NOUT; ++o)
+        aligned = aligned && ((ulong)((o ? dst1 + dst1_off : dst0 + dst0_off) + lead) % 64) == 0;
     for (long r0 = (long)atomic_inc(flag + 1) * LANES; r0 < rows; r0 = (long)atomic_inc(flag + 1) * LANES) {
-        const int valid = (int)IMIN((long)LANES, rows - r0);
+        const int valid = (int)IMIN((long)LANES, rows - r0), nt = aligned && valid == LANES;
         __global const REAL *src[2] = {src0 + src0_off + r0 * M, src1 + src1_off + r0 * M};
         __global REAL *dst[2] = {dst0 + dst0_off + r0 * M, dst1 + dst1_off + r0 * M};
         for (int d = 1; d >= 0; --d) {      /* the initial states: backward, then forward */
@@ -443,13 +453,22 @@ __kernel void two_sided_rows(__global const REAL *src0, __global const REAL *src
                             t[o * CH + j] = y[o];
                     }
 #pragma unroll
-                    for (int o = 0; o < NOUT; ++o)
+                    for (int o = 0; o < NOUT; ++o) {
 #pragma unroll
-                        for (int h = 0; h < CH; h += LANES) {
+                        for (int h = 0; h < CH; h += LANES)
                             rows_transpose(t + o * CH + h);
+                        if (nt)     /* a row's whole cache line at a time: one write-combining buffer */
+#pragma unroll
+                            for (int l = 0; l < LANES; ++l)
+#pragma unroll
+                                for (int h = 0; h < CH; h += LANES)
+                                    STORE_NT(t[o * CH + h + l], dst[o] + (long)l * M + c0 + h);
+                        else
                             for (int l = 0; l < valid; ++l)
-                                VSTORE(t[o * CH + h + l], dst[o] + (long)l * M + c0 + h);
-                        }
+#pragma unroll
+                                for (int h = 0; h < CH; h += LANES)
+                                    VSTORE(t[o * CH + h + l], dst[o] + (long)l * M + c0 + h);
+                    }
                 }
                 k = tail;
                 if (k >= M)
@@ -465,6 +484,8 @@ __kernel void two_sided_rows(__global const REAL *src0, __global const REAL *src
                     dst[o][(long)l * M + k] = y[o][l];
         }
     }
+    if (aligned)
+        STREAM_FENCE();
 #if CHECK
     if (lanes_nonzero(chk))
         atomic_or(flag, 1);

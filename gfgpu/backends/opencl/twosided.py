@@ -18,7 +18,7 @@ from . import launch
 __all__ = ["runs_on", "takes", "run_two_sided"]
 
 _CACHE_LINE = 64
-_STREAM_BYTES = 1 << 23    # column outputs from this size are written with non-temporal stores
+_STREAM_BYTES = 1 << 23    # outputs from this size are written with non-temporal stores
 _PLAN_CACHE = 32
 #: vectors (cache lines) of adjacent columns per band of a step along columns; rows prefetched ahead
 #: (4096^2 float32, A/B in one process: 4 vectors ran 0.6x the CPU time of the blocked kernel, 1 and
