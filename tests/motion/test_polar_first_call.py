@@ -162,6 +162,8 @@ def test_a_zoom_after_a_spin_takes_one_of_its_workspace_arrays_from_the_spins_bl
     assert size_class(2 * (-(-spin // 64) * 64) * 4) == size_class(ring[1] * ring[2] * 4)     # the premise
     x = rng.random(shape, dtype=np.float32)
     out = np.empty_like(x)          # the caller's output: no pooled result block
+    be.synchronize()
+    be._host_pool.clear()           # blocks earlier tests released would serve the zoom too
     gfgpu.motion.motion_blur(x, 10.0, kind="rotation", backend=be, output=out)
     be.synchronize()
     before = fresh_pool_blocks(be)
