@@ -84,6 +84,13 @@ os.register_at_fork(after_in_child=_BUCKET_KERNELS.clear)      # a forked child 
 USE_NIBBLES = True
 
 
+#: whether the band matcher's checkpointing sweeps over coarse bands (the costs recomputed) run in
+#: stereo.cl's ckpt_cost, the block costs and the vertical path fused in one kernel going up (where
+#: the costs come from nibble planes and 4 paths run; not the image's last coarse band, whose sweep
+#: starts from zeros); False: block_cost, then sgm_band (tests and benchmarks compare the two)
+FUSED_CHECKPOINTS = True
+
+
 def _nibbles(be, block):
     """Whether the band matcher's cost runs from nibble planes: PoCL on an x86-64 host with AVX2
     (the kernel's vpshufb lookups) and a 3 x 3 block (byte sums without a shift).  Also with
@@ -405,10 +412,10 @@ def _checkpoints(be, w, n, paths, slots, workspace=None):
 
 
 def _band_sweep_args(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, cost_row0, h, w, n, p1, p2, paths,
-                     init, active, view, write_up=True, bucket=None, src=-1, dst=-1):
+                     init, active, view, write_up=True, bucket=None, src=-1, dst=-1, chain=0):
     """The kernel and arguments of one launch of sgm_band (:func:`_band_sweeps`); the band's
     arguments (``y0``, ``rows``, ``init``, ``active``, ``write_up``, ``cost_row0``, ``split``,
-    ``src``, ``dst``) at :data:`_SWEEP_BAND_ARGS`; ``ckpt`` from :func:`_checkpoints`."""
+    ``src``, ``dst``, ``chain``) at :data:`_SWEEP_BAND_ARGS`; ``ckpt`` from :func:`_checkpoints`."""
     nb = n if bucket is None else bucket[0]
     # a checkpointing sweep of 4 paths advances the vertical path only: column-local, so
     # both work-items take half of the columns each; not the sweep's first band, whose state
@@ -421,22 +428,24 @@ def _band_sweep_args(be, cost, down, up, state, state_min, bound, ckpt, y0, rows
                  np.int32(init), np.int32(active), np.int32(write_up), np.int32(cost_row0), np.int32(split),
                  np.int32(view[0] // 2), np.int32(view[1]), np.int32(view[2]),
                  np.int32(max(1, band_plan.TILE_BYTES // (2 * (padded_samples(nb) + 16)))), bound.data, np.int32(n),
-                 ckpt[0].data, ckpt[1].data, np.int32(ckpt[2]), np.int32(src), np.int32(dst))
+                 ckpt[0].data, ckpt[1].data, np.int32(ckpt[2]), np.int32(src), np.int32(dst), np.int32(chain))
 
 
 #: positions of sgm_band's per-band arguments in :func:`_band_sweep_args`
-_SWEEP_BAND_ARGS = (7, 8, 12, 13, 14, 15, 16, 26, 27)
+_SWEEP_BAND_ARGS = (7, 8, 12, 13, 14, 15, 16, 26, 27, 28)
 
 
 def _band_sweeps(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, cost_row0, h, w, n, p1, p2, paths,
-                 init, active, view, write_up=True, bucket=None, src=-1, dst=-1):
+                 init, active, view, write_up=True, bucket=None, src=-1, dst=-1, chain=0):
     """One launch of sgm_band on volumes of :func:`_padded` with n samples per pixel; ``view`` =
     (block, first_step, steps): which samples are in view; ``bound``: the horizontal paths'
     states at the column tiles' edges; the up sweep's vertical states read from region ``src``
     and written to region ``dst`` (-1: its own rows of ``state``; else a slot of ``ckpt``,
-    :func:`_checkpoints`); ``bucket`` as for :func:`_band_cost`."""
+    :func:`_checkpoints`); ``chain`` > 0 (a checkpointing sweep into slots): the rows in groups
+    of ``chain`` from the top, group g written to slot ``dst + g`` and starting from slot
+    ``dst + g + 1`` (the last group from ``src``); ``bucket`` as for :func:`_band_cost`."""
     knl, args = _band_sweep_args(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, cost_row0, h, w, n,
-                                 p1, p2, paths, init, active, view, write_up, bucket, src, dst)
+                                 p1, p2, paths, init, active, view, write_up, bucket, src, dst, chain)
     ocl.launch(be, knl, (2,), (1,), [cost], [down, up, state, state_min, bound, ckpt[0], ckpt[1]], args)
 
 
@@ -535,16 +544,17 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
                                       _select_args(down, up, disp, disp_right, margin, 0, 1, w, n,
                                                    first_step // steps, steps, uniqueness, True, lr_fused or 0.0))
 
-    def sweep(y0, rows, row0, init, active, write_up=True, src=-1, dst=-1):
+    def sweep(y0, rows, row0, init, active, write_up=True, src=-1, dst=-1, chain=0):
         """Both sweeps (``active`` 3) or the up sweep alone (2) of a band; the up sweep's states
-        from slot ``src`` to slot ``dst`` (-1: the state's own rows)."""
+        from slot ``src`` to slot ``dst`` (-1: the state's own rows; ``chain``: to the slots
+        ``dst``, ``dst + 1``, ... of each ``chain`` rows from the top, :func:`_band_sweeps`)."""
         if h <= k:
             _band_sweeps(be, cost, down, up, state, state_min, bound, ckpt, y0, rows, row0, h, w, n, p1, p2,
                          paths, init=init, active=active, view=view, write_up=write_up, bucket=bucket, src=src,
-                         dst=dst)
+                         dst=dst, chain=chain)
             return
         split = not write_up and paths == 4 and w >= 2 and not init      # as _band_sweep_args
-        values = (y0, rows, init, active, int(write_up), row0, int(split), src, dst)
+        values = (y0, rows, init, active, int(write_up), row0, int(split), src, dst, chain)
         sweep_launch((2,), (1,), {i: np.int32(v) for i, v in zip(_SWEEP_BAND_ARGS, values)})
 
     def select(y0, rows):
@@ -554,18 +564,49 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
             return
         select_launch((rows,), (1,), {5: np.int32(rows), 11: np.int32(y0)})
 
+    # with the costs recomputed, 4 paths and nibble-plane costs, a coarse band's block costs and its
+    # checkpointing vertical path run in one kernel going up (ckpt_cost): pass 1 writes no cost band
+    # (1000 x 1500 x 383: 20 MB per coarse band, written and read again), pass 2 reads the costs
+    # it stores while they are in L1 (block_cost + sgm_band 490 -> 340 ms, each launch waited for)
+    fused = FUSED_CHECKPOINTS and not keep and paths == 4 and _nibbles(be, block)
+
+    def fused_checkpoint(y0, rows, src, dst, store=False, v_rows=None, chain=0):
+        """ckpt_cost on image rows y0 .. y0 + rows - 1: their costs (into ``cost`` where ``store``)
+        and the vertical path of the bottom ``v_rows`` (default all) from slot ``src`` into slot
+        ``dst`` (``chain``: the slots dst, dst + 1, ... of each ``chain`` rows).  Never from zeros:
+        the image's last rows run sgm_band, whose init also sets the up sweep's own state rows."""
+        ya, yb = max(0, y0 - r), min(h, y0 + rows + r)
+        _interleave(be, cr, h, w, steps, nb, bucket=bucket, row0=ya, rows=yb - ya, ri=ri)
+        splits = _cost_splits(be, w)
+        scratch, cols = _block_scratch(be, w, nb, block, workspace)
+        v_rows = rows if v_rows is None else v_rows
+        ocl.launch(be, _bucket_kernel(be, "ckpt_cost", bucket), (splits,), (1,), [cl_, ri],
+                   [scratch, ckpt[0], ckpt[1]] + ([cost] if store else []),
+                   (cl_.data, ri.data, scratch.data, ckpt[0].data, ckpt[1].data, np.int32(h), np.int32(w),
+                    np.int32(first_step), np.int32(steps), np.int32(y0), np.int32(rows), np.int32(splits),
+                    np.int32(cols), np.int32(n), np.int32(ya), np.int16(p1), np.int16(p2), np.int32(src),
+                    np.int32(dst), cost.data, np.int32(store), np.int32(0), np.int32(v_rows),
+                    np.int32(chain if chain else v_rows)))
+
     if keep:     # the whole image's costs at once: one warm-up of the Hamming ring
         costs(0, h)
     # pass 1: up the image, writing the state at the top of (coarse) band b into slot b - 1: band
     # b's up sweep starts from slot b, the state after the first row of band b + 1 (the last
     # band: from zeros, in the state's own rows); with the costs kept, a coarse band is a band of k
-    # rows
+    # rows, and the bands above the last one are swept in one launch (chained: each band's rows
+    # into its slot; launches of 4 rows took about twice the time per row of 36-row ones)
     for b in range(n_top, 0, -1):
         y0 = b * step
         rows = min(step, h - y0)
+        bottom = y0 + rows == h
+        if keep and not bottom:
+            sweep(step, y0 + rows - step, step, init=0, active=2, write_up=False, src=b, dst=0, chain=step)
+            break
+        if fused and not bottom:
+            fused_checkpoint(y0, rows, b, b - 1)
+            continue
         if not keep:
             costs(y0, rows)
-        bottom = y0 + rows == h
         sweep(y0, rows, y0 if keep else 0, init=2 if bottom else 0, active=2, write_up=False,
               src=-1 if bottom else b, dst=b - 1)
     # pass 2: down the image, band by band: both sweeps of the band at once, then its winners
@@ -574,16 +615,23 @@ def launch_match(be, census_left, census_right, disp, disp_right, margin, first_
         last_coarse = cb == len(coarse_bands) - 1
         # the slot the up sweep of this coarse band's last band starts from (-1: from zeros)
         below = -1 if last_coarse else cb
-        if not keep:
+        if fused and len(bands) > 1 and not last_coarse:
+            # the costs and the fine checkpoints below in one kernel going up
+            fused_checkpoint(c0, crows, below, n_top, store=True, v_rows=crows - k, chain=k)
+        elif not keep:
             costs(c0, crows)
             # the up state at the top of this coarse band's fine bands 1 .. last into fine slots
             # 0 .. last - 1 (n_top + f - 1), read from the coarse slot (not spent: the coarse
-            # band's last fine band runs in it below)
-            for f in range(len(bands) - 1, 0, -1):
-                y0, rows = bands[f]
-                first = f == len(bands) - 1
-                sweep(y0, rows, y0 - c0, init=2 if first and last_coarse else 0, active=2, write_up=False,
-                      src=(below if first else n_top + f), dst=n_top + f - 1)
+            # band's last fine band runs in it below); in one chained launch, but for the image's
+            # last fine band, which starts from zeros (one work-item initialises the state)
+            last_f, src = len(bands) - 1, below
+            if last_coarse and last_f > 0:
+                y0, rows = bands[last_f]
+                sweep(y0, rows, y0 - c0, init=2, active=2, write_up=False, src=below, dst=n_top + last_f - 1)
+                last_f, src = last_f - 1, n_top + last_f - 1
+            if last_f > 0:
+                y0, end = bands[1][0], sum(bands[last_f])
+                sweep(y0, end - y0, y0 - c0, init=0, active=2, write_up=False, src=src, dst=n_top, chain=k)
         for f, (y0, rows) in enumerate(bands):
             last = y0 + rows == h
             if keep:

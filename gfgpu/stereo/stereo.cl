@@ -990,7 +990,7 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
                        const int cost_row0, const int split, const int r, const int first_step,
                        const int steps, const int tile, __global short *bound, const int n_valid,
                        __global short *ckpt, __global short *ckpt_min, const int ck_rows, const int src,
-                       const int dst)
+                       const int dst, const int chain)
 {
     // split = 1 (a checkpointing sweep of 4 paths: the vertical path alone, column-local): both
     // work-items sweep up, work-item g on the columns [g w / 2, (g + 1) w / 2); the state is
@@ -1009,6 +1009,13 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
     __global short *reg_dst = pass == 1 && dst >= 0 ? ckpt + (size_t)dst * ck_rows * row : st + row;
     __global short *min_src = pass == 1 && src >= 0 ? ckpt_min + (size_t)src * ck_rows * cells : mins;
     __global short *min_dst = pass == 1 && dst >= 0 ? ckpt_min + (size_t)dst * ck_rows * cells : mins;
+    // a chained checkpointing sweep (pass 1 writing slots, chain > 0): the rows in groups of
+    // `chain` from the band's top, group g written to slot dst + g, its first row (its bottom)
+    // reading the predecessors of slot dst + g + 1 (the last group: region src) -- the states at
+    // the tops of several bands in one launch, as launches of one group each would leave them
+    const int links = pass == 1 && dst >= 0 && chain > 0 ? chain : rows;
+    const int last_link = (rows - 1) / links;
+    const size_t slot_step = (size_t)ck_rows * row, min_step = (size_t)ck_rows * cells;
     if (!split && ((init >> pass) & 1)) {
         // (never with split: the vertical path reads the last guard lane of the cell before
         // its first, which the other work-item would be writing)
@@ -1043,10 +1050,15 @@ __kernel void sgm_band(__global const cost_t *cost, __global short *sum_down, __
       const int tn = IMIN(tw, ncol - t0);
       for (int i = 0; i < rows; ++i) {
         const int bi = pass == 0 ? i : rows - 1 - i, y = y0 + bi;
-        // the predecessors: the first row's in region src, the others' in region dst
-        __global short *sv_in = (i == 0 ? reg_src : reg_dst) + 16, *sv_out = reg_dst + 16;
+        // the predecessors: the first row's in region src, the others' in region dst (chained:
+        // group g's first row's in group g + 1's slot, the last group's first row's in src)
+        const int link = bi / links, head = i == 0 || (pass == 1 && bi % links == links - 1);
+        __global short *g_dst = reg_dst + link * slot_step, *gm_dst = min_dst + link * min_step;
+        __global short *g_src = link == last_link ? reg_src : g_dst + slot_step;
+        __global short *gm_src = link == last_link ? min_src : gm_dst + min_step;
+        __global short *sv_in = (head ? g_src : g_dst) + 16, *sv_out = g_dst + 16;
         __global short *se_in = sv_in + row, *se_out = sv_out + row;
-        __global short *mv_in = i == 0 ? min_src : min_dst, *mv_out = min_dst;
+        __global short *mv_in = head ? gm_src : gm_dst, *mv_out = gm_dst;
         __global short *me_in = mv_in + cells, *me_out = mv_out + cells;
         // the diagonal from x - s: read the buffer of the previous row's parity, write this row's
         const int in_buf = 1 + ((y & 1) ^ 1), out_buf = 1 + (y & 1);
@@ -1140,6 +1152,133 @@ __kernel void sgm_guards(__global short *ckpt, __global short *ckpt_min, const i
     ckpt_min[(size_t)q * cells] = 0;
     ckpt_min[(size_t)q * cells + cells - 1] = 0;
 }
+
+#ifdef NIBBLES
+// A pixel's vertical path alone (sgm_band's BAND_PIXEL without the horizontal path, the sum or the
+// diagonals: a checkpointing sweep of 4 paths)
+#define VERTICAL_PIXEL(MASKED, COST)                                                           \
+    do {                                                                                      \
+        UNROLL_NV                                                                             \
+        for (int j = 0; j < NV; ++j) {                                                        \
+            const short16 cv = COST;                                                          \
+            short16 sum = (short16)(0);                                                       \
+            PATH_STEP(v, j, 0, MASKED);                                                       \
+        }                                                                                     \
+    } while (0)
+
+// The checkpointing up sweep of 4 paths fused with the 3 x 3 block costs of its rows (block_cost's
+// nibble-plane kernel, going up): image rows y0 .. y0 + rows - 1 from the bottom, each work-item a
+// range of columns (block_cost's), each pixel's block costs computed and its vertical path advanced
+// at once.  store = 0 (pass 1): the costs in a cell of the work-item's scratch (in L1), no cost band
+// written and read again; store = 1 (pass 2): into out[out_row0 + i] as block_cost, and the vertical
+// path reads them there.  The vertical path runs on the bottom `v_rows` rows, as sgm_band's up sweep
+// with write_up = 0 (split) and `chain` (rows in groups of `chain` from the top of those rows, group
+// g into slot dst + g, its first row's predecessors from slot dst + g + 1, the last group's from slot
+// `src`; never from zeros: sgm_band's init, which also sets the up sweep's own state rows, runs the
+// image's last rows); 4 paths: one state row and one minima row per slot, guard lanes and cells from
+// sgm_guards.  Bit for bit block_cost then sgm_band.
+__kernel void ckpt_cost(__global const ulong *cl, __global const uchar *ri, __global uchar *scratch,
+                        __global short *ckpt, __global short *ckpt_min, const int h, const int w,
+                        const int first_step, const int steps, const int y0, const int rows, const int splits,
+                        const int slot_cols, const int n_valid, const int ri_row0, const short p1, const short p2,
+                        const int src, const int dst, __global cost_t *out, const int store, const int out_row0,
+                        const int v_rows, const int chain)
+{
+    const int g = get_global_id(0);
+    if (g >= splits)
+        return;
+    const int xa = (int)((long)g * w / splits), xb = (int)((long)(g + 1) * w / splits);
+    const int ca = IMAX(xa - 1, 0), cb = IMIN(xb + 1, w);
+    const size_t slot = (size_t)slot_cols * NP;
+    __global uchar *ring = scratch + (size_t)g * (3 * slot + 2 * COLSUM_SLOTS * NP);
+    __global uchar *vs = ring + 3 * slot;
+    // the pixel's block costs (after the column sums' slots, in the ring's spare cells)
+    __global uchar *pc = vs + (size_t)COLSUM_SLOTS * NP;
+    const size_t cells = (size_t)(w + 2), row = 16 + cells * CELL;
+    const int links = IMAX(chain, 1), last_link = (v_rows - 1) / links;
+    const v32u cmax = V32(COST_MAX), out_mark = V32(COST_OUT);
+    const v32c lanes = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16, 17, 18, 19, 20, 21, 22, 23,
+                        24, 25, 26, 27, 28, 29, 30, 31};
+    v32c tables[16];
+    const v32c lut = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4, 0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+    const v32c iota = {0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15,
+                       0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15};
+    for (int l = 0; l < 16; ++l) {
+        const v32c lv = V32((char)l);
+        tables[l] = __builtin_ia32_pshufb256(lut, iota ^ lv);
+    }
+    const short16 pad = (short16)(PAD_COST), vp1 = (short16)(p1), vp2 = (short16)(p2);
+    for (int i = rows - 1; i >= 0; --i) {
+        const int y = y0 + i;
+        // the Hamming rows y + 1, y, y - 1 (the first row) or y - 1 (the rows after): ring slot t mod 3
+        for (int t = i == rows - 1 ? y + 1 : y - 1; t >= y - 1; --t)
+            nibble_row(ring + (((t % 3) + 3) % 3) * slot, cl, ri, CLAMPI(t, 0, h - 1), ca, cb, w, first_step,
+                       steps, n_valid, ri_row0, tables);
+        for (int c = IMAX(xa - 1, 0); c <= xa; ++c) {
+            __global const uchar *r0 = ring + (size_t)(c - ca) * NP;
+            UNROLL_NV
+            for (int k = 0; k < NP; k += 32)
+                STORE32(LOAD32(r0 + k) + LOAD32(r0 + slot + k) + LOAD32(r0 + 2 * slot + k),
+                        vs + (size_t)(c & 3) * NP + k, k);
+        }
+        // the predecessors: a group's first row's in the slot below (the last group's in src), the
+        // others' in the group's slot
+        const int vi = i - (rows - v_rows), link = vi / links;
+        const int head = vi == v_rows - 1 || vi % links == links - 1;
+        const int from = head ? (link == last_link ? src : dst + link + 1) : dst + link;
+        __global short *sv_in = ckpt + (size_t)from * row + 16;
+        __global short *mv_in = ckpt_min + (size_t)from * cells;
+        __global short *sv_dst = ckpt + (size_t)(dst + link) * row + 16;
+        __global short *mv_dst = ckpt_min + (size_t)(dst + link) * cells;
+        __global cost_t *orow = out + ((size_t)(out_row0 + i) * w) * PIX;
+        for (int x = xa; x < xb; ++x) {
+            const int cp = IMIN(x + 1, w - 1);
+            __global const uchar *va = vs + (size_t)(IMAX(x - 1, 0) & 3) * NP, *vb = vs + (size_t)(x & 3) * NP;
+            __global uchar *vc = vs + (size_t)(cp & 3) * NP;
+            __global const uchar *r0 = ring + (size_t)(cp - ca) * NP;
+            long lo, hi;
+            view_range(x, 1, w, first_step, steps, &lo, &hi);
+            const int masked = !(lo <= 0 && hi >= n_valid - 1);
+            const long k_lo = lo, k_hi = hi < (long)n_valid - 1 ? hi : (long)n_valid - 1;
+            UNROLL_NV
+            for (int k = 0; k < NP; k += 32) {
+                v32u c3 = LOAD32(vc + k);
+                if (cp != x) {
+                    c3 = LOAD32(r0 + k) + LOAD32(r0 + slot + k) + LOAD32(r0 + 2 * slot + k);
+                    STORE32(c3, vc + k, k);
+                }
+                v32u sum = __builtin_elementwise_min(
+                    __builtin_elementwise_add_sat(__builtin_elementwise_add_sat(LOAD32(va + k), LOAD32(vb + k)), c3),
+                    cmax);
+                if (masked) {
+                    const char a = (char)CLAMPI(k_lo - k, 0L, 32L), b = (char)CLAMPI(k_hi - k + 1, 0L, 32L);
+                    const v32c va_ = V32(a), vb_ = V32(b);
+                    const v32c in_view = (v32c)((lanes >= va_) & (lanes < vb_));
+                    sum = (sum & (v32u)in_view) | (out_mark & ~(v32u)in_view);
+                }
+                STORE32(sum, (store ? orow + (size_t)x * PIX : pc) + k, k);
+            }
+            if (vi < 0)          // (the rows above the vertical path's: costs only)
+                continue;
+            // the vertical path of pixel x (sgm_band's up sweep: column x in cell w - x)
+            const int cell = w - x;
+            __global const short *in_v = sv_in + cell * CELL;
+            __global short *out_v = sv_dst + cell * CELL;
+            const short16 vm_v = (short16)(mv_in[cell]);
+            short16 pend_v = pad, run_v = pad;
+            __global const uchar *c = store ? orow + (size_t)x * PIX : pc;
+            const int interior = all_in_view(x - 1, 1, w, first_step, steps, n_valid) &&
+                                 all_in_view(x + 1, 1, w, first_step, steps, n_valid);
+            if (interior)
+                VERTICAL_PIXEL(0, TO_SHORT16(LOAD_UC(c, j)));
+            else
+                VERTICAL_PIXEL(1, LOAD_COST(c, j));
+            VSTORE(short, 16, pend_v, out_v + 16 * (NV - 1));
+            mv_dst[cell] = hmin16_nonneg(run_v);
+        }
+    }
+}
+#endif  // NIBBLES
 
 #endif  // COST_BYTES
 
